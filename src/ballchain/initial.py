@@ -1,0 +1,86 @@
+"""Initial conditions (MODEL.md section 4): the chain at rest, almost vertical.
+
+Arrays are indexed from the top: row ``i`` is segment ``n = i + 1`` of MODEL.md.
+Directions ``e`` have shape (N, 3), unit vectors pointing up the chain.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .model import InitialCondition, ParameterError
+
+
+def _normalize_tilts(tilt: np.ndarray) -> np.ndarray:
+    """e = normalize(e_z + tilt), tilt horizontal, shape (N, 2)."""
+    e = np.empty((tilt.shape[0], 3))
+    e[:, :2] = tilt
+    e[:, 2] = 1.0
+    return e / np.linalg.norm(e, axis=1)[:, None]
+
+
+def helix_directions(segments: int, eps: float, turns: float, phase: float) -> np.ndarray:
+    """MODEL.md's helix: e_n = normalize(e_z + eps (cos phi_n, sin phi_n, 0)),
+    phi_n = 2 pi q (N - n)/N + phi0, n = 1..N from the top."""
+    n = np.arange(1, segments + 1)
+    phi = 2.0 * math.pi * turns * (segments - n) / segments + phase
+    return _normalize_tilts(eps * np.stack([np.cos(phi), np.sin(phi)], axis=1))
+
+
+def planar_directions(segments: int, eps: float, turns: float, phase: float) -> np.ndarray:
+    """A bend in the vertical plane at azimuth phi0:
+    e_n = normalize(e_z + eps cos(2 pi q (N - n)/N) (cos phi0, sin phi0, 0))."""
+    n = np.arange(1, segments + 1)
+    amp = eps * np.cos(2.0 * math.pi * turns * (segments - n) / segments)
+    return _normalize_tilts(np.outer(amp, [math.cos(phase), math.sin(phase)]))
+
+
+def random_directions(segments: int, eps: float, modes: int, seed: int, phase: float) -> np.ndarray:
+    """A smooth random tilt: ``modes`` Fourier modes along the chain with random
+    horizontal coefficients (amplitude falling as 1/k), scaled to RMS tilt ``eps``,
+    then rotated by phi0 about z.  Seeded: the same seed gives the same chain."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    coef = rng.standard_normal((modes, 2, 2)) / np.arange(1, modes + 1)[:, None, None]
+    s = (segments - np.arange(1, segments + 1) + 0.5) / segments  # 0 at bottom, 1 at top
+    k = np.arange(1, modes + 1)[:, None]
+    c, sn = np.cos(math.pi * k * s), np.sin(math.pi * k * s)  # (modes, N)
+    tilt = np.einsum("kn,kd->nd", c, coef[:, 0]) + np.einsum("kn,kd->nd", sn, coef[:, 1])
+    rms = math.sqrt(float(np.mean(np.sum(tilt**2, axis=1))))
+    tilt *= eps / rms if rms > 0 else 0.0
+    cp, sp = math.cos(phase), math.sin(phase)
+    tilt = tilt @ np.array([[cp, sp], [-sp, cp]])
+    return _normalize_tilts(tilt)
+
+
+def initial_directions(ic: InitialCondition, segments: int, alpha: float) -> np.ndarray:
+    """Directions e (N, 3) of the initial chain; raises ParameterError if any hinge
+    starts outside (or on) the critical angle alpha."""
+    if ic.kind == "helix":
+        e = helix_directions(segments, ic.eps, ic.turns, ic.phase)
+    elif ic.kind == "planar":
+        e = planar_directions(segments, ic.eps, ic.turns, ic.phase)
+    else:
+        e = random_directions(segments, ic.eps, ic.modes, ic.seed, ic.phase)
+    check_inside_cone(e, alpha)
+    return e
+
+
+def hinge_angles(e: np.ndarray) -> np.ndarray:
+    """Bend angle at each hinge, arccos(e_k . e_{k+1}), shape (N-1,)."""
+    c = np.clip(np.einsum("ij,ij->i", e[:-1], e[1:]), -1.0, 1.0)
+    return np.arccos(c)
+
+
+def check_inside_cone(e: np.ndarray, alpha: float) -> None:
+    if e.shape[0] < 2:
+        return
+    ang = hinge_angles(e)
+    worst = int(np.argmax(ang))
+    if ang[worst] >= alpha:
+        raise ParameterError(
+            f"initial state: hinge {worst + 1} bends {math.degrees(ang[worst]):.3g} deg, "
+            f"not strictly inside alpha = {math.degrees(alpha):.3g} deg (reduce eps)")
+    if np.any(e[:, 2] <= 0.0):
+        raise ParameterError("initial state: a segment points at or below the horizontal (reduce eps)")

@@ -1,0 +1,218 @@
+"""The model and its parameters (MODEL.md section 1).
+
+A chain of ``N`` rigid rods (mass ``m``, length ``2b``) joined by spherical hinges
+whose bend angle is limited to ``alpha``, standing on a pivot at the origin under
+gravity ``g``.  Parameters are frozen dataclasses validated on construction; they are
+plain, picklable data so that sweeps can ship them to workers.
+
+Units: ``m`` in kg, ``b`` in m, ``g`` in m/s^2 for a physical chain, or the
+nondimensional ``m = b = g = 1`` (the default).  The engine always works in the
+nondimensional units (mass ``m``, length ``b``, time ``sqrt(b/g)``) and converts at
+the edges, so results in units of ``t_ff`` do not depend on ``m, b, g``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import asdict, dataclass
+
+FLOOR_MODELS = ("all", "pivot")
+IC_KINDS = ("helix", "planar", "random")
+
+
+class ParameterError(ValueError):
+    """An invalid parameter; the message names it."""
+
+
+def _finite_positive(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v <= 0.0:
+        raise ParameterError(f"{name} must be finite and > 0, got {value!r}")
+    return v
+
+
+def parse_angle(text: str | float) -> float:
+    """Parse an angle: radians (``0.785``), degrees (``45deg``), or ``pi/4``, ``3pi/4``, ``pi``."""
+    if isinstance(text, (int, float)):
+        return float(text)
+    s = str(text).strip().lower().replace(" ", "")
+    m = re.fullmatch(r"([-+]?[0-9.eE+-]+)(deg|°)", s)
+    if m:
+        return math.radians(float(m.group(1)))
+    m = re.fullmatch(r"([-+]?[0-9.]*)\*?pi(?:/([0-9.]+))?", s)
+    if m:
+        num = m.group(1)
+        coef = 1.0 if num in ("", "+") else (-1.0 if num == "-" else float(num))
+        den = float(m.group(2)) if m.group(2) else 1.0
+        return coef * math.pi / den
+    try:
+        return float(s)
+    except ValueError:
+        raise ParameterError(f"alpha: cannot parse angle {text!r} (use e.g. 45deg, pi/4 or 0.785)") from None
+
+
+@dataclass(frozen=True)
+class ChainParams:
+    """Physical parameters of the chain.
+
+    segments: number of rods N (>= 1).
+    alpha: critical bend angle in radians, 0 < alpha <= pi (pi: hinges never lock).
+    floor: ``"all"`` (every point is stopped and anchored by the floor) or
+        ``"pivot"`` (the paper read literally: only the bottom airborne segment meets it).
+    anchor_cone: keep the hinge limit between a landed segment and the airborne
+        segment hinged to it.  Beware: a landed segment is fixed for good and then acts
+        as a cantilever with unlimited torque that can hold a locked chain up.
+    segment_mass: m in kg (or 1, nondimensional).
+    half_length: b in m (or 1); a segment is 2b long.
+    gravity: g in m/s^2 (or 1).
+    """
+
+    segments: int = 128
+    alpha: float = math.pi / 4
+    floor: str = "all"
+    anchor_cone: bool = False
+    segment_mass: float = 1.0
+    half_length: float = 1.0
+    gravity: float = 1.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.segments, bool) or not isinstance(self.segments, int):
+            try:
+                n = int(self.segments)
+            except (TypeError, ValueError):
+                raise ParameterError(f"segments must be an integer >= 1, got {self.segments!r}") from None
+            if n != self.segments:
+                raise ParameterError(f"segments must be an integer >= 1, got {self.segments!r}")
+            object.__setattr__(self, "segments", n)
+        if self.segments < 1:
+            raise ParameterError(f"segments must be >= 1, got {self.segments}")
+        a = float(self.alpha)
+        if not math.isfinite(a) or not (0.0 < a <= math.pi + 1e-15):
+            raise ParameterError(f"alpha must be in (0, pi] radians, got {self.alpha!r}")
+        object.__setattr__(self, "alpha", min(a, math.pi))
+        if self.floor not in FLOOR_MODELS:
+            raise ParameterError(f"floor must be one of {FLOOR_MODELS}, got {self.floor!r}")
+        object.__setattr__(self, "anchor_cone", bool(self.anchor_cone))
+        for name in ("segment_mass", "half_length", "gravity"):
+            object.__setattr__(self, name, _finite_positive(name, getattr(self, name)))
+
+    @classmethod
+    def from_chain(cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81,
+                   **kw) -> "ChainParams":
+        """A real chain: total length (m), total mass (kg), gravity (m/s^2)."""
+        length_m = _finite_positive("length", length_m)
+        mass_kg = _finite_positive("mass", mass_kg)
+        n = int(segments)
+        if n < 1:
+            raise ParameterError(f"segments must be >= 1, got {segments}")
+        return cls(segments=n, segment_mass=mass_kg / n, half_length=length_m / (2 * n),
+                   gravity=gravity_m_s2, **kw)
+
+    @property
+    def time_unit(self) -> float:
+        """sqrt(b/g): the engine's unit of time, in s (or nondimensional)."""
+        return math.sqrt(self.half_length / self.gravity)
+
+    @property
+    def force_unit(self) -> float:
+        """m g: unit of force."""
+        return self.segment_mass * self.gravity
+
+    @property
+    def energy_unit(self) -> float:
+        """m g b: unit of energy."""
+        return self.segment_mass * self.gravity * self.half_length
+
+    @property
+    def is_si(self) -> bool:
+        return not (self.segment_mass == 1.0 and self.half_length == 1.0 and self.gravity == 1.0)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class InitialCondition:
+    """Initial shape of the chain, at rest (MODEL.md section 4).
+
+    kind: ``helix`` (exactly as MODEL.md defines it), ``planar`` (a bend in one vertical
+        plane) or ``random`` (a few seeded random Fourier modes of the tilt).
+    eps: amplitude of the tilt (dimensionless).
+    turns: q, turns of the helix / wavenumber of the planar bend along the chain.
+    phase: phi0 in radians (rotates the chain rigidly about z).
+    seed: seed of the ``random`` family.
+    modes: number of Fourier modes of the ``random`` family.
+    """
+
+    kind: str = "helix"
+    eps: float = 0.02
+    turns: float = 1.0
+    phase: float = 0.0
+    seed: int = 0
+    modes: int = 4
+
+    def __post_init__(self) -> None:
+        if self.kind not in IC_KINDS:
+            raise ParameterError(f"ic must be one of {IC_KINDS}, got {self.kind!r}")
+        e = float(self.eps)
+        if not math.isfinite(e) or e < 0.0:
+            raise ParameterError(f"eps must be finite and >= 0, got {self.eps!r}")
+        object.__setattr__(self, "eps", e)
+        for name in ("turns", "phase"):
+            v = float(getattr(self, name))
+            if not math.isfinite(v):
+                raise ParameterError(f"{name} must be finite, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, v)
+        if int(self.seed) != self.seed or int(self.seed) < 0:
+            raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
+        object.__setattr__(self, "seed", int(self.seed))
+        if int(self.modes) < 1:
+            raise ParameterError(f"modes must be >= 1, got {self.modes!r}")
+        object.__setattr__(self, "modes", int(self.modes))
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Numerical options.
+
+    rtol: relative tolerance of the Dormand-Prince 5(4) integrator (atol = rtol on the
+        nondimensional state, whose entries are O(1)).
+    until: stop at this time in units of t_ff (None: run until every segment has
+        landed, at most ``max_time`` t_ff).
+    frames_per_tff: output frames (all segment directions) per t_ff.
+    max_events: stop with a clear error after this many events (a Zeno guard).
+    event_xtol: tolerance of event times, in units of sqrt(b/g).
+    """
+
+    rtol: float = 1e-9
+    until: float | None = None
+    max_time: float = 3.0
+    frames_per_tff: float = 100.0
+    max_events: int = 2_000_000
+    event_xtol: float = 1e-13
+    max_steps: int = 50_000_000
+    progress: bool = False
+
+    def __post_init__(self) -> None:
+        r = float(self.rtol)
+        if not math.isfinite(r) or not (0.0 < r < 1.0):
+            raise ParameterError(f"rtol must be finite and in (0, 1), got {self.rtol!r}")
+        object.__setattr__(self, "rtol", r)
+        if self.until is not None:
+            object.__setattr__(self, "until", _finite_positive("until", self.until))
+        object.__setattr__(self, "max_time", _finite_positive("max_time", self.max_time))
+        object.__setattr__(self, "frames_per_tff", _finite_positive("frames_per_tff", self.frames_per_tff))
+        object.__setattr__(self, "event_xtol", _finite_positive("event_xtol", self.event_xtol))
+        if int(self.max_events) < 1:
+            raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
