@@ -8,7 +8,8 @@ Indexing (0-based, from the top):
   * point ``j = 0..N``: point ``j`` is the upper end of segment ``j`` and the lower end
     of segment ``j-1``; point 0 is the free top, point N the original pivot (origin);
   * hinge ``k = 0..N-2`` sits at point ``k+1`` between segments ``k`` and ``k+1``.
-Status arrays (uint8): ``anchored[N+1]`` (point held by the floor), ``locked[N-1]``.
+Status arrays (uint8): ``anchored[N+1]`` (point held by the floor; 2 while the impact
+that makes the anchor is being solved), ``locked[N-1]``.
 A segment is *landed* when both its end points are anchored; it is then frozen.
 
 Each segment has six velocity coordinates (centre velocity v, angular velocity w) and
@@ -69,15 +70,23 @@ class Workspace:
 
 @njit(cache=True, inline="always")
 def _is_landed(anchored, i):
+    """Both ends anchored (an anchor marked 2 is being made in the current impact:
+    the segments next to it still move until the impulse has stopped them)."""
+    return anchored[i] == 1 and anchored[i + 1] == 1
+
+
+@njit(cache=True, inline="always")
+def _landed_or_landing(anchored, i):
     return anchored[i] != 0 and anchored[i + 1] != 0
 
 
 @njit(cache=True, inline="always")
 def lock_active(anchored, k, cone):
     """Is the limit of hinge k in force?  Between two segments that have not landed,
-    always; between a landed and an airborne segment only with ``anchor_cone``."""
-    la = _is_landed(anchored, k)
-    lc = _is_landed(anchored, k + 1)
+    always; between a landed (or landing in the current impact) and an airborne
+    segment only with ``anchor_cone``."""
+    la = _landed_or_landing(anchored, k)
+    lc = _landed_or_landing(anchored, k + 1)
     if not la and not lc:
         return True
     return cone and (la != lc)
@@ -506,9 +515,10 @@ def normalize_state(e, w, anchored):
 
 
 @njit(cache=True)
-def position_residuals(e, anchored, locked, cone, cos_alpha, anchor_pos, kind, nrow, pts, out):
+def position_residuals(e, anchored, locked, cone, lock_cos, anchor_pos, kind, nrow, pts, out):
     """Residual of every row at the position level: anchors (point - anchor), locks
-    (e_a . e_c - cos alpha), hinges 0 (positions are built from e).  Returns max |.|."""
+    (e_a . e_c - lock_cos: the cosine at which the hinge locked, cos(alpha) to within the
+    event tolerance), hinges 0 (positions are built from e).  Returns max |.|."""
     point_positions(e, pts)
     worst = 0.0
     for j in range(nrow.shape[0]):
@@ -518,7 +528,7 @@ def position_residuals(e, anchored, locked, cone, cos_alpha, anchor_pos, kind, n
                 out[j, r] = 0.0
             elif k == ROW_LOCK:
                 a = j - 1
-                out[j, r] = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - cos_alpha
+                out[j, r] = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - lock_cos[a]
             else:
                 out[j, r] = pts[j, r % 3] - anchor_pos[j, r % 3]
             worst = max(worst, abs(out[j, r]))
@@ -543,14 +553,14 @@ def rotate_by(e, anchored, gf, sign):
 
 
 @njit(cache=True)
-def project_state(e, w, anchored, locked, cone, cos_alpha, anchor_pos, J, kind, nrow, S, G, drop, rhs,
+def project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs,
                   x, gf, pts, vel, tol, iters):
     """Remove constraint drift: normalise, then Gauss-Newton on anchor positions and
     locked angles (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.
     Returns the largest position residual before projection."""
     normalize_state(e, w, anchored)
     build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, False)
-    res0 = position_residuals(e, anchored, locked, cone, cos_alpha, anchor_pos, kind, nrow, pts, rhs)
+    res0 = position_residuals(e, anchored, locked, cone, lock_cos, anchor_pos, kind, nrow, pts, rhs)
     res = res0
     it = 0
     while res > tol and it < iters:
@@ -559,7 +569,7 @@ def project_state(e, w, anchored, locked, cone, cos_alpha, anchor_pos, J, kind, 
         generalized_forces(anchored, J, nrow, x, gf)
         rotate_by(e, anchored, gf, -1.0)
         build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, False)
-        res = position_residuals(e, anchored, locked, cone, cos_alpha, anchor_pos, kind, nrow, pts, rhs)
+        res = position_residuals(e, anchored, locked, cone, lock_cos, anchor_pos, kind, nrow, pts, rhs)
         it += 1
     normalize_state(e, w, anchored)
     # velocities

@@ -99,7 +99,9 @@ def velocity_impact(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, dro
     hinges that carry an impulse or stay at the limit.  ``anchored`` includes the points
     that just touched the floor.  On exit ``w`` holds the post-impact angular velocities,
     ``impulse[k]`` the lock impulses, ``anchor_impulse[j]`` the floor impulses,
-    ``energy_split`` = (lost to locking, lost to landing), both >= 0.
+    ``energy_split`` = (lost to locking, lost to landing): their sum is the kinetic
+    energy lost (>= 0); a share alone can be negative when one impact both lands and
+    locks (a hinge that was opening is held at its limit).
     Returns the number of pivots (negative if the pivoting did not converge)."""
     n = e.shape[0]
     nh = n - 1

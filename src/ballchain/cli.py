@@ -1,0 +1,297 @@
+"""Command line interface: ``ballchain simulate`` and ``ballchain info``.
+
+Errors in the input (every invalid parameter, an unwritable or existing output file,
+a damaged result file) are reported as one line ``error: <message>`` on stderr with
+exit code 2 and no traceback.  A run that stops with ``status == "error"`` exits 1
+(after saving what was computed), Ctrl-C exits 130 and never leaves a half-written
+file.  Stdout carries only the summary (one JSON object with ``--json``); the progress
+bar goes to stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from typing import Any, Optional
+
+import typer
+from typer.core import TyperGroup
+
+from .files import ResultFileError, check_writable, file_info, load_result, save_result
+from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
+
+try:  # typer >= 0.16 vendors click
+    from typer._click.exceptions import ClickException, NoArgsIsHelpError
+except ImportError:  # pragma: no cover - older typer on top of click
+    from click.exceptions import ClickException, NoArgsIsHelpError
+
+EXIT_RUN_ERROR = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+class _OneLineErrors(TyperGroup):
+    """Report usage errors (bad option values, unknown options) as one line."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True,
+             windows_expand_args=True, **extra):
+        if not standalone_mode:
+            return super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                                standalone_mode=False, windows_expand_args=windows_expand_args,
+                                **extra)
+        try:
+            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                              standalone_mode=False, windows_expand_args=windows_expand_args,
+                              **extra)
+        except NoArgsIsHelpError as e:
+            e.show()
+            sys.exit(e.exit_code)
+        except ClickException as e:
+            _error(e.format_message())
+            sys.exit(e.exit_code)
+        except typer.Abort:
+            _error("aborted")
+            sys.exit(EXIT_RUN_ERROR)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+app = typer.Typer(
+    cls=_OneLineErrors,
+    help="Event-driven 3D simulation of a falling ball chain (Itano & Sugihara-Seki model).",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_show_locals=False,
+)
+
+
+# --------------------------------------------------------------------------- helpers
+def _error(message: str) -> None:
+    text = " ".join(str(message).split())  # one line, always
+    typer.echo(f"error: {text}", err=True)
+
+
+def _parse_angle(name: str, text: str) -> float:
+    try:
+        return parse_angle(text)
+    except (ParameterError, ValueError):
+        raise ParameterError(f"{name}: cannot parse angle {text!r} (use e.g. 45deg, pi/4 or 0.785)") from None
+
+
+def build_inputs(
+    *, segments: int = 128, alpha: str | float = "pi/4", floor: str = "all",
+    anchor_cone: bool = False, ic: str = "helix", eps: float = 0.02, turns: float = 1.0,
+    phase: str | float = "0", seed: int = 0, rtol: float = 1e-9, until: float | None = None,
+    frames_per_tff: float = 100.0, length: float | None = None, mass: float | None = None,
+    gravity: float | None = None,
+) -> tuple[ChainParams, InitialCondition, SolverOptions]:
+    """The CLI's parameters -> validated dataclasses (raises ParameterError)."""
+    a = _parse_angle("alpha", alpha)
+    chain_kw = dict(alpha=a, floor=floor, anchor_cone=anchor_cone)
+    if length is None and mass is None and gravity is None:
+        params = ChainParams(segments=segments, **chain_kw)
+    else:
+        missing = [n for n, v in (("--length", length), ("--mass", mass)) if v is None]
+        if missing:
+            raise ParameterError(
+                f"{' and '.join(missing)} required: SI units (--length/--mass/--gravity) "
+                f"need the total length (m) and total mass (kg)")
+        if isinstance(segments, int) and segments < 1:
+            raise ParameterError(f"segments must be >= 1, got {segments}")
+        params = ChainParams.from_chain(segments, length, mass,
+                                        9.81 if gravity is None else gravity, **chain_kw)
+    init = InitialCondition(kind=ic, eps=eps, turns=turns, phase=_parse_angle("phase", phase),
+                            seed=seed)
+    options = SolverOptions(rtol=rtol, until=until, frames_per_tff=frames_per_tff)
+    return params, init, options
+
+
+def _fmt(x: Any, spec: str = ".6g") -> str:
+    if x is None:
+        return "n/a"
+    if isinstance(x, float) and not math.isfinite(x):
+        return "n/a"
+    return format(x, spec)
+
+
+def _div(a, b):
+    if a is None or b is None or b == 0:
+        return None
+    return a / b
+
+
+def human_summary(s: dict, output: str | None = None, header: str = "ballchain") -> str:
+    """A short human-readable summary of ``Result.summary()``."""
+    ic = s.get("ic")
+    ic_text = "n/a" if not ic else (
+        f"{ic.get('kind')} (eps {_fmt(ic.get('eps'))}, turns {_fmt(ic.get('turns'))}, "
+        f"phase {_fmt(ic.get('phase'))}, seed {ic.get('seed')})")
+    alpha = s.get("alpha")
+    ev = s.get("events") or {}
+    en = s.get("energy") or {}
+    init = en.get("initial")
+    imb = en.get("imbalance")
+    rel = _div(imb, abs(init) if init else None)
+    lines = [
+        f"{header}: N = {s.get('segments')}, alpha = {_fmt(alpha)} rad "
+        f"({_fmt(None if alpha is None else math.degrees(alpha), '.4g')} deg), floor = {s.get('floor')}"
+        + (", anchor cone" if s.get("anchor_cone") else "") + f", units = {s.get('units')}",
+        f"  initial condition  {ic_text}",
+        f"  status             {s.get('status')}" + (f" ({s['message']})" if s.get("message") else ""),
+        f"  t_fall / t_ff      {_fmt(s.get('ratio'))}",
+        f"  t_landed / t_ff    {_fmt(s.get('landed_ratio'))}",
+        f"  events             lock {ev.get('lock', 0)}, unlock {ev.get('unlock', 0)}, "
+        f"landing {ev.get('landing', 0)}; first lock at t/t_ff = "
+        f"{_fmt(_div(s.get('first_lock_time'), s.get('t_ff')))}",
+        f"  energy imbalance   {_fmt(imb, '.3g')} (relative to initial energy: {_fmt(rel, '.3g')})",
+    ]
+    if s.get("floor") == "pivot":
+        lines.append(f"  max depth          {_fmt(s.get('max_depth'))}")
+    lines.append(f"  wall time          {_fmt(s.get('wall_seconds'), '.3g')} s "
+                 f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)")
+    if output:
+        lines.append(f"  output             {output}")
+    return "\n".join(lines)
+
+
+def _print_json(obj: dict) -> None:
+    typer.echo(json.dumps(obj, allow_nan=False))
+
+
+def _run_engine(params, init, options, show_progress: bool):
+    from .engine import simulate  # lazy: the engine (numba) is heavy to import
+
+    if not show_progress:
+        return simulate(params, init, options, progress=None)
+
+    from rich.console import Console
+    from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn,
+                               TimeElapsedColumn)
+
+    console = Console(stderr=True)
+    if not console.is_terminal:
+        return simulate(params, init, options, progress=None)
+    with Progress(TextColumn("simulating"), BarColumn(), TaskProgressColumn(),
+                  TimeElapsedColumn(), TextColumn("{task.fields[info]}"),
+                  console=console, transient=True) as bar:
+        task = bar.add_task("simulating", total=1.0, info="")
+
+        def progress(fraction: float, info: dict | None = None) -> None:
+            try:  # a progress report must never stop the run
+                info = info or {}
+                parts = []
+                if info.get("t_over_tff") is not None:
+                    parts.append(f"t/t_ff {float(info['t_over_tff']):.3f}")
+                if info.get("events") is not None:
+                    parts.append(f"events {info['events']}")
+                if info.get("landed") is not None:
+                    parts.append(f"landed {info['landed']}")
+                f = float(fraction)
+                f = min(max(f, 0.0), 1.0) if math.isfinite(f) else 0.0
+                bar.update(task, completed=f, info="  ".join(parts))
+            except Exception:
+                pass
+
+        return simulate(params, init, options, progress=progress)
+
+
+# --------------------------------------------------------------------------- commands
+@app.command()
+def simulate(
+    segments: int = typer.Option(128, "--segments", "-N", help="Number of segments N (>= 1)."),
+    alpha: str = typer.Option("pi/4", "--alpha", help="Critical bend angle in (0, pi]: 45deg, pi/4 or radians."),
+    floor: str = typer.Option("all", "--floor", help="Floor model: all (every point is stopped by the floor) or pivot (the paper read literally)."),
+    anchor_cone: bool = typer.Option(False, "--anchor-cone", help="Keep the hinge limit between a landed segment and the airborne one hinged to it (beware: a landed segment then acts as a cantilever that can hold a locked chain up)."),
+    ic: str = typer.Option("helix", "--ic", help="Initial condition family: helix, planar or random."),
+    eps: float = typer.Option(0.02, "--eps", help="Amplitude of the initial tilt (>= 0)."),
+    turns: float = typer.Option(1.0, "--turns", help="Turns q of the helix / wavenumber of the planar bend."),
+    phase: str = typer.Option("0", "--phase", help="Phase phi0 (radians, or 45deg, pi/4): rotates the chain about z."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random initial condition (>= 0)."),
+    rtol: float = typer.Option(1e-9, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
+    until: Optional[float] = typer.Option(None, "--until", help="Stop at this time, in units of t_ff (default: until every segment has landed)."),
+    frames_per_tff: float = typer.Option(100.0, "--frames-per-tff", help="Output frames per t_ff."),
+    output: Optional[str] = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object (the run's summary) on stdout."),
+    length: Optional[float] = typer.Option(None, "--length", help="Total length of the chain in m (SI units; needs --mass)."),
+    mass: Optional[float] = typer.Option(None, "--mass", help="Total mass of the chain in kg (SI units; needs --length)."),
+    gravity: Optional[float] = typer.Option(None, "--gravity", help="Gravity in m/s^2 (SI units; default 9.81)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Simulate one fall (defaults: the paper's case N = 128, alpha = pi/4, helix)."""
+    try:
+        params, init, options = build_inputs(
+            segments=segments, alpha=alpha, floor=floor, anchor_cone=anchor_cone, ic=ic,
+            eps=eps, turns=turns, phase=phase, seed=seed, rtol=rtol, until=until,
+            frames_per_tff=frames_per_tff, length=length, mass=mass, gravity=gravity)
+        if output is not None:
+            check_writable(output, force)
+    except (ParameterError, ResultFileError, FileExistsError) as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+
+    try:
+        result = _run_engine(params, init, options, show_progress=not quiet)
+    except KeyboardInterrupt:
+        _error("interrupted (nothing saved)")
+        raise typer.Exit(EXIT_INTERRUPTED)
+    except ParameterError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+
+    saved = None
+    save_failed = False
+    if output is not None:
+        try:
+            saved = str(save_result(result, output, force=force))
+        except KeyboardInterrupt:
+            _error(f"interrupted while saving (no file written to {output!r})")
+            raise typer.Exit(EXIT_INTERRUPTED)
+        except (ResultFileError, FileExistsError, OSError) as e:
+            _error(f"cannot save the result: {e}")
+            save_failed = True
+
+    summary = result.summary()
+    if json_out:
+        _print_json(summary)
+    else:
+        typer.echo(human_summary(summary, saved, header="ballchain simulate"))
+
+    if result.status == "error":
+        _error(f"the run failed: {result.message or 'unknown error'}"
+               + (f" (partial result saved to {saved})" if saved else ""))
+        raise typer.Exit(EXIT_RUN_ERROR)
+    if save_failed:
+        raise typer.Exit(EXIT_RUN_ERROR)
+    if result.status == "max_time":
+        typer.echo(f"warning: stopped at the time cap ({options.max_time} t_ff) before every "
+                   f"segment landed", err=True)
+
+
+@app.command()
+def info(
+    file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object (the run's summary)."),
+) -> None:
+    """Print the summary of a result file."""
+    try:
+        meta = file_info(file)
+        result = load_result(file)
+    except ResultFileError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    summary = result.summary()
+    if json_out:
+        _print_json(summary)
+        return
+    typer.echo(human_summary(summary, header=file))
+    typer.echo(f"  file               {meta.get('format')} v{meta.get('format_version')}, "
+               f"written by ballchain {meta.get('package_version')} at {meta.get('created')}")
+
+
+def main() -> None:  # pragma: no cover - ``python -m ballchain.cli``
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

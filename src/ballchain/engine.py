@@ -1,0 +1,475 @@
+"""One run: parameters -> initial state -> integrator + events -> Result.
+
+The compiled step loop (``integrator.advance``) returns here at every event; this
+module applies MODEL.md section 3 at that instant, in this order:
+
+1. unlock the hinges whose multiplier crossed zero (not re-locked in the same instant);
+2. anchor the points that reached the floor moving down (floor ``all``: every free
+   point and the top end; floor ``pivot``: the bottom airborne segment once it lies
+   flat, cascading while the next one points at or below the horizontal);
+3. one Moreau impact over every new anchor and every hinge at its limit
+   (``impacts.velocity_impact``): a floor contact and a lock in the same instant are
+   one impact;
+4. the acceleration-level LCP decides which hinges at the limit stay locked
+   (``impacts.lock_set``);
+5. the state is projected back onto the constraints and the event functions that sit
+   at zero are disarmed until they move away.
+
+A grazing hinge (|dg/dt| < impacts.RATE_TOL) gets no impulse; it locks only if the
+acceleration LCP requires it.  Event accumulation (Zeno) stops the run with a clear
+error: more than ``ZENO_EVENTS`` events within ``ZENO_WINDOW`` t_ff, or more than
+``options.max_events`` events in all.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from typing import Callable
+
+import numpy as np
+
+from . import __version__
+from .dynamics import (
+    Workspace,
+    kinetic_energy,
+    lock_active,
+    point_positions,
+    potential_energy,
+    project_state,
+    velocities,
+)
+from .impacts import GAP_TOL, RATE_TOL, hinge_gaps, hinge_rates, lock_set, velocity_impact
+from .initial import check_inside_cone, initial_directions
+from .integrator import (
+    ADV_BUFFER,
+    ADV_EVENT,
+    ADV_FAIL_NAN,
+    ADV_FAIL_STEP,
+    ADV_MAX_STEPS,
+    ADV_STOP,
+    EV_LANDING,
+    EV_TOP,
+    EV_UNLOCK,
+    ARM,
+    PEN,
+    PROJ_TOL,
+    advance,
+)
+from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from .result import Result
+
+ZENO_EVENTS = 20000
+ZENO_WINDOW = 1e-9  # in units of t_ff
+Z_TOL = 1e-9  # a free point with z below this (units b) at an event touches the floor
+EV_IMPULSE = 5  # event-log kind: impulse on an already-locked hinge during an impact
+
+
+class SimulationError(RuntimeError):
+    """A run that cannot go on (blow-up, event accumulation, singular configuration)."""
+
+
+class _Log:
+    def __init__(self):
+        self.t, self.kind, self.index, self.impulse, self.energy = [], [], [], [], []
+
+    def add(self, t, kind, index, impulse=(0.0, 0.0, 0.0), energy=0.0):
+        self.t.append(t)
+        self.kind.append(kind)
+        self.index.append(index)
+        self.impulse.append(tuple(impulse))
+        self.energy.append(energy)
+
+
+class Run:
+    """The mutable state of one run (kept out of the frozen parameter objects)."""
+
+    def __init__(self, params: ChainParams, e0: np.ndarray, w0: np.ndarray, options: SolverOptions):
+        n = params.segments
+        self.p = params
+        self.o = options
+        self.n = n
+        self.Y = np.zeros((2, n, 3))
+        self.Y[0] = e0
+        self.Y[1] = w0
+        self.anchored = np.zeros(n + 1, np.uint8)
+        self.anchored[n] = 1
+        self.locked = np.zeros(max(n - 1, 0), np.uint8)
+        self.lock_cos = np.full(max(n - 1, 0), math.cos(params.alpha))  # cosine held by each lock
+        self.anchor_pos = np.full((n + 1, 3), np.nan)
+        self.anchor_pos[n] = 0.0
+        self.anchor_t = np.full(n + 1, np.nan)
+        self.anchor_t[n] = 0.0
+        # event thresholds: 0 = armed; min(f, 0) - PEN = disarmed (integrator docstring)
+        self.thr_lock = np.zeros(max(n - 1, 0))
+        self.thr_unlock = np.zeros(max(n - 1, 0))
+        self.thr_land = np.zeros(n + 1)
+        self.thr_top = np.zeros(1)
+        self.ws = Workspace(n)
+        self.wst = self.ws.arrays()
+        self.cos_alpha = math.cos(params.alpha)
+        self.floor_all = params.floor == "all"
+        self.cone = params.anchor_cone
+        self.log = _Log()
+        self.lost_locking = 0.0
+        self.lost_landing = 0.0
+        self.floor_impulse = np.zeros(3)
+        self.t_fall = math.nan
+        self.t_landed = math.nan
+        # scratch
+        self.pv = np.zeros((n + 1, 3))
+        self.vel = np.zeros((n, 3))
+        self.pts = np.zeros((n + 1, 3))
+        self.afor = np.zeros((n + 1, 3))
+
+    # ------------------------------------------------------------- helpers
+    def landed(self) -> np.ndarray:
+        a = self.anchored
+        return (a[:-1] != 0) & (a[1:] != 0)
+
+    def all_landed(self) -> bool:
+        return bool(np.all(self.anchored))
+
+    def energy_now(self) -> tuple[float, float]:
+        e, w = self.Y
+        return kinetic_energy(e, w, self.pv, self.vel), potential_energy(e)
+
+    def lock_in_force(self) -> np.ndarray:
+        return np.array([lock_active(self.anchored, k, self.cone) for k in range(self.n - 1)], dtype=bool)
+
+    # ------------------------------------------------------------- events
+    def handle_event(self, t: float, ev_kind, ev_idx, ev_time, xtol: float) -> None:
+        n = self.n
+        e, w = self.Y[0], self.Y[1]
+        J, kind, nrow, S, G, drop, rhs, x, gf = self.wst
+        near = [r for r in range(len(ev_kind)) if ev_time[r] <= t + 10 * xtol]
+        exclude = np.zeros(max(n - 1, 0), np.uint8)
+        # 1. unlocks
+        for r in near:
+            if ev_kind[r] == EV_UNLOCK:
+                k = int(ev_idx[r])
+                if self.locked[k]:
+                    self.locked[k] = 0
+                    exclude[k] = 1
+                    self.log.add(t, 2, k)
+            elif ev_kind[r] == EV_TOP and math.isnan(self.t_fall):
+                self.t_fall = t
+                self.thr_top[0] = -math.inf  # recorded once
+        # 2. floor contacts
+        point_positions(e, self.pts)
+        velocities(e, w, self.pv, self.vel)
+        new_anchor = []
+        if self.floor_all:
+            for j in range(n):
+                if not self.anchored[j] and self.pts[j, 2] <= Z_TOL and self.pv[j, 2] <= RATE_TOL:
+                    new_anchor.append(j)
+        else:
+            landing = any(ev_kind[r] == EV_LANDING for r in near)
+            m = self._bottom_airborne()
+            while landing and m >= 0:
+                ez = e[m, 2] / np.linalg.norm(e[m])
+                if ez > Z_TOL:
+                    break
+                new_anchor.append(m)  # point m = upper end of segment m
+                self.anchored[m] = 1  # provisional, for the cascade test
+                m -= 1
+            for j in new_anchor:
+                self.anchored[j] = 0
+        pre_v = self.pv.copy()
+        for j in new_anchor:
+            self.anchored[j] = 2  # anchored, neighbours still mobile during the impact
+            self.anchor_pos[j] = self.pts[j]  # where it touched (|z| < Z_TOL): held there
+            self.anchor_t[j] = t
+        # 3. impact
+        nh = n - 1
+        gaps = np.zeros(nh)
+        rates = np.zeros(nh)
+        hinge_gaps(e, self.cos_alpha, gaps)
+        hinge_rates(e, w, rates)
+        in_force = self.lock_in_force()
+        if self.p.alpha >= math.pi:
+            in_force[:] = False
+        self.locked[~in_force] = 0
+        cand = (in_force & ((gaps <= GAP_TOL) | (self.locked != 0))).astype(np.uint8)
+        cand[exclude != 0] = 0
+        approaching = (cand != 0) & (rates < -RATE_TOL)
+        was_locked = self.locked.copy()
+        if new_anchor or np.any(approaching):
+            active = ((self.locked != 0) | approaching).astype(np.uint8)
+            w_plus = np.zeros_like(w)
+            impulse = np.zeros(nh)
+            anchor_impulse = np.zeros((n + 1, 3))
+            split = np.zeros(2)
+            jv = np.zeros_like(rhs)
+            rates_after = np.zeros(nh)
+            T0 = kinetic_energy(e, w, self.pv, self.vel)
+            it = velocity_impact(e, w, self.anchored, cand, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf,
+                                 self.pv, self.vel, jv, w_plus, rates_after, impulse, anchor_impulse, split)
+            if it < 0:
+                raise SimulationError(f"impact LCP did not converge at t = {t:.17g}")
+            T1 = kinetic_energy(e, w, self.pv, self.vel)
+            if DEBUG is not None:
+                DEBUG["impact"] = DEBUG.get("impact", 0.0) + (T1 - T0 + split[0] + split[1])
+            if T1 > T0 * (1 + 1e-9) + 1e-12:
+                raise SimulationError(f"impact raised the kinetic energy ({T0:.17g} -> {T1:.17g}) at t = {t:.17g}")
+            self.lost_locking += split[0]
+            self.lost_landing += split[1]
+            hinge_rates(e, w, rates_after)
+            for k in np.flatnonzero(impulse > 0):
+                lost = -0.5 * impulse[k] * (rates[k] + rates_after[k])
+                self.log.add(t, 1 if not was_locked[k] else EV_IMPULSE, int(k), (impulse[k], 0.0, 0.0), lost)
+            for j in new_anchor:
+                imp = anchor_impulse[j].copy()
+                self.floor_impulse += imp
+                self.log.add(t, 3, j, imp, -0.5 * float(imp @ pre_v[j]))
+            self.locked[:] = active  # hinges kept at the limit by the impact
+            rates = rates_after
+        self.anchored[self.anchored == 2] = 1
+        in_force = self.lock_in_force() & (self.p.alpha < math.pi)
+        self.locked[~in_force] = 0
+        for i in np.flatnonzero(self.landed()):
+            w[i] = 0.0
+        # 4. lock set at the acceleration level
+        cand2 = (in_force & (gaps <= GAP_TOL) & (np.abs(rates) <= RATE_TOL) | (self.locked != 0)).astype(np.uint8)
+        cand2[exclude != 0] = 0
+        before = self.locked.copy()
+        active = ((self.locked != 0) & (cand2 != 0)).astype(np.uint8)
+        de = np.zeros_like(e)
+        dw = np.zeros_like(w)
+        ddg = np.zeros(nh)
+        lam = np.zeros(nh)
+        it = lock_set(e, w, self.anchored, cand2, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw,
+                      ddg, lam)
+        if it < 0:
+            raise SimulationError(f"lock-set LCP did not converge at t = {t:.17g}")
+        self.locked[:] = active
+        logged = {int(k) for k in np.flatnonzero((was_locked == 0) & (self.locked != 0))}
+        for k in logged:
+            if not (len(self.log.t) and any(self.log.t[i] == t and self.log.kind[i] == 1 and self.log.index[i] == k
+                                            for i in range(max(0, len(self.log.t) - 2 * n), len(self.log.t)))):
+                self.log.add(t, 1, k)  # locked without impulse (a touch)
+        for k in np.flatnonzero((was_locked != 0) & (self.locked == 0)):
+            self.log.add(t, 2, int(k))
+            exclude[k] = 1
+        # 5. project and disarm
+        if DEBUG is not None:
+            T2, U2 = self.energy_now()
+        for k in np.flatnonzero((was_locked == 0) & (self.locked != 0)):
+            self.lock_cos[k] = self.cos_alpha + gaps[k]  # hold the angle reached (|g| <= GAP_TOL)
+        project_state(e, w, self.anchored, self.locked, self.cone, self.lock_cos, self.anchor_pos, J, kind, nrow, S,
+                      G, drop, rhs, x, gf, self.pts, self.vel, PROJ_TOL, 5)
+        if DEBUG is not None:
+            T3, U3 = self.energy_now()
+            DEBUG["proj"] = DEBUG.get("proj", 0.0) + (T3 + U3 - T2 - U2)
+        hinge_gaps(e, self.cos_alpha, gaps)
+        for k in range(nh):
+            if self.locked[k]:
+                self.thr_unlock[k] = 0.0 if lam[k] > ARM else min(lam[k], 0.0) - PEN
+            else:
+                self.thr_lock[k] = 0.0 if gaps[k] > ARM else min(gaps[k], 0.0) - PEN
+        point_positions(e, self.pts)
+        if self.floor_all:
+            for j in range(n + 1):
+                if not self.anchored[j]:
+                    z = self.pts[j, 2]
+                    self.thr_land[j] = 0.0 if z > ARM else min(z, 0.0) - PEN
+            if self.anchored[0] and math.isnan(self.t_fall):
+                self.t_fall = t
+        else:
+            m = self._bottom_airborne()
+            if m >= 0:
+                ez = e[m, 2] / np.linalg.norm(e[m])
+                self.thr_land[m] = 0.0 if ez > ARM else min(ez, 0.0) - PEN
+            z = self.pts[0, 2]
+            if math.isnan(self.t_fall) and self.thr_top[0] == 0.0 and z <= ARM:
+                self.thr_top[0] = min(z, 0.0) - PEN
+
+    def _bottom_airborne(self) -> int:
+        a = self.anchored
+        for i in range(self.n - 1, -1, -1):
+            if not (a[i] and a[i + 1]):
+                return i
+        return -1
+
+
+DEBUG = None
+
+
+def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> tuple[np.ndarray, np.ndarray]:
+    n = params.segments
+    if state is not None:
+        e0 = np.array(state[0], dtype=float).reshape(n, 3)
+        w0 = np.array(state[1], dtype=float).reshape(n, 3) if state[1] is not None else np.zeros((n, 3))
+        if not (np.all(np.isfinite(e0)) and np.all(np.isfinite(w0))):
+            raise ParameterError("state: non-finite initial directions or angular velocities")
+        e0 /= np.linalg.norm(e0, axis=1)[:, None]
+        w0 -= np.einsum("ij,ij->i", w0, e0)[:, None] * e0
+        check_inside_cone(e0, params.alpha)
+        return e0, w0
+    ic = ic or InitialCondition()
+    return initial_directions(ic, n, params.alpha), np.zeros((n, 3))
+
+
+def simulate(params: ChainParams, ic: InitialCondition | None = None, options: SolverOptions | None = None, *,
+             state=None, progress: Callable[[float, dict], None] | None = None) -> Result:
+    """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
+    overrides the initial condition family.  Returns a Result in the run's units."""
+    options = options or SolverOptions()
+    wall0 = _time.perf_counter()
+    e0, w0 = _initial_state(params, ic, state)
+    run = Run(params, e0, w0, options)
+    n = params.segments
+    z0 = float(2.0 * np.sum(e0[:, 2]))
+    t_ff = math.sqrt(2.0 * z0)
+    U0 = potential_energy(run.Y[0])
+    T0 = kinetic_energy(run.Y[0], run.Y[1], run.pv, run.vel)
+    E0 = U0 + T0
+    t_stop = (options.until if options.until is not None else options.max_time) * t_ff
+    # buffers
+    frame_dt = t_ff / options.frames_per_tff
+    cap = int(math.ceil(t_stop / frame_dt)) + 3
+    fr_t = np.zeros(cap)
+    fr_e = np.zeros((cap, n, 3))
+    fr_w = np.zeros((cap, n, 3))
+    fr_anch = np.zeros((cap, n + 1), np.uint8)
+    fr_lock = np.zeros((cap, max(n - 1, 0)), np.uint8)
+    fr_force = np.zeros((cap, 3))
+    fr_kin = np.zeros(cap)
+    fr_pot = np.zeros(cap)
+    fr_lostl = np.zeros(cap)
+    fr_lostf = np.zeros(cap)
+    fr_count = np.zeros(1, np.int64)
+    frame_next = np.zeros(1)
+    trace_chunks_t, trace_chunks_z = [], []
+    tr_t = np.zeros(65536)
+    tr_z = np.zeros(65536)
+    tr_count = np.zeros(1, np.int64)
+    ev_kind = np.zeros(3 * n + 4, np.int64)
+    ev_idx = np.zeros(3 * n + 4, np.int64)
+    ev_theta = np.zeros(3 * n + 4)
+    counters = np.zeros(3, np.int64)
+    stats = np.zeros(1)
+    K = np.zeros((7, 2, n, 3))
+    Y1 = np.zeros((2, n, 3))
+    Ytmp = np.zeros((2, n, 3))
+    dYtmp = np.zeros((2, n, 3))
+    lam = np.zeros(max(n - 1, 1))
+    lam1 = np.zeros(max(n - 1, 1))
+    xtol = options.event_xtol
+    t = 0.0
+    h = 1e-3
+    status, message = "landed", ""
+    n_events = 0
+    recent = []
+    # the first frame is recorded by advance (frame_next = 0)
+    frames_lost_fill = 0
+
+    def fill_losses():
+        nonlocal frames_lost_fill
+        k = int(fr_count[0])
+        fr_lostl[frames_lost_fill:k] = run.lost_locking
+        fr_lostf[frames_lost_fill:k] = run.lost_landing
+        frames_lost_fill = k
+
+    last_report = -1.0
+    try:
+        while True:
+            code, t, h = advance(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
+                                 run.locked, run.lock_cos, run.anchor_pos, run.thr_lock, run.thr_land, run.thr_unlock,
+                                 run.thr_top, options.rtol, options.rtol, xtol, run.wst, K, Y1, Ytmp, dYtmp, lam,
+                                 lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
+                                 fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, run.pts,
+                                 run.vel, run.afor, counters, options.max_steps, stats)
+            fill_losses()
+            if code == ADV_BUFFER or tr_count[0] >= tr_t.shape[0] - 2:
+                k = int(tr_count[0])
+                trace_chunks_t.append(tr_t[:k].copy())
+                trace_chunks_z.append(tr_z[:k].copy())
+                tr_count[0] = 0
+                if code == ADV_BUFFER:
+                    continue
+            if code == ADV_EVENT:
+                nev = int(counters[2])
+                run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
+                n_events += 1
+                recent.append(t)
+                if len(recent) > ZENO_EVENTS:
+                    recent.pop(0)
+                    if t - recent[0] < ZENO_WINDOW * t_ff:
+                        raise SimulationError(
+                            f"event accumulation: {ZENO_EVENTS} events within {t - recent[0]:.3g} time units "
+                            f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
+                if len(run.log.t) > options.max_events:
+                    raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
+                if run.all_landed():
+                    run.t_landed = t
+                    if math.isnan(run.t_fall):
+                        run.t_fall = t
+                    status = "landed"
+                    break
+            elif code == ADV_STOP:
+                status = "until" if options.until is not None else "max_time"
+                if status == "max_time":
+                    message = f"not all segments landed by t = {options.max_time} t_ff"
+                break
+            elif code == ADV_FAIL_NAN:
+                raise SimulationError(f"non-finite state (blow-up) at t/t_ff = {t / t_ff:.6f}")
+            elif code == ADV_FAIL_STEP:
+                raise SimulationError(f"step size underflow (h = {h:.3g}) at t/t_ff = {t / t_ff:.6f}")
+            elif code == ADV_MAX_STEPS:
+                raise SimulationError(f"more than max_steps = {options.max_steps} steps at t/t_ff = {t / t_ff:.6f}")
+            if progress is not None and t / t_stop - last_report >= 0.002:
+                last_report = t / t_stop
+                progress(min(1.0, t / t_ff / 1.0), {"t_over_tff": t / t_ff, "events": len(run.log.t),
+                                                     "landed": int(np.sum(run.landed()))})
+    except SimulationError as exc:
+        status, message = "error", str(exc)
+    except KeyboardInterrupt:
+        raise
+    fill_losses()
+    k = int(tr_count[0])
+    trace_chunks_t.append(tr_t[:k].copy())
+    trace_chunks_z.append(tr_z[:k].copy())
+    if progress is not None:
+        progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log.t), "landed": int(np.sum(run.landed()))})
+    T_end, U_end = run.energy_now()
+    nf = int(fr_count[0])
+    return _make_result(params, ic if state is None else ic, options, run, status, message, z0, t_ff, E0, T_end,
+                        U_end, np.concatenate([[0.0]] + trace_chunks_t), np.concatenate([[z0]] + trace_chunks_z),
+                        fr_t[:nf], fr_e[:nf], fr_w[:nf], fr_anch[:nf], fr_lock[:nf], fr_force[:nf], fr_kin[:nf],
+                        fr_pot[:nf], fr_lostl[:nf], fr_lostf[:nf], -min(stats[0], 0.0), wall0, counters)
+
+
+def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end, U_end, tr_t, tr_z, fr_t, fr_e, fr_w,
+                 fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_lostl, fr_lostf, max_depth, wall0, counters) -> Result:
+    """Convert the nondimensional run to the run's units and package it."""
+    tu = params.time_unit
+    lu = params.half_length
+    fu = params.force_unit
+    eu = params.energy_unit
+    iu = fu * tu
+    log = run.log
+    energy = {
+        "initial": E0 * eu,
+        "potential": U_end * eu,
+        "kinetic": T_end * eu,
+        "lost_locking": run.lost_locking * eu,
+        "lost_landing": run.lost_landing * eu,
+        "imbalance": (E0 - U_end - T_end - run.lost_locking - run.lost_landing) * eu,
+    }
+    return Result(
+        params=params, ic=ic, options=options, version=__version__, status=status, message=message,
+        z0=z0 * lu, t_ff=t_ff * tu, t_fall=run.t_fall * tu, t_landed=run.t_landed * tu,
+        t=tr_t * tu, z_top=tr_z * lu,
+        frame_t=fr_t * tu, frame_e=fr_e.copy(), frame_omega=fr_w / tu, frame_anchored=fr_anch.astype(bool),
+        frame_locked=fr_lock.astype(bool), frame_floor_force=fr_force * fu, frame_kinetic=fr_kin * eu,
+        frame_potential=fr_pot * eu, frame_lost_locking=fr_lostl * eu, frame_lost_landing=fr_lostf * eu,
+        event_t=np.asarray(log.t, dtype=float) * tu, event_kind=np.asarray(log.kind, dtype=np.int8),
+        event_index=np.asarray(log.index, dtype=np.int64),
+        event_impulse=np.asarray(log.impulse, dtype=float).reshape(-1, 3) * iu,
+        event_energy=np.asarray(log.energy, dtype=float) * eu,
+        anchor_t=run.anchor_t * tu, anchor_pos=run.anchor_pos * lu,
+        energy=energy, max_depth=max_depth * lu, floor_impulse=run.floor_impulse * iu,
+        wall_seconds=_time.perf_counter() - wall0, n_steps=int(counters[0]), n_evals=int(counters[1]),
+        units="SI" if params.is_si else "nondimensional",
+    )

@@ -1,0 +1,421 @@
+"""Result files: one self-describing HDF5 file per run.
+
+Layout (format ``ballchain-result``, version 1)::
+
+    /                 attrs: format, format_version, package_version, version (of the
+                      run), units, created (UTC, ISO 8601), status, message, seed,
+                      params_json, ic_json, options_json, energy_json, extra_json
+    /params           attrs: one per ChainParams field (for h5dump readers)
+    /ic               attrs: one per InitialCondition field (absent if ic is None)
+    /options          attrs: one per SolverOptions field (None is written as "none")
+    /summary          0-d datasets z0, t_ff, t_fall, t_landed, max_depth, wall_seconds,
+                      n_steps, n_evals; floor_impulse (3,)
+    /trace            t, z_top
+    /frames           frame_t, frame_e, frame_omega, frame_anchored, frame_locked,
+                      frame_floor_force, frame_kinetic, frame_potential,
+                      frame_lost_locking, frame_lost_landing
+    /events           event_t, event_kind, event_index, event_impulse, event_energy
+    /anchors          anchor_t, anchor_pos
+    /energy           attrs: the final energy budget (and ``units``)
+
+Every dataset carries a ``units`` and a ``description`` attribute.  Arrays are chunked
+along their first axis with a Fletcher-32 checksum (damaged data is detected on
+reading); large ones are compressed (shuffle + gzip, lossless).  The JSON
+attributes are what ``load_result`` reads back, so that parameters round-trip exactly;
+the per-field attributes are for humans.
+
+Writing is atomic: the file is written under a temporary name in the target
+directory and moved into place only when complete; on any failure (including
+KeyboardInterrupt) the temporary file is removed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import json
+import os
+import secrets
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from .result import QUANTITY, Result
+
+FORMAT_NAME = "ballchain-result"
+FORMAT_VERSION = 1
+
+# big datasets (bytes) are chunked + compressed
+_COMPRESS_MIN_BYTES = 16 * 1024
+_CHUNK_BYTES = 1 << 20
+
+_UNITS_SI = {
+    "time": "s", "length": "m", "force": "N", "impulse": "N s", "energy": "J",
+    "1/time": "1/s", "1": "1", "s": "s",
+}
+_UNITS_ND = {
+    "time": "sqrt(b/g)", "length": "b", "force": "m g", "impulse": "m sqrt(g b)",
+    "energy": "m g b", "1/time": "sqrt(g/b)", "1": "1", "s": "s",
+}
+
+GROUPS = {
+    "summary": ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "floor_impulse",
+                "wall_seconds", "n_steps", "n_evals"),
+    "trace": ("t", "z_top"),
+    "frames": ("frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked",
+               "frame_floor_force", "frame_kinetic", "frame_potential",
+               "frame_lost_locking", "frame_lost_landing"),
+    "events": ("event_t", "event_kind", "event_index", "event_impulse", "event_energy"),
+    "anchors": ("anchor_t", "anchor_pos"),
+}
+_FLOAT_SCALARS = ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "wall_seconds")
+_INT_SCALARS = ("n_steps", "n_evals")
+
+DESCRIPTIONS = {
+    "z0": "height of the top end at t = 0",
+    "t_ff": "free-fall time sqrt(2 z0 / g)",
+    "t_fall": "first time the top end reaches the floor (NaN: not reached)",
+    "t_landed": "time the last segment landed (NaN: not reached)",
+    "max_depth": "deepest airborne point below the floor (floor = pivot; 0 if none)",
+    "floor_impulse": "sum of the landing impulses of the floor on the chain (x, y, z)",
+    "wall_seconds": "wall-clock duration of the run",
+    "n_steps": "accepted integrator steps",
+    "n_evals": "evaluations of the equations of motion",
+    "t": "trace times (every accepted step and event)",
+    "z_top": "height of the top end of the chain at the trace times",
+    "frame_t": "output frame times",
+    "frame_e": "unit axis e_n of each segment (F, N, 3), segments numbered from the top",
+    "frame_omega": "angular velocity of each segment (F, N, 3)",
+    "frame_anchored": "point j anchored to the floor (F, N+1), points counted from the top",
+    "frame_locked": "hinge k between segments k and k+1 locked (F, N-1)",
+    "frame_floor_force": "continuous force of all anchors on the chain (F, 3)",
+    "frame_kinetic": "kinetic energy",
+    "frame_potential": "potential energy",
+    "frame_lost_locking": "cumulative kinetic energy lost in hinge locking",
+    "frame_lost_landing": "cumulative kinetic energy lost in landings",
+    "event_t": "event times, one row per constraint that acted",
+    "event_kind": "1 lock, 2 unlock, 3 landing, 4 top reaches the floor",
+    "event_index": "hinge k (0..N-2) or point j (0..N, from the top) of the event",
+    "event_impulse": "lock: (Lambda, 0, 0); landing: impulse of the floor on the chain",
+    "event_energy": "kinetic energy dissipated by that constraint",
+    "anchor_t": "time each point was anchored (NaN: never; 0: the pivot)",
+    "anchor_pos": "position where each point was anchored (N+1, 3)",
+}
+
+
+class ResultFileError(ValueError):
+    """A result file that cannot be read or written; the message is one line."""
+
+
+# --------------------------------------------------------------------------- helpers
+def unit_of(name: str, units: str) -> str:
+    """Unit string of a Result field in the given units system (``SI`` or not)."""
+    table = _UNITS_SI if units == "SI" else _UNITS_ND
+    return table[QUANTITY.get(name, "1")]
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip() or type(exc).__name__
+    return text.splitlines()[0].strip()
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot store a {type(obj).__name__} in a result file (not JSON serialisable)")
+
+
+def _dumps(obj) -> str:
+    # allow_nan: Python's json writes/reads NaN and Infinity exactly
+    return json.dumps(obj, default=_json_default, allow_nan=True)
+
+
+def _attr_value(v):
+    """A value for an HDF5 attribute (h5dump-friendly)."""
+    if v is None:
+        return "none"
+    if isinstance(v, (bool, np.bool_)):
+        return np.bool_(v)
+    if isinstance(v, (int, float, str, np.generic)):
+        return v
+    return _dumps(v)
+
+
+def _writable_dir(directory: Path) -> str | None:
+    """None if files can be created in ``directory``, else the reason."""
+    if not directory.exists():
+        return f"directory {str(directory)!r} does not exist"
+    if not directory.is_dir():
+        return f"{str(directory)!r} is not a directory"
+    probe = directory / f".ballchain-probe-{os.getpid()}-{secrets.token_hex(4)}.tmp"
+    try:
+        fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+    except OSError as e:
+        return f"cannot create files in {str(directory)!r} ({e.strerror or _one_line(e)})"
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:
+        pass
+    return None
+
+
+def check_writable(path, force: bool = False) -> Path:
+    """Fail early (before any simulation work) if ``path`` cannot be written.
+
+    Raises FileExistsError if the file exists and ``force`` is false, ResultFileError
+    if the path is a directory or its directory is missing or not writable.
+    Returns the path as a ``Path``.
+    """
+    p = Path(path)
+    if str(path) == "" or p.name == "":
+        raise ResultFileError(f"output: {str(path)!r} is not a file name")
+    if p.is_dir():
+        raise ResultFileError(f"output: {str(p)!r} is a directory")
+    if p.exists() or p.is_symlink():
+        if not force:
+            raise FileExistsError(f"output: file {str(p)!r} exists (use --force to overwrite)")
+    reason = _writable_dir(p.parent if str(p.parent) else Path("."))
+    if reason is not None:
+        raise ResultFileError(f"output: cannot write {str(p)!r}: {reason}")
+    return p
+
+
+# --------------------------------------------------------------------------- writing
+def _create(group, name: str, data, units: str) -> None:
+    arr = np.asarray(data)
+    kw = {}
+    if arr.ndim >= 1 and arr.size > 0:
+        # chunked (along the first axis) so that every array carries a checksum;
+        # big ones are also compressed (lossless)
+        row_bytes = max(1, arr.nbytes // arr.shape[0])
+        rows = int(max(1, min(arr.shape[0], _CHUNK_BYTES // row_bytes)))
+        kw = dict(chunks=(rows,) + arr.shape[1:], fletcher32=True)
+        if arr.nbytes >= _COMPRESS_MIN_BYTES:
+            kw.update(compression="gzip", compression_opts=4, shuffle=True)
+    ds = group.create_dataset(name, data=arr, **kw)
+    ds.attrs["units"] = unit_of(name, units)
+    ds.attrs["description"] = DESCRIPTIONS.get(name, name)
+
+
+def _write(f, result: Result) -> None:
+    units = str(result.units)
+    f.attrs["format"] = FORMAT_NAME
+    f.attrs["format_version"] = np.int64(FORMAT_VERSION)
+    f.attrs["package_version"] = __version__
+    f.attrs["version"] = str(result.version)
+    f.attrs["units"] = units
+    f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    f.attrs["status"] = str(result.status)
+    f.attrs["message"] = str(result.message)
+    if result.ic is not None:
+        f.attrs["seed"] = np.int64(result.ic.seed)
+    f.attrs["params_json"] = _dumps(result.params.to_dict())
+    f.attrs["ic_json"] = _dumps(None if result.ic is None else result.ic.to_dict())
+    f.attrs["options_json"] = _dumps(result.options.to_dict())
+    f.attrs["energy_json"] = _dumps(dict(result.energy))
+    extra = _dumps(dict(result.extra))
+    if len(extra.encode()) < 32 * 1024:
+        f.attrs["extra_json"] = extra
+    else:  # attributes are limited to 64 KiB: keep big blobs in a dataset
+        f.create_dataset("extra_json", data=extra)
+
+    for gname, obj in (("params", result.params), ("ic", result.ic), ("options", result.options)):
+        if obj is None:
+            continue
+        g = f.create_group(gname)
+        for k, v in obj.to_dict().items():
+            g.attrs[k] = _attr_value(v)
+
+    for gname, names in GROUPS.items():
+        g = f.create_group(gname)
+        for name in names:
+            _create(g, name, getattr(result, name), units)
+
+    g = f.create_group("energy")
+    g.attrs["units"] = unit_of("frame_kinetic", units)
+    g.attrs["description"] = "energy budget at the end of the run"
+    for k, v in result.energy.items():
+        g.attrs[str(k)] = _attr_value(v)
+
+
+def save_result(result: Result, path, *, force: bool = False) -> Path:
+    """Write ``result`` to the HDF5 file ``path`` atomically; return the path.
+
+    An existing file is replaced only with ``force=True`` (else FileExistsError).
+    """
+    import h5py
+
+    p = Path(path)
+    check_writable(p, force)
+    tmp = p.parent / f".{p.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    try:
+        try:
+            f = h5py.File(tmp, "w-")
+        except OSError as e:
+            raise ResultFileError(f"output: cannot write {str(p)!r} ({_one_line(e)})") from None
+        with f:
+            _write(f, result)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        if force:
+            os.replace(tmp, p)
+        else:
+            try:  # atomic no-clobber: link fails if the target appeared meanwhile
+                os.link(tmp, p)
+            except FileExistsError:
+                raise FileExistsError(f"output: file {str(p)!r} exists (use --force to overwrite)") from None
+            except OSError:  # file system without hard links
+                if p.exists():
+                    raise FileExistsError(f"output: file {str(p)!r} exists (use --force to overwrite)") from None
+                os.replace(tmp, p)
+    finally:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+    return p
+
+
+# --------------------------------------------------------------------------- reading
+def _known(cls, d: dict) -> dict:
+    names = {f.name for f in dataclasses.fields(cls)}
+    return {k: v for k, v in d.items() if k in names}
+
+
+def _str_attr(attrs, name, default=None):
+    if name not in attrs:
+        return default
+    v = attrs[name]
+    if isinstance(v, bytes):
+        v = v.decode("utf-8")
+    if isinstance(v, np.ndarray) and v.shape == ():
+        v = v[()]
+        if isinstance(v, bytes):
+            v = v.decode("utf-8")
+    return v
+
+
+def _read(f, where: str) -> Result:
+    def need_attr(name):
+        if name not in f.attrs:
+            raise ResultFileError(f"{where}: damaged result file (missing attribute {name!r})")
+        return _str_attr(f.attrs, name)
+
+    def need(group, name):
+        key = f"{group}/{name}"
+        if key not in f:
+            raise ResultFileError(f"{where}: damaged result file (missing dataset /{key})")
+        return f[key][()]
+
+    params = ChainParams(**_known(ChainParams, json.loads(need_attr("params_json"))))
+    ic_d = json.loads(need_attr("ic_json"))
+    ic = None if ic_d is None else InitialCondition(**_known(InitialCondition, ic_d))
+    options = SolverOptions(**_known(SolverOptions, json.loads(need_attr("options_json"))))
+    energy = json.loads(need_attr("energy_json"))
+    if "extra_json" in f.attrs:
+        extra = json.loads(_str_attr(f.attrs, "extra_json"))
+    elif "extra_json" in f:
+        raw = f["extra_json"][()]
+        extra = json.loads(raw.decode("utf-8") if isinstance(raw, bytes) else raw)
+    else:
+        extra = {}
+
+    kw = {}
+    for gname, names in GROUPS.items():
+        for name in names:
+            kw[name] = need(gname, name)
+    for name in _FLOAT_SCALARS:
+        kw[name] = float(kw[name])
+    for name in _INT_SCALARS:
+        kw[name] = int(kw[name])
+    return Result(
+        params=params, ic=ic, options=options,
+        version=str(need_attr("version")), status=str(need_attr("status")),
+        message=str(need_attr("message")), energy=energy,
+        units=str(need_attr("units")), extra=extra, **kw,
+    )
+
+
+def _open(path):
+    import h5py
+
+    p = Path(path)
+    where = str(p)
+    if not p.exists():
+        raise ResultFileError(f"{where}: no such file")
+    if p.is_dir():
+        raise ResultFileError(f"{where}: is a directory, not a result file")
+    try:
+        size = p.stat().st_size
+        ok = h5py.is_hdf5(p)
+    except OSError as e:
+        raise ResultFileError(f"{where}: cannot read ({e.strerror or _one_line(e)})") from None
+    if size == 0:
+        raise ResultFileError(f"{where}: empty file, not a ballchain result file")
+    if not ok:
+        raise ResultFileError(f"{where}: not an HDF5 file (not a ballchain result file)")
+    try:
+        f = h5py.File(p, "r")
+    except OSError as e:
+        raise ResultFileError(f"{where}: damaged or truncated HDF5 file ({_one_line(e)})") from None
+    try:
+        fmt = _str_attr(f.attrs, "format")
+        if fmt != FORMAT_NAME:
+            raise ResultFileError(f"{where}: not a ballchain result file (HDF5 file without "
+                                  f"format attribute {FORMAT_NAME!r})")
+        ver = f.attrs.get("format_version")
+        try:
+            ver_i = int(ver)
+            if ver_i != ver:
+                raise ValueError
+        except (TypeError, ValueError):
+            raise ResultFileError(f"{where}: damaged result file (bad format_version {ver!r})") from None
+        if ver_i > FORMAT_VERSION:
+            pv = _str_attr(f.attrs, "package_version", "?")
+            raise ResultFileError(f"{where}: written by a newer ballchain ({pv}, format version "
+                                  f"{ver_i} > {FORMAT_VERSION}); upgrade ballchain to read it")
+        if ver_i < 1:
+            raise ResultFileError(f"{where}: damaged result file (bad format_version {ver_i})")
+    except ResultFileError:
+        f.close()
+        raise
+    except Exception as e:  # damaged metadata
+        f.close()
+        raise ResultFileError(f"{where}: damaged result file ({type(e).__name__}: {_one_line(e)})") from None
+    except BaseException:
+        f.close()
+        raise
+    return f, where
+
+
+def load_result(path) -> Result:
+    """Read a file written by ``save_result``; raises ResultFileError (one line) for a
+    missing, non-HDF5, truncated/damaged, foreign or newer-format file."""
+    f, where = _open(path)
+    with f:
+        try:
+            return _read(f, where)
+        except ResultFileError:
+            raise
+        except (ParameterError, json.JSONDecodeError) as e:
+            raise ResultFileError(f"{where}: damaged result file (bad parameters: {_one_line(e)})") from None
+        except Exception as e:  # h5py raises OSError/KeyError/ValueError on damaged data
+            raise ResultFileError(f"{where}: damaged result file ({type(e).__name__}: {_one_line(e)})") from None
+
+
+def file_info(path) -> dict:
+    """Root metadata of a result file (format, versions, units, creation time)."""
+    f, _ = _open(path)
+    with f:
+        info = {k: _str_attr(f.attrs, k) for k in
+                ("format", "package_version", "version", "units", "created", "status")
+                if k in f.attrs}
+        info["format_version"] = int(f.attrs["format_version"])
+        return info

@@ -1,0 +1,501 @@
+"""Dormand-Prince 5(4) with dense output, event detection and location (numba).
+
+The whole step loop runs compiled (``advance``); it returns to Python only at an
+event, at the stop time, when an output buffer is full, or on failure.  Nondimensional
+units throughout (m = b = g = 1).
+
+State: ``Y`` of shape (2, N, 3): ``Y[0]`` the unit axes e, ``Y[1]`` the angular
+velocities w.
+
+Event functions (each located by Brent's method on the dense output to ``xtol``):
+
+  kind 1  lock       g_k = e_k . e_{k+1} - cos(alpha)     unlocked hinge in force
+  kind 2  unlock     lambda_k                              locked hinge
+  kind 3  landing    z_j (floor "all": every free point)  or  e_M . e_z (floor "pivot":
+                     the bottom airborne segment M)
+  kind 4  top        z_0 (floor "pivot" only: t_fall, no state change)
+
+Each event function f triggers when it falls below its threshold (``thr_*`` arrays):
+0 when *armed*.  A function left at (or just past) zero by an event it was part of is
+*disarmed*: its threshold becomes min(f, 0) - PEN, so it fires again only if it moves
+PEN further in (a penetration guard, not a re-trigger of the event just handled); it
+is re-armed (threshold 0) once f exceeds ``ARM``.  A step is checked at its end and at
+its midpoint.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .dynamics import (
+    accelerations,
+    anchor_forces,
+    kinetic_energy,
+    lock_active,
+    lock_multipliers,
+    potential_energy,
+    project_state,
+)
+
+# Dormand-Prince 5(4) (Hairer's DOPRI5; the coefficients of scipy's RK45)
+C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
+A = np.array([
+    [0, 0, 0, 0, 0],
+    [1 / 5, 0, 0, 0, 0],
+    [3 / 40, 9 / 40, 0, 0, 0],
+    [44 / 45, -56 / 15, 32 / 9, 0, 0],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
+])
+B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
+P = np.array([
+    [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
+    [0, 0, 0, 0],
+    [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
+    [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
+    [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
+    [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
+    [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
+])
+
+EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP = 1, 2, 3, 4
+ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0, 1, 2, 3, 4, 5
+
+ARM = 1e-10  # an event function re-arms above this value
+PEN = 1e-8  # a disarmed function triggers below -PEN
+PROJ_TOL = 1e-12  # constraint drift tolerated before projection
+
+
+@njit(cache=True)
+def _rhs(Y, anchored, locked, cone, ws, dY):
+    J, kind, nrow, S, G, drop, rhs, x, gf = ws
+    return accelerations(Y[0], Y[1], anchored, locked, cone, J, kind, nrow, S, G, drop, rhs, x, gf, dY[0], dY[1])
+
+
+@njit(cache=True)
+def _dense(Y0, K, h, theta, out):
+    """Continuous extension: y(t0 + theta h) = y0 + h sum_s K_s (sum_p P[s,p] theta^(p+1))."""
+    b = np.empty(7)
+    for s in range(7):
+        acc = 0.0
+        tp = theta
+        for p in range(4):
+            acc += P[s, p] * tp
+            tp *= theta
+        b[s] = acc * h
+    n = Y0.shape[1]
+    for a in range(2):
+        for i in range(n):
+            for q in range(3):
+                v = Y0[a, i, q]
+                for s in range(7):
+                    v += b[s] * K[s, a, i, q]
+                out[a, i, q] = v
+
+
+@njit(cache=True)
+def _dense_e(Y0, K, h, theta, i, q):
+    """One component e[i, q] of the dense output."""
+    v = Y0[0, i, q]
+    for s in range(7):
+        acc = 0.0
+        tp = theta
+        for p in range(4):
+            acc += P[s, p] * tp
+            tp *= theta
+        v += h * acc * K[s, 0, i, q]
+    return v
+
+
+@njit(cache=True)
+def _zpoint_dense(Y0, K, h, theta, j):
+    n = Y0.shape[1]
+    z = 0.0
+    for i in range(j, n):
+        z += 2.0 * _dense_e(Y0, K, h, theta, i, 2)
+    return z
+
+
+@njit(cache=True, inline="always")
+def _gap(e, k, cos_alpha):
+    """g_k of unit-normalised axes."""
+    d = 0.0
+    na = 0.0
+    nc = 0.0
+    for q in range(3):
+        d += e[k, q] * e[k + 1, q]
+        na += e[k, q] * e[k, q]
+        nc += e[k + 1, q] * e[k + 1, q]
+    return d / math.sqrt(na * nc) - cos_alpha
+
+
+@njit(cache=True)
+def _zpoint(e, j):
+    z = 0.0
+    for i in range(j, e.shape[0]):
+        z += 2.0 * e[i, 2]
+    return z
+
+
+@njit(cache=True)
+def event_value(kind, idx, theta, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam):
+    """Value of event function (kind, idx) at t0 + theta h on the dense output."""
+    if kind == EV_LOCK:
+        acc = 0.0
+        for q in range(3):
+            acc += _dense_e(Y0, K, h, theta, idx, q) * _dense_e(Y0, K, h, theta, idx + 1, q)
+        # normalise: the dense output is not exactly unit length
+        na = 0.0
+        nc = 0.0
+        for q in range(3):
+            na += _dense_e(Y0, K, h, theta, idx, q) ** 2
+            nc += _dense_e(Y0, K, h, theta, idx + 1, q) ** 2
+        return acc / math.sqrt(na * nc) - cos_alpha
+    if kind == EV_LANDING:
+        if idx >= 0:
+            return _zpoint_dense(Y0, K, h, theta, idx)
+        m = -idx - 1  # pivot floor: segment m
+        nz = 0.0
+        for q in range(3):
+            nz += _dense_e(Y0, K, h, theta, m, q) ** 2
+        return _dense_e(Y0, K, h, theta, m, 2) / math.sqrt(nz)
+    if kind == EV_TOP:
+        return _zpoint_dense(Y0, K, h, theta, 0)
+    # EV_UNLOCK: lambda_k at the interpolated state
+    _dense(Y0, K, h, theta, Yt)
+    _rhs(Yt, anchored, locked, cone, ws, dYt)
+    J, kind_, nrow, S, G, drop, rhs, x, gf = ws
+    lock_multipliers(kind_, nrow, x, lam)
+    return lam[idx]
+
+
+@njit(cache=True)
+def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam):
+    """Root of f + off on [a, b] (theta units) with f(a) + off > 0 >= f(b) + off (Brent)."""
+    c, fc = a, fa
+    d = b - a
+    e_ = d
+    for _ in range(200):
+        if fb * fc > 0.0:
+            c, fc = a, fa
+            d = b - a
+            e_ = d
+        if abs(fc) < abs(fb):
+            a, b, c = b, c, b
+            fa, fb, fc = fb, fc, fb
+        tol1 = 2.0 * 1e-16 * abs(b) + 0.5 * xtol
+        xm = 0.5 * (c - b)
+        if abs(xm) <= tol1 or fb == 0.0:
+            return b
+        if abs(e_) >= tol1 and abs(fa) > abs(fb):
+            s = fb / fa
+            if a == c:
+                p = 2.0 * xm * s
+                q = 1.0 - s
+            else:
+                q = fa / fc
+                r = fb / fc
+                p = s * (2.0 * xm * q * (q - r) - (b - a) * (r - 1.0))
+                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
+            if p > 0.0:
+                q = -q
+            p = abs(p)
+            if 2.0 * p < min(3.0 * xm * q - abs(tol1 * q), abs(e_ * q)):
+                e_ = d
+                d = p / q
+            else:
+                d = xm
+                e_ = d
+        else:
+            d = xm
+            e_ = d
+        a, fa = b, fb
+        if abs(d) > tol1:
+            b += d
+        else:
+            b += tol1 if xm > 0 else -tol1
+        fb = event_value(kind, idx, b, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam) + off
+    return b
+
+
+@njit(cache=True)
+def _nonfinite(Y):
+    for a in range(2):
+        for i in range(Y.shape[1]):
+            for q in range(3):
+                if not math.isfinite(Y[a, i, q]):
+                    return True
+    return False
+
+
+@njit(cache=True)
+def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos, anchor_pos,
+            thr_lock, thr_land, thr_unlock, thr_top,
+            rtol, atol, xtol, ws, K, Y1, Ytmp, dYtmp, lam, lam1,
+            frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
+            tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, afor, counters, max_steps, stats):
+    """Integrate from t until t_stop or the first event.
+
+    Returns (code, t, h).  On ADV_EVENT, ``Y`` holds the state at the event time t,
+    and ``ev_kind/ev_idx/ev_theta`` (``counters[2]`` rows) the triggered events with
+    their located times (absolute).  ``counters``: [0] steps, [1] evaluations,
+    [2] events found.  ``stats[0]``: lowest point seen (max depth is -stats[0]).
+    """
+    n = Y.shape[1]
+    nh = n - 1
+    cos_alpha = math.cos(alpha)
+    locks_possible = alpha < math.pi
+    fr_k = fr_count[0]
+    tr_k = tr_count[0]
+    # FSAL: derivative at the current state
+    _rhs(Y, anchored, locked, cone, ws, K[0])
+    counters[1] += 1
+    nfail = 0
+    while True:
+        if counters[0] >= max_steps:
+            return ADV_MAX_STEPS, t, h
+        if tr_k >= tr_t.shape[0] - 2 or fr_k >= frame_cap - 2:
+            fr_count[0] = fr_k
+            tr_count[0] = tr_k
+            return ADV_BUFFER, t, h
+        if t >= t_stop:
+            fr_count[0] = fr_k
+            tr_count[0] = tr_k
+            return ADV_STOP, t, h
+        if h > t_stop - t:
+            h = t_stop - t
+        if h < 1e-14 * max(1.0, abs(t)):
+            return ADV_FAIL_STEP, t, h
+        # --- one Dormand-Prince step
+        for s in range(1, 7):
+            for a in range(2):
+                for i in range(n):
+                    for q in range(3):
+                        v = Y[a, i, q]
+                        if s < 6:
+                            for r in range(s):
+                                v += h * A[s, r] * K[r, a, i, q]
+                        else:
+                            for r in range(6):
+                                v += h * B[r] * K[r, a, i, q]
+                        Ytmp[a, i, q] = v
+            if s < 6:
+                _rhs(Ytmp, anchored, locked, cone, ws, K[s])
+            else:
+                for a in range(2):
+                    for i in range(n):
+                        for q in range(3):
+                            Y1[a, i, q] = Ytmp[a, i, q]
+                _rhs(Y1, anchored, locked, cone, ws, K[6])
+            counters[1] += 1
+        # error estimate
+        err = 0.0
+        for a in range(2):
+            for i in range(n):
+                for q in range(3):
+                    ev = 0.0
+                    for s in range(7):
+                        ev += E[s] * K[s, a, i, q]
+                    ev *= h
+                    sc = atol + rtol * max(abs(Y[a, i, q]), abs(Y1[a, i, q]))
+                    err += (ev / sc) ** 2
+        err = math.sqrt(err / (6.0 * n))
+        if not math.isfinite(err) or _nonfinite(Y1):
+            nfail += 1
+            if nfail > 20:
+                return ADV_FAIL_NAN, t, h
+            h *= 0.1
+            continue
+        if err > 1.0:
+            h *= max(0.2, 0.9 * err ** -0.2)
+            continue
+        nfail = 0
+        counters[0] += 1
+        J, kind_, nrow, S, G, drop, rhs, x, gf = ws
+        lock_multipliers(kind_, nrow, x, lam1)  # lambda at Y1 (last stage)
+        # --- event detection at the end and the midpoint of the step
+        nev = 0
+        _dense(Y, K, h, 0.5, Ytmp)  # midpoint state, for the midpoint checks
+        if locks_possible:
+            for k in range(nh):
+                if locked[k] or not lock_active(anchored, k, cone):
+                    continue
+                if _gap(Y1[0], k, cos_alpha) < thr_lock[k] or _gap(Ytmp[0], k, cos_alpha) < thr_lock[k]:
+                    ev_kind[nev] = EV_LOCK
+                    ev_idx[nev] = k
+                    nev += 1
+        for k in range(nh):
+            if not locked[k] or not lock_active(anchored, k, cone):
+                continue
+            if lam1[k] < thr_unlock[k]:
+                ev_kind[nev] = EV_UNLOCK
+                ev_idx[nev] = k
+                nev += 1
+        if floor_all:
+            z1 = 0.0
+            zm = 0.0
+            for j in range(n - 1, -1, -1):
+                z1 += 2.0 * Y1[0, j, 2]
+                zm += 2.0 * Ytmp[0, j, 2]
+                if anchored[j]:
+                    continue
+                if z1 < thr_land[j] or zm < thr_land[j]:
+                    ev_kind[nev] = EV_LANDING
+                    ev_idx[nev] = j
+                    nev += 1
+        else:
+            m = -1
+            for i in range(n - 1, -1, -1):
+                if not (anchored[i] and anchored[i + 1]):
+                    m = i
+                    break
+            if m >= 0:
+                ez1 = Y1[0, m, 2] / math.sqrt(Y1[0, m, 0] ** 2 + Y1[0, m, 1] ** 2 + Y1[0, m, 2] ** 2)
+                if ez1 < thr_land[m]:
+                    ev_kind[nev] = EV_LANDING
+                    ev_idx[nev] = -m - 1
+                    nev += 1
+            if _zpoint(Y1[0], 0) < thr_top[0]:
+                ev_kind[nev] = EV_TOP
+                ev_idx[nev] = 0
+                nev += 1
+        theta_stop = 1.0
+        if nev > 0:
+            # locate every triggered event; keep the earliest
+            for r in range(nev):
+                kd = ev_kind[r]
+                ix = ev_idx[r]
+                if kd == EV_LOCK:
+                    off = -thr_lock[ix]
+                elif kd == EV_UNLOCK:
+                    off = -thr_unlock[ix]
+                elif kd == EV_LANDING:
+                    off = -(thr_land[ix] if ix >= 0 else thr_land[-ix - 1])
+                else:
+                    off = -thr_top[0]
+                f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp, lam) + off
+                if kd == EV_UNLOCK:
+                    counters[1] += 1
+                if f0 <= 0.0:
+                    ev_theta[r] = 0.0
+                    continue
+                thb = 1.0
+                fb = event_value(kd, ix, 1.0, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp, lam) + off
+                if fb > 0.0:
+                    fm = event_value(kd, ix, 0.5, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp, lam) + off
+                    thb = 0.5
+                    fb = fm
+                    if fb > 0.0:  # dipped and returned within the step: scan finer
+                        for sidx in range(1, 16):
+                            th = sidx / 16.0
+                            fb = event_value(kd, ix, th, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp,
+                                             lam) + off
+                            if fb <= 0.0:
+                                thb = th
+                                break
+                if fb > 0.0:
+                    ev_theta[r] = 2.0  # not confirmed
+                    continue
+                ev_theta[r] = _brent(kd, ix, off, 0.0, thb, f0, fb, xtol / h, Y, K, h, cos_alpha, anchored, locked,
+                                     cone, ws, Ytmp, dYtmp, lam)
+            for r in range(nev):
+                if ev_theta[r] < theta_stop:
+                    theta_stop = ev_theta[r]
+        # --- frames and trace up to the step end (or the event)
+        t_end = t + theta_stop * h
+        while frame_next[0] <= t_end + 1e-300 and fr_k < frame_cap:
+            th = (frame_next[0] - t) / h
+            _dense(Y, K, h, th, Ytmp)
+            _record_frame(Ytmp, anchored, locked, cone, ws, dYtmp, afor, pts, vel, fr_k, frame_next[0],
+                          fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot)
+            counters[1] += 1
+            fr_k += 1
+            frame_next[0] += frame_dt
+        if theta_stop < 1.0:
+            _dense(Y, K, h, theta_stop, Ytmp)
+            for a in range(2):
+                for i in range(n):
+                    for q in range(3):
+                        Y[a, i, q] = Ytmp[a, i, q]
+            for r in range(nev):
+                ev_theta[r] = t + ev_theta[r] * h if ev_theta[r] <= 1.0 else math.inf
+            counters[2] = nev
+            t = t_end
+            tr_t[tr_k] = t
+            tr_z[tr_k] = _zpoint(Y[0], 0)
+            tr_k += 1
+            fr_count[0] = fr_k
+            tr_count[0] = tr_k
+            return ADV_EVENT, t, h
+        # accept the full step
+        for a in range(2):
+            for i in range(n):
+                for q in range(3):
+                    Y[a, i, q] = Y1[a, i, q]
+        t = t_end
+        res = project_state(Y[0], Y[1], anchored, locked, cone, lock_cos, anchor_pos, J, kind_, nrow, S, G, drop,
+                            rhs, x, gf, pts, vel, PROJ_TOL, 3)
+        if res > PROJ_TOL:
+            _rhs(Y, anchored, locked, cone, ws, K[0])
+            counters[1] += 1
+        else:
+            for a in range(2):
+                for i in range(n):
+                    for q in range(3):
+                        K[0, a, i, q] = K[6, a, i, q]
+        # re-arm
+        if locks_possible:
+            for k in range(nh):
+                if thr_lock[k] < 0.0 and not locked[k] and _gap(Y[0], k, cos_alpha) > ARM:
+                    thr_lock[k] = 0.0
+        for k in range(nh):
+            if locked[k] and thr_unlock[k] < 0.0 and lam1[k] > ARM:
+                thr_unlock[k] = 0.0
+        zlow = 0.0
+        zacc = 0.0
+        for j in range(n - 1, -1, -1):
+            zacc += 2.0 * Y[0, j, 2]
+            if zacc < zlow:
+                zlow = zacc
+            if floor_all:
+                if thr_land[j] < 0.0 and not anchored[j] and zacc > ARM:
+                    thr_land[j] = 0.0
+            elif thr_land[j] < 0.0 and Y[0, j, 2] > ARM:
+                thr_land[j] = 0.0
+        if zlow < stats[0]:
+            stats[0] = zlow
+        tr_t[tr_k] = t
+        tr_z[tr_k] = _zpoint(Y[0], 0)
+        tr_k += 1
+        # next step size
+        fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
+        h *= fac
+
+
+@njit(cache=True)
+def _record_frame(Yt, anchored, locked, cone, ws, dYt, afor, pts, vel, k, tf,
+                  fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot):
+    n = Yt.shape[1]
+    fr_t[k] = tf
+    for i in range(n):
+        for q in range(3):
+            fr_e[k, i, q] = Yt[0, i, q]
+            fr_w[k, i, q] = Yt[1, i, q]
+    for j in range(n + 1):
+        fr_anch[k, j] = anchored[j]
+    for j in range(n - 1):
+        fr_lock[k, j] = locked[j]
+    _rhs(Yt, anchored, locked, cone, ws, dYt)
+    J, kind_, nrow, S, G, drop, rhs, x, gf = ws
+    anchor_forces(kind_, nrow, x, afor)
+    for q in range(3):
+        acc = 0.0
+        for j in range(n + 1):
+            acc += afor[j, q]
+        fr_force[k, q] = acc
+    fr_kin[k] = kinetic_energy(Yt[0], Yt[1], pts, vel)
+    fr_pot[k] = potential_energy(Yt[0])

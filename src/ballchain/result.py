@@ -1,0 +1,151 @@
+"""The result of one run: named fields, in the run's units (SI if the chain was given
+in SI, else nondimensional m = b = g = 1).  Saved to / loaded from one HDF5 file
+(see ``files.py``).
+
+Units of every field (``UNITS``): time ``s`` (or ``sqrt(b/g)``), length ``m`` (or
+``b``), force ``N`` (or ``m g``), impulse ``N s``, energy ``J`` (or ``m g b``),
+angular velocity ``1/s``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .model import ChainParams, InitialCondition, SolverOptions
+
+EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top"}
+
+# field -> physical quantity; files.py turns these into unit strings
+QUANTITY = {
+    "z0": "length", "t_ff": "time", "t_fall": "time", "t_landed": "time",
+    "t": "time", "z_top": "length",
+    "frame_t": "time", "frame_e": "1", "frame_omega": "1/time", "frame_anchored": "1", "frame_locked": "1",
+    "frame_floor_force": "force", "frame_kinetic": "energy", "frame_potential": "energy",
+    "frame_lost_locking": "energy", "frame_lost_landing": "energy",
+    "event_t": "time", "event_kind": "1", "event_index": "1", "event_impulse": "impulse",
+    "event_energy": "energy",
+    "anchor_t": "time", "anchor_pos": "length",
+    "floor_impulse": "impulse", "max_depth": "length",
+    "wall_seconds": "s", "n_steps": "1", "n_evals": "1",
+}
+
+
+@dataclass
+class Result:
+    """Everything MODEL.md section 6 asks for, from one run.
+
+    Scalars: ``z0`` (top height at t = 0), ``t_ff = sqrt(2 z0 / g)``, ``t_fall`` (top end
+    first reaches z = 0; NaN if not reached), ``t_landed`` (last segment landed; NaN if
+    not reached), ``max_depth`` (deepest airborne point below the floor; 0 if none).
+    ``status``: ``landed`` (ran to the end), ``until`` (stopped at the requested time),
+    ``max_time`` (hit the safety cap), ``error`` (stopped by a failure; ``message``
+    says why and the arrays hold what was computed up to then).
+
+    Trace (every accepted step and event): ``t``, ``z_top``.
+    Frames (every 1/frames_per_tff of t_ff): ``frame_t``, directions ``frame_e``
+    (F, N, 3), ``frame_omega`` (F, N, 3), ``frame_anchored`` (F, N+1), ``frame_locked``
+    (F, N-1), ``frame_floor_force`` (F, 3: continuous force of all anchors on the
+    chain), energies ``frame_kinetic``, ``frame_potential``, ``frame_lost_locking``,
+    ``frame_lost_landing`` (cumulative).
+    Events, one row per constraint that acted: ``event_t``, ``event_kind`` (see
+    EVENT_KINDS), ``event_index`` (hinge k = 0..N-2 between segments k and k+1, or point
+    j = 0..N; points counted from the top, point N the original pivot), ``event_impulse``
+    (lock: (Lambda, 0, 0); landing: impulse of the floor on the chain), ``event_energy``
+    (kinetic energy that constraint dissipated).
+    Anchors: ``anchor_t`` (N+1,) time each point was anchored (NaN: never; 0 for the
+    pivot), ``anchor_pos`` (N+1, 3).
+    ``energy``: initial, potential, kinetic, lost_locking, lost_landing, imbalance
+    (initial - potential - kinetic - losses), at the end of the run.
+    ``floor_impulse``: sum of the landing impulses (3,).
+    """
+
+    params: ChainParams
+    ic: InitialCondition | None
+    options: SolverOptions
+    version: str
+    status: str
+    message: str
+    z0: float
+    t_ff: float
+    t_fall: float
+    t_landed: float
+    t: np.ndarray
+    z_top: np.ndarray
+    frame_t: np.ndarray
+    frame_e: np.ndarray
+    frame_omega: np.ndarray
+    frame_anchored: np.ndarray
+    frame_locked: np.ndarray
+    frame_floor_force: np.ndarray
+    frame_kinetic: np.ndarray
+    frame_potential: np.ndarray
+    frame_lost_locking: np.ndarray
+    frame_lost_landing: np.ndarray
+    event_t: np.ndarray
+    event_kind: np.ndarray
+    event_index: np.ndarray
+    event_impulse: np.ndarray
+    event_energy: np.ndarray
+    anchor_t: np.ndarray
+    anchor_pos: np.ndarray
+    energy: dict
+    max_depth: float
+    floor_impulse: np.ndarray
+    wall_seconds: float
+    n_steps: int
+    n_evals: int
+    units: str = "nondimensional"
+    extra: dict = field(default_factory=dict)
+
+    # ----------------------------------------------------------------- summaries
+    def event_counts(self) -> dict:
+        k = np.asarray(self.event_kind)
+        return {"lock": int(np.sum(k == 1)), "unlock": int(np.sum(k == 2)), "landing": int(np.sum(k == 3))}
+
+    @property
+    def first_lock_time(self) -> float:
+        k = np.asarray(self.event_kind)
+        idx = np.flatnonzero(k == 1)
+        return float(self.event_t[idx[0]]) if idx.size else math.nan
+
+    @property
+    def ratio(self) -> float:
+        return self.t_fall / self.t_ff
+
+    def summary(self) -> dict:
+        """The ``--json`` object of ``ballchain simulate`` (keys are a contract)."""
+
+        def num(x):
+            x = float(x)
+            return x if math.isfinite(x) else None
+
+        p = self.params
+        return {
+            "segments": p.segments,
+            "alpha": p.alpha,
+            "floor": p.floor,
+            "anchor_cone": p.anchor_cone,
+            "ic": None if self.ic is None else self.ic.to_dict(),
+            "units": self.units,
+            "status": self.status,
+            "message": self.message,
+            "z0": num(self.z0),
+            "t_ff": num(self.t_ff),
+            "t_fall": num(self.t_fall),
+            "t_landed": num(self.t_landed),
+            "ratio": num(self.t_fall / self.t_ff),
+            "landed_ratio": num(self.t_landed / self.t_ff),
+            "events": self.event_counts(),
+            "first_lock_time": num(self.first_lock_time),
+            "energy": {k: num(v) for k, v in self.energy.items()},
+            "max_depth": num(self.max_depth),
+            "floor_impulse": [num(v) for v in np.asarray(self.floor_impulse)],
+            "rtol": self.options.rtol,
+            "n_steps": int(self.n_steps),
+            "n_evals": int(self.n_evals),
+            "wall_seconds": num(self.wall_seconds),
+            "version": self.version,
+        }
