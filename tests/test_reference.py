@@ -401,11 +401,6 @@ def test_impact_scaling():
         done += 1
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "fast path: while a new anchor is marked 2, a segment landing in this impact is not "
-    "'landed' for lock_active, so the limit between it and its airborne neighbour stays "
-    "in force during the landing impact (a one-instant anchor cone); MODEL.md drops "
-    "limits next to landed segments unless anchor_cone is on"))
 def test_impact_limit_next_to_segment_landing_now():
     """Segment 1 of 3 lands in this impact (point 1 newly anchored, point 2 already
     anchored); hinge 0 (segments 0, 1) is at its limit and closing.  After the impact

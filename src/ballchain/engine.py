@@ -208,8 +208,6 @@ class Run:
             if it < 0:
                 raise SimulationError(f"impact LCP did not converge at t = {t:.17g}")
             T1 = kinetic_energy(e, w, self.pv, self.vel)
-            if DEBUG is not None:
-                DEBUG["impact"] = DEBUG.get("impact", 0.0) + (T1 - T0 + split[0] + split[1])
             if T1 > T0 * (1 + 1e-9) + 1e-12:
                 raise SimulationError(f"impact raised the kinetic energy ({T0:.17g} -> {T1:.17g}) at t = {t:.17g}")
             self.lost_locking += split[0]
@@ -252,15 +250,10 @@ class Run:
             self.log.add(t, 2, int(k))
             exclude[k] = 1
         # 5. project and disarm
-        if DEBUG is not None:
-            T2, U2 = self.energy_now()
         for k in np.flatnonzero((was_locked == 0) & (self.locked != 0)):
             self.lock_cos[k] = self.cos_alpha + gaps[k]  # hold the angle reached (|g| <= GAP_TOL)
         project_state(e, w, self.anchored, self.locked, self.cone, self.lock_cos, self.anchor_pos, J, kind, nrow, S,
                       G, drop, rhs, x, gf, self.pts, self.vel, PROJ_TOL, 5)
-        if DEBUG is not None:
-            T3, U3 = self.energy_now()
-            DEBUG["proj"] = DEBUG.get("proj", 0.0) + (T3 + U3 - T2 - U2)
         hinge_gaps(e, self.cos_alpha, gaps)
         for k in range(nh):
             if self.locked[k]:
@@ -292,7 +285,6 @@ class Run:
         return -1
 
 
-DEBUG = None
 
 
 def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> tuple[np.ndarray, np.ndarray]:
@@ -350,6 +342,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     counters = np.zeros(3, np.int64)
     stats = np.zeros(1)
     K = np.zeros((7, 2, n, 3))
+    K2 = np.zeros((7, 2, n, 3))
     Y1 = np.zeros((2, n, 3))
     Ytmp = np.zeros((2, n, 3))
     dYtmp = np.zeros((2, n, 3))
@@ -376,7 +369,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
         while True:
             code, t, h = advance(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
                                  run.locked, run.lock_cos, run.anchor_pos, run.thr_lock, run.thr_land, run.thr_unlock,
-                                 run.thr_top, options.rtol, options.rtol, xtol, run.wst, K, Y1, Ytmp, dYtmp, lam,
+                                 run.thr_top, options.rtol, options.rtol, xtol, run.wst, K, K2, Y1, Ytmp, dYtmp, lam,
                                  lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
                                  fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, run.pts,
                                  run.vel, run.afor, counters, options.max_steps, stats)

@@ -223,6 +223,33 @@ def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, anchored, lo
 
 
 @njit(cache=True)
+def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws):
+    """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y) given);
+    Y1 = the 5th-order solution, K[6] = f(Y1)."""
+    n = Y.shape[1]
+    for s in range(1, 7):
+        for a in range(2):
+            for i in range(n):
+                for q in range(3):
+                    v = Y[a, i, q]
+                    if s < 6:
+                        for r in range(s):
+                            v += h * A[s, r] * K[r, a, i, q]
+                    else:
+                        for r in range(6):
+                            v += h * B[r] * K[r, a, i, q]
+                    Ytmp[a, i, q] = v
+        if s < 6:
+            _rhs(Ytmp, anchored, locked, cone, ws, K[s])
+        else:
+            for a in range(2):
+                for i in range(n):
+                    for q in range(3):
+                        Y1[a, i, q] = Ytmp[a, i, q]
+            _rhs(Y1, anchored, locked, cone, ws, K[6])
+
+
+@njit(cache=True)
 def _nonfinite(Y):
     for a in range(2):
         for i in range(Y.shape[1]):
@@ -235,7 +262,7 @@ def _nonfinite(Y):
 @njit(cache=True)
 def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos, anchor_pos,
             thr_lock, thr_land, thr_unlock, thr_top,
-            rtol, atol, xtol, ws, K, Y1, Ytmp, dYtmp, lam, lam1,
+            rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1,
             frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
             tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, afor, counters, max_steps, stats):
     """Integrate from t until t_stop or the first event.
@@ -271,27 +298,8 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
         if h < 1e-14 * max(1.0, abs(t)):
             return ADV_FAIL_STEP, t, h
         # --- one Dormand-Prince step
-        for s in range(1, 7):
-            for a in range(2):
-                for i in range(n):
-                    for q in range(3):
-                        v = Y[a, i, q]
-                        if s < 6:
-                            for r in range(s):
-                                v += h * A[s, r] * K[r, a, i, q]
-                        else:
-                            for r in range(6):
-                                v += h * B[r] * K[r, a, i, q]
-                        Ytmp[a, i, q] = v
-            if s < 6:
-                _rhs(Ytmp, anchored, locked, cone, ws, K[s])
-            else:
-                for a in range(2):
-                    for i in range(n):
-                        for q in range(3):
-                            Y1[a, i, q] = Ytmp[a, i, q]
-                _rhs(Y1, anchored, locked, cone, ws, K[6])
-            counters[1] += 1
+        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws)
+        counters[1] += 6
         # error estimate
         err = 0.0
         for a in range(2):
@@ -416,11 +424,16 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
             fr_k += 1
             frame_next[0] += frame_dt
         if theta_stop < 1.0:
-            _dense(Y, K, h, theta_stop, Ytmp)
-            for a in range(2):
-                for i in range(n):
-                    for q in range(3):
-                        Y[a, i, q] = Ytmp[a, i, q]
+            # a full 5th-order step to the event time (the 4th-order interpolant is
+            # good enough to locate the event, not to restart from)
+            if theta_stop > 0.0:
+                K2[0] = K[0]
+                _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, cone, ws)
+                counters[1] += 6
+                for a in range(2):
+                    for i in range(n):
+                        for q in range(3):
+                            Y[a, i, q] = Y1[a, i, q]
             for r in range(nev):
                 ev_theta[r] = t + ev_theta[r] * h if ev_theta[r] <= 1.0 else math.inf
             counters[2] = nev
