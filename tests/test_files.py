@@ -66,8 +66,11 @@ def assert_results_identical(a: Result, b: Result) -> None:
             assert x.dtype == y.dtype, f.name
             assert x.shape == y.shape, f.name
             assert x.tobytes() == y.tobytes(), f.name  # bit for bit, NaN included
-        elif isinstance(x, float) and math.isnan(x):
-            assert isinstance(y, float) and math.isnan(y), f.name
+        elif isinstance(x, (float, int, np.number)) and not isinstance(x, bool):
+            # numbers: same value bit for bit (NaN included), builtin or numpy scalar
+            assert isinstance(y, (float, int, np.number)), f.name
+            assert np.asarray(x).tobytes() == np.asarray(type(x)(y)).tobytes(), f.name
+            assert (x == y) or (math.isnan(x) and math.isnan(y)), f.name
         elif f.name == "extra":
             assert repr(x) == repr(y), f.name  # NaN != NaN inside dicts
         else:

@@ -33,7 +33,6 @@ from . import __version__
 from .dynamics import (
     Workspace,
     kinetic_energy,
-    lock_active,
     point_positions,
     potential_energy,
     project_state,
@@ -117,6 +116,13 @@ class Run:
         self.t_fall = math.nan
         self.t_landed = math.nan
         # scratch
+        nh = max(n - 1, 0)
+        self.scratch = {
+            "gaps": np.zeros(nh), "rates": np.zeros(nh), "rates_after": np.zeros(nh), "impulse": np.zeros(nh),
+            "anchor_impulse": np.zeros((n + 1, 3)), "split": np.zeros(2), "jv": np.zeros_like(self.ws.rhs),
+            "w_plus": np.zeros((n, 3)), "de": np.zeros((n, 3)), "dw": np.zeros((n, 3)), "ddg": np.zeros(nh),
+            "lam": np.zeros(nh),
+        }
         self.pv = np.zeros((n + 1, 3))
         self.vel = np.zeros((n, 3))
         self.pts = np.zeros((n + 1, 3))
@@ -135,76 +141,69 @@ class Run:
         return kinetic_energy(e, w, self.pv, self.vel), potential_energy(e)
 
     def lock_in_force(self) -> np.ndarray:
-        return np.array([lock_active(self.anchored, k, self.cone) for k in range(self.n - 1)], dtype=bool)
+        """Hinges whose limit is in force (dynamics.lock_active, vectorised)."""
+        a = self.anchored != 0
+        gone = a[:-1] & a[1:]  # landed or landing now
+        la, lc = gone[:-1], gone[1:]
+        f = ~la & ~lc
+        if self.cone:
+            f |= la != lc
+        if self.p.alpha >= math.pi:
+            f[:] = False
+        return f
 
     # ------------------------------------------------------------- events
     def handle_event(self, t: float, ev_kind, ev_idx, ev_time, xtol: float) -> None:
-        n = self.n
+        """Apply everything that happens at the instant t (module docstring, steps 1-5)."""
+        n, nh = self.n, self.n - 1
         e, w = self.Y[0], self.Y[1]
         J, kind, nrow, S, G, drop, rhs, x, gf = self.wst
-        near = [r for r in range(len(ev_kind)) if ev_time[r] <= t + 10 * xtol]
-        exclude = np.zeros(max(n - 1, 0), np.uint8)
-        # 1. unlocks
-        for r in near:
-            if ev_kind[r] == EV_UNLOCK:
-                k = int(ev_idx[r])
-                if self.locked[k]:
-                    self.locked[k] = 0
-                    exclude[k] = 1
-                    self.log.add(t, 2, k)
-            elif ev_kind[r] == EV_TOP and math.isnan(self.t_fall):
-                self.t_fall = t
-                self.thr_top[0] = -math.inf  # recorded once
+        sc = self.scratch
+        near = ev_time <= t + 10 * xtol
+        exclude = np.zeros(nh, np.uint8)
+        # 1. unlocks (and the top end crossing the floor in the pivot model)
+        for k in ev_idx[near & (ev_kind == EV_UNLOCK)]:
+            if self.locked[k]:
+                self.locked[k] = 0
+                exclude[k] = 1
+                self.log.add(t, 2, int(k))
+        if np.any(near & (ev_kind == EV_TOP)) and math.isnan(self.t_fall):
+            self.t_fall = t
+            self.thr_top[0] = -math.inf  # recorded once
         # 2. floor contacts
         point_positions(e, self.pts)
         velocities(e, w, self.pv, self.vel)
-        new_anchor = []
         if self.floor_all:
-            for j in range(n):
-                if not self.anchored[j] and self.pts[j, 2] <= Z_TOL and self.pv[j, 2] <= RATE_TOL:
-                    new_anchor.append(j)
+            new_anchor = np.flatnonzero((self.anchored[:n] == 0) & (self.pts[:n, 2] <= Z_TOL)
+                                        & (self.pv[:n, 2] <= RATE_TOL))
         else:
-            landing = any(ev_kind[r] == EV_LANDING for r in near)
+            new_anchor = []
             m = self._bottom_airborne()
-            while landing and m >= 0:
-                ez = e[m, 2] / np.linalg.norm(e[m])
-                if ez > Z_TOL:
-                    break
-                new_anchor.append(m)  # point m = upper end of segment m
-                self.anchored[m] = 1  # provisional, for the cascade test
-                m -= 1
-            for j in new_anchor:
-                self.anchored[j] = 0
-        pre_v = self.pv.copy()
-        for j in new_anchor:
-            self.anchored[j] = 2  # anchored, neighbours still mobile during the impact
-            self.anchor_pos[j] = self.pts[j]  # where it touched (|z| < Z_TOL): held there
-            self.anchor_t[j] = t
-        # 3. impact
-        nh = n - 1
-        gaps = np.zeros(nh)
-        rates = np.zeros(nh)
+            if np.any(near & (ev_kind == EV_LANDING)):
+                while m >= 0 and e[m, 2] / np.linalg.norm(e[m]) <= Z_TOL:  # cascade
+                    new_anchor.append(m)  # point m = upper end of segment m
+                    m -= 1
+            new_anchor = np.array(new_anchor, dtype=np.int64)
+        pre_v = self.pv[new_anchor].copy()
+        self.anchored[new_anchor] = 2  # anchored; its neighbours still move during the impact
+        self.anchor_pos[new_anchor] = self.pts[new_anchor]  # held where it touched (|z| < Z_TOL)
+        self.anchor_t[new_anchor] = t
+        # 3. one impact over the new anchors and every hinge at its limit
+        gaps, rates = sc["gaps"], sc["rates"]
         hinge_gaps(e, self.cos_alpha, gaps)
         hinge_rates(e, w, rates)
         in_force = self.lock_in_force()
-        if self.p.alpha >= math.pi:
-            in_force[:] = False
         self.locked[~in_force] = 0
-        cand = (in_force & ((gaps <= GAP_TOL) | (self.locked != 0))).astype(np.uint8)
-        cand[exclude != 0] = 0
+        cand = (in_force & ((gaps <= GAP_TOL) | (self.locked != 0)) & (exclude == 0)).astype(np.uint8)
         approaching = (cand != 0) & (rates < -RATE_TOL)
         was_locked = self.locked.copy()
-        if new_anchor or np.any(approaching):
+        new_locks = set()
+        if new_anchor.size or np.any(approaching):
             active = ((self.locked != 0) | approaching).astype(np.uint8)
-            w_plus = np.zeros_like(w)
-            impulse = np.zeros(nh)
-            anchor_impulse = np.zeros((n + 1, 3))
-            split = np.zeros(2)
-            jv = np.zeros_like(rhs)
-            rates_after = np.zeros(nh)
+            impulse, aimp, split = sc["impulse"], sc["anchor_impulse"], sc["split"]
             T0 = kinetic_energy(e, w, self.pv, self.vel)
             it = velocity_impact(e, w, self.anchored, cand, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf,
-                                 self.pv, self.vel, jv, w_plus, rates_after, impulse, anchor_impulse, split)
+                                 self.pv, self.vel, sc["jv"], sc["w_plus"], sc["rates_after"], impulse, aimp, split)
             if it < 0:
                 raise SimulationError(f"impact LCP did not converge at t = {t:.17g}")
             T1 = kinetic_energy(e, w, self.pv, self.vel)
@@ -212,60 +211,52 @@ class Run:
                 raise SimulationError(f"impact raised the kinetic energy ({T0:.17g} -> {T1:.17g}) at t = {t:.17g}")
             self.lost_locking += split[0]
             self.lost_landing += split[1]
+            rates_after = sc["rates_after"]
             hinge_rates(e, w, rates_after)
             for k in np.flatnonzero(impulse > 0):
                 lost = -0.5 * impulse[k] * (rates[k] + rates_after[k])
-                self.log.add(t, 1 if not was_locked[k] else EV_IMPULSE, int(k), (impulse[k], 0.0, 0.0), lost)
-            for j in new_anchor:
-                imp = anchor_impulse[j].copy()
+                self.log.add(t, EV_IMPULSE if was_locked[k] else 1, int(k), (impulse[k], 0.0, 0.0), lost)
+                if not was_locked[k]:
+                    new_locks.add(int(k))
+            for r, j in enumerate(new_anchor):
+                imp = aimp[j].copy()
                 self.floor_impulse += imp
-                self.log.add(t, 3, j, imp, -0.5 * float(imp @ pre_v[j]))
+                self.log.add(t, 3, int(j), imp, -0.5 * float(imp @ pre_v[r]))
             self.locked[:] = active  # hinges kept at the limit by the impact
-            rates = rates_after
+            rates[:] = rates_after
         self.anchored[self.anchored == 2] = 1
-        in_force = self.lock_in_force() & (self.p.alpha < math.pi)
+        in_force = self.lock_in_force()
         self.locked[~in_force] = 0
-        for i in np.flatnonzero(self.landed()):
-            w[i] = 0.0
-        # 4. lock set at the acceleration level
-        cand2 = (in_force & (gaps <= GAP_TOL) & (np.abs(rates) <= RATE_TOL) | (self.locked != 0)).astype(np.uint8)
-        cand2[exclude != 0] = 0
-        before = self.locked.copy()
+        w[self.landed()] = 0.0
+        # 4. which hinges at the limit stay locked (acceleration-level LCP)
+        cand2 = ((in_force & (gaps <= GAP_TOL) & (np.abs(rates) <= RATE_TOL) | (self.locked != 0))
+                 & (exclude == 0)).astype(np.uint8)
         active = ((self.locked != 0) & (cand2 != 0)).astype(np.uint8)
-        de = np.zeros_like(e)
-        dw = np.zeros_like(w)
-        ddg = np.zeros(nh)
-        lam = np.zeros(nh)
-        it = lock_set(e, w, self.anchored, cand2, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw,
-                      ddg, lam)
+        lam = sc["lam"]
+        it = lock_set(e, w, self.anchored, cand2, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, sc["de"],
+                      sc["dw"], sc["ddg"], lam)
         if it < 0:
             raise SimulationError(f"lock-set LCP did not converge at t = {t:.17g}")
         self.locked[:] = active
-        logged = {int(k) for k in np.flatnonzero((was_locked == 0) & (self.locked != 0))}
-        for k in logged:
-            if not (len(self.log.t) and any(self.log.t[i] == t and self.log.kind[i] == 1 and self.log.index[i] == k
-                                            for i in range(max(0, len(self.log.t) - 2 * n), len(self.log.t)))):
-                self.log.add(t, 1, k)  # locked without impulse (a touch)
-        for k in np.flatnonzero((was_locked != 0) & (self.locked == 0)):
-            self.log.add(t, 2, int(k))
-            exclude[k] = 1
-        # 5. project and disarm
         for k in np.flatnonzero((was_locked == 0) & (self.locked != 0)):
-            self.lock_cos[k] = self.cos_alpha + gaps[k]  # hold the angle reached (|g| <= GAP_TOL)
+            if int(k) not in new_locks:
+                self.log.add(t, 1, int(k))  # locked without impulse (a touch)
+        for k in np.flatnonzero((self.locked == 0) & ((was_locked != 0) | np.isin(np.arange(nh), list(new_locks)))):
+            self.log.add(t, 2, int(k))  # released (possibly right after its impact: stopped, then separating)
+        # 5. hold new locks at the angle reached, project, disarm what sits at zero
+        newly = (was_locked == 0) & (self.locked != 0)
+        self.lock_cos[newly] = self.cos_alpha + gaps[newly]
         project_state(e, w, self.anchored, self.locked, self.cone, self.lock_cos, self.anchor_pos, J, kind, nrow, S,
                       G, drop, rhs, x, gf, self.pts, self.vel, PROJ_TOL, 5)
         hinge_gaps(e, self.cos_alpha, gaps)
-        for k in range(nh):
-            if self.locked[k]:
-                self.thr_unlock[k] = 0.0 if lam[k] > ARM else min(lam[k], 0.0) - PEN
-            else:
-                self.thr_lock[k] = 0.0 if gaps[k] > ARM else min(gaps[k], 0.0) - PEN
+        lk = self.locked != 0
+        self.thr_unlock[lk] = np.where(lam[lk] > ARM, 0.0, np.minimum(lam[lk], 0.0) - PEN)
+        self.thr_lock[~lk] = np.where(gaps[~lk] > ARM, 0.0, np.minimum(gaps[~lk], 0.0) - PEN)
         point_positions(e, self.pts)
         if self.floor_all:
-            for j in range(n + 1):
-                if not self.anchored[j]:
-                    z = self.pts[j, 2]
-                    self.thr_land[j] = 0.0 if z > ARM else min(z, 0.0) - PEN
+            z = self.pts[:, 2]
+            free = self.anchored == 0
+            self.thr_land[free] = np.where(z[free] > ARM, 0.0, np.minimum(z[free], 0.0) - PEN)
             if self.anchored[0] and math.isnan(self.t_fall):
                 self.t_fall = t
         else:
@@ -319,7 +310,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     t_stop = (options.until if options.until is not None else options.max_time) * t_ff
     # buffers
     frame_dt = t_ff / options.frames_per_tff
-    cap = int(math.ceil(t_stop / frame_dt)) + 3
+    cap = int(math.ceil(t_stop / frame_dt)) + 5
     fr_t = np.zeros(cap)
     fr_e = np.zeros((cap, n, 3))
     fr_w = np.zeros((cap, n, 3))

@@ -285,7 +285,7 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
     while True:
         if counters[0] >= max_steps:
             return ADV_MAX_STEPS, t, h
-        if tr_k >= tr_t.shape[0] - 2 or fr_k >= frame_cap - 2:
+        if tr_k >= tr_t.shape[0] - 2:  # (frames: the buffer holds every frame up to t_stop)
             fr_count[0] = fr_k
             tr_count[0] = tr_k
             return ADV_BUFFER, t, h

@@ -1,0 +1,355 @@
+"""The command line: contract of options, one-line errors, JSON output, exit codes.
+
+The engine is replaced by a fake ``simulate`` (installed as ``ballchain.engine`` in
+``sys.modules``), so these tests are fast and do not depend on the physics.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import types
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ballchain import cli
+from ballchain.cli import app
+from ballchain.files import load_result, save_result
+from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
+from ballchain.result import Result
+
+
+def fake_result(params: ChainParams, ic: InitialCondition, options: SolverOptions, *,
+                status="landed", message="") -> Result:
+    n = params.segments
+    rng = np.random.default_rng(ic.seed)
+    frames, steps = 5, 20
+    z0 = 2.0 * n - 0.01
+    t_ff = math.sqrt(2 * z0)
+    units = "SI" if params.is_si else "nondimensional"
+    return Result(
+        params=params, ic=ic, options=options, version="0.1.0", status=status, message=message,
+        z0=z0, t_ff=t_ff, t_fall=0.94 * t_ff, t_landed=1.1 * t_ff,
+        t=np.linspace(0, t_ff, steps), z_top=np.linspace(z0, 0, steps),
+        frame_t=np.linspace(0, t_ff, frames), frame_e=np.tile([0.0, 0.0, 1.0], (frames, n, 1)),
+        frame_omega=np.zeros((frames, n, 3)), frame_anchored=np.zeros((frames, n + 1), bool),
+        frame_locked=np.zeros((frames, n - 1), bool), frame_floor_force=rng.normal(size=(frames, 3)),
+        frame_kinetic=np.zeros(frames), frame_potential=np.zeros(frames),
+        frame_lost_locking=np.zeros(frames), frame_lost_landing=np.zeros(frames),
+        event_t=np.array([0.1, 0.2, 0.3, 0.4]), event_kind=np.array([1, 1, 2, 3], np.int8),
+        event_index=np.array([0, 1, 0, n], np.int64), event_impulse=np.zeros((4, 3)),
+        event_energy=np.zeros(4), anchor_t=np.full(n + 1, np.nan), anchor_pos=np.zeros((n + 1, 3)),
+        energy={"initial": 1.0 * n * n, "potential": 0.0, "kinetic": 0.0, "lost_locking": 0.5 * n * n,
+                "lost_landing": 0.5 * n * n, "imbalance": 1e-13},
+        max_depth=0.0, floor_impulse=np.zeros(3), wall_seconds=0.01, n_steps=steps,
+        n_evals=6 * steps, units=units,
+    )
+
+
+class FakeEngine:
+    def __init__(self):
+        self.calls = []
+        self.behaviour = None  # None | "error" | "interrupt" | "progress"
+
+    def simulate(self, params, ic, options, *, progress=None):
+        self.calls.append((params, ic, options, progress))
+        if self.behaviour == "interrupt":
+            raise KeyboardInterrupt
+        if progress is not None:
+            progress(0.5, {"t_over_tff": 0.5, "events": 3, "landed": 1})
+        if self.behaviour == "error":
+            return fake_result(params, ic, options, status="error",
+                               message="NaN in the state at t = 3.2")
+        return fake_result(params, ic, options)
+
+
+@pytest.fixture
+def engine(monkeypatch):
+    fake = FakeEngine()
+    mod = types.ModuleType("ballchain.engine")
+    mod.simulate = fake.simulate
+    monkeypatch.setitem(sys.modules, "ballchain.engine", mod)
+    return fake
+
+
+def run(*args):
+    runner = CliRunner()
+    return runner.invoke(app, list(args))
+
+
+def assert_one_line_error(res, code, *words):
+    assert res.exit_code == code, (res.exit_code, res.stdout, res.stderr)
+    err = res.stderr.strip()
+    assert "Traceback" not in res.stderr and "Traceback" not in res.stdout
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("error: "), err
+    for w in words:
+        assert w in err, (w, err)
+    return err
+
+
+# --------------------------------------------------------------------------- JSON
+SUMMARY_KEYS = ("segments", "alpha", "floor", "z0", "t_ff", "t_fall", "t_landed", "ratio",
+                "events", "first_lock_time", "energy", "max_depth", "wall_seconds")
+
+
+def test_json_summary(engine):
+    res = run("simulate", "--json", "--segments", "16")
+    assert res.exit_code == 0, res.stderr
+    out = json.loads(res.stdout)  # stdout is exactly one JSON object
+    assert isinstance(out, dict)
+    for k in SUMMARY_KEYS:
+        assert k in out, k
+    assert set(out["events"]) >= {"lock", "unlock", "landing"}
+    assert out["events"] == {"lock": 2, "unlock": 1, "landing": 1}
+    assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking",
+                                  "lost_landing", "imbalance"}
+    assert out["segments"] == 16 and out["floor"] == "all"
+    assert out["ratio"] == pytest.approx(0.94)
+    assert out["first_lock_time"] == 0.1
+    assert res.stderr == ""
+
+
+def test_defaults_are_the_papers_case(engine):
+    res = run("simulate", "--json", "--quiet")
+    assert res.exit_code == 0, res.stderr
+    params, ic, options, progress = engine.calls[-1]
+    assert params == ChainParams(segments=128, alpha=math.pi / 4, floor="all", anchor_cone=False)
+    assert ic == InitialCondition(kind="helix", eps=0.02, turns=1.0, phase=0.0, seed=0)
+    assert options.rtol == 1e-9 and options.until is None and options.frames_per_tff == 100.0
+    assert progress is None
+    assert not params.is_si
+
+
+def test_all_options_reach_the_engine(engine):
+    res = run("simulate", "--json", "--segments", "8", "--alpha", "60deg", "--floor", "pivot",
+              "--anchor-cone", "--ic", "random", "--eps", "0.05", "--turns", "2", "--phase",
+              "pi/2", "--seed", "3", "--rtol", "1e-7", "--until", "0.5", "--frames-per-tff",
+              "20", "--quiet")
+    assert res.exit_code == 0, res.stderr
+    params, ic, options, _ = engine.calls[-1]
+    assert params == ChainParams(segments=8, alpha=math.radians(60), floor="pivot", anchor_cone=True)
+    assert ic == InitialCondition(kind="random", eps=0.05, turns=2.0, phase=math.pi / 2, seed=3)
+    assert (options.rtol, options.until, options.frames_per_tff) == (1e-7, 0.5, 20.0)
+
+
+@pytest.mark.parametrize("text", ["45deg", "pi/4", "0.7853981633974483"])
+def test_alpha_parsing(engine, text):
+    res = run("simulate", "--json", "--alpha", text, "--segments", "4")
+    assert res.exit_code == 0, res.stderr
+    assert json.loads(res.stdout)["alpha"] == 0.7853981633974483
+    assert parse_angle(text) == math.pi / 4
+
+
+def test_si_units(engine):
+    res = run("simulate", "--json", "--segments", "170", "--length", "0.535", "--mass",
+              "0.0054567")
+    assert res.exit_code == 0, res.stderr
+    params, *_ = engine.calls[-1]
+    assert params == ChainParams.from_chain(170, 0.535, 0.0054567, 9.81)
+    assert json.loads(res.stdout)["units"] == "SI"
+    res = run("simulate", "--json", "--segments", "10", "--length", "1", "--mass", "1",
+              "--gravity", "1.62")
+    assert res.exit_code == 0, res.stderr
+    assert engine.calls[-1][0].gravity == 1.62
+
+
+def test_human_summary(engine, tmp_path):
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--segments", "4", "--output", str(out))
+    assert res.exit_code == 0, res.stderr
+    for word in ("t_fall / t_ff", "t_landed / t_ff", "lock 2", "unlock 1", "landing 1",
+                 "energy imbalance", "wall time", str(out)):
+        assert word in res.stdout, word
+    assert res.stderr == ""
+
+
+# --------------------------------------------------------------------------- errors
+BAD = [
+    (["--segments", "0"], "segments"),
+    (["--segments", "-3"], "segments"),
+    (["--segments", "abc"], "segments"),
+    (["--segments", "2.5"], "segments"),
+    (["--alpha", "0"], "alpha"),
+    (["--alpha", "-0.1"], "alpha"),
+    (["--alpha", "4"], "alpha"),
+    (["--alpha", "200deg"], "alpha"),
+    (["--alpha", "nan"], "alpha"),
+    (["--alpha", "inf"], "alpha"),
+    (["--alpha", "banana"], "alpha"),
+    (["--floor", "wall"], "floor"),
+    (["--ic", "spiral"], "ic"),
+    (["--eps", "-0.1"], "eps"),
+    (["--eps", "nan"], "eps"),
+    (["--eps", "inf"], "eps"),
+    (["--turns", "nan"], "turns"),
+    (["--phase", "banana"], "phase"),
+    (["--phase", "inf"], "phase"),
+    (["--seed", "-1"], "seed"),
+    (["--rtol", "0"], "rtol"),
+    (["--rtol", "-1e-9"], "rtol"),
+    (["--rtol", "nan"], "rtol"),
+    (["--rtol", "inf"], "rtol"),
+    (["--rtol", "2"], "rtol"),
+    (["--until", "0"], "until"),
+    (["--until", "nan"], "until"),
+    (["--frames-per-tff", "0"], "frames_per_tff"),
+    (["--length", "-1", "--mass", "1"], "length"),
+    (["--length", "nan", "--mass", "1"], "length"),
+    (["--length", "inf", "--mass", "1"], "length"),
+    (["--length", "1", "--mass", "0"], "mass"),
+    (["--length", "1", "--mass", "-2"], "mass"),
+    (["--length", "1", "--mass", "nan"], "mass"),
+    (["--length", "1", "--mass", "1", "--gravity", "-9.81"], "gravity"),
+    (["--length", "1", "--mass", "1", "--gravity", "nan"], "gravity"),
+    (["--length", "1", "--mass", "1", "--gravity", "inf"], "gravity"),
+    (["--length", "1"], "--mass"),
+    (["--mass", "1"], "--length"),
+    (["--gravity", "9.81"], "--length"),
+    (["--length", "1", "--mass", "1", "--segments", "0"], "segments"),
+    (["--output", "/nonexistent-dir-ballchain/x.h5"], "output"),
+    (["--no-such-option"], "--no-such-option"),
+]
+
+
+@pytest.mark.parametrize("args,word", BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_bad_parameter_one_line_exit_2(engine, args, word):
+    res = run("simulate", "--json", *args)
+    assert_one_line_error(res, 2, word)
+    assert res.stdout == ""
+    assert engine.calls == []  # rejected before any simulation work
+
+
+def test_existing_output_needs_force(engine, tmp_path):
+    out = tmp_path / "run.h5"
+    out.write_bytes(b"precious")
+    res = run("simulate", "--segments", "4", "--output", str(out))
+    assert_one_line_error(res, 2, "output", "--force")
+    assert engine.calls == [] and out.read_bytes() == b"precious"
+    res = run("simulate", "--segments", "4", "--output", str(out), "--force", "--json")
+    assert res.exit_code == 0, res.stderr
+    assert load_result(out).params.segments == 4
+
+
+def test_output_is_a_directory(engine, tmp_path):
+    res = run("simulate", "--output", str(tmp_path), "--force")
+    assert_one_line_error(res, 2, "output", "directory")
+    assert engine.calls == []
+
+
+def test_output_round_trip(engine, tmp_path):
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--json", "--segments", "6", "--seed", "2", "--ic", "planar",
+              "--output", str(out))
+    assert res.exit_code == 0, res.stderr
+    r = load_result(out)
+    assert r.summary() == {**json.loads(res.stdout)}
+    assert [p.name for p in tmp_path.iterdir()] == ["run.h5"]
+
+
+def test_run_error_saves_partial_result_and_exits_1(engine, tmp_path):
+    engine.behaviour = "error"
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--json", "--segments", "4", "--output", str(out))
+    err = assert_one_line_error(res, 1, "NaN in the state")
+    assert "saved" in err
+    assert json.loads(res.stdout)["status"] == "error"
+    r = load_result(out)
+    assert r.status == "error" and r.message == "NaN in the state at t = 3.2"
+
+
+def test_ctrl_c_exit_130_no_file(engine, tmp_path):
+    engine.behaviour = "interrupt"
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--segments", "4", "--output", str(out))
+    assert_one_line_error(res, 130, "interrupted")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_while_saving_leaves_no_file(engine, tmp_path, monkeypatch):
+    from ballchain import files
+
+    def interrupted(f, result):
+        f.create_group("trace")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(files, "_write", interrupted)
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--segments", "4", "--output", str(out))
+    assert_one_line_error(res, 130, "interrupted")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_progress_callback_is_safe():
+    # the callback the CLI hands to the engine must survive odd reports
+    calls = []
+
+    def simulate(params, ic, options, *, progress=None):
+        calls.append(progress)
+        return "ok"
+
+    mod = types.ModuleType("ballchain.engine")
+    mod.simulate = simulate
+    saved = sys.modules.get("ballchain.engine")
+    sys.modules["ballchain.engine"] = mod
+    try:
+        p, i, o = cli.build_inputs(segments=3)
+        assert cli._run_engine(p, i, o, show_progress=False) == "ok"
+        assert calls == [None]
+    finally:
+        if saved is None:
+            sys.modules.pop("ballchain.engine", None)
+        else:
+            sys.modules["ballchain.engine"] = saved
+
+
+# --------------------------------------------------------------------------- info
+def test_info(engine, tmp_path):
+    out = tmp_path / "run.h5"
+    assert run("simulate", "--json", "--segments", "5", "--output", str(out)).exit_code == 0
+    res = run("info", str(out), "--json")
+    assert res.exit_code == 0, res.stderr
+    s = json.loads(res.stdout)
+    assert s["segments"] == 5 and s["events"]["lock"] == 2
+    res = run("info", str(out))
+    assert res.exit_code == 0 and "t_fall / t_ff" in res.stdout and "ballchain-result" in res.stdout
+
+
+def test_info_errors(tmp_path):
+    import h5py
+
+    missing = tmp_path / "missing.h5"
+    assert_one_line_error(run("info", str(missing)), 2, "no such file")
+    text = tmp_path / "notes.txt"
+    text.write_text("hello\n")
+    assert_one_line_error(run("info", str(text)), 2, "not an HDF5 file")
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as f:
+        f["x"] = np.arange(3)
+    assert_one_line_error(run("info", str(foreign), "--json"), 2, "not a ballchain result")
+    good = tmp_path / "good.h5"
+    p, i, o = cli.build_inputs(segments=4)
+    save_result(fake_result(p, i, o), good)
+    data = good.read_bytes()
+    trunc = tmp_path / "trunc.h5"
+    trunc.write_bytes(data[: len(data) // 2])
+    assert_one_line_error(run("info", str(trunc)), 2, "truncated")
+
+
+def test_no_command_shows_help():
+    res = run()
+    assert res.exit_code in (0, 2)
+    assert "simulate" in res.stdout + res.stderr
+    assert "Traceback" not in res.stdout + res.stderr
+
+
+def test_help_lists_the_contract_options():
+    res = run("simulate", "--help")
+    assert res.exit_code == 0
+    for opt in ("--segments", "--alpha", "--floor", "--anchor-cone", "--ic", "--eps", "--turns",
+                "--phase", "--seed", "--rtol", "--until", "--output", "--force", "--json",
+                "--length", "--mass", "--gravity", "--frames-per-tff", "--quiet"):
+        assert opt in res.stdout, opt
