@@ -158,17 +158,23 @@ def _print_json(obj: dict) -> None:
     typer.echo(json.dumps(obj, allow_nan=False))
 
 
+def _progress_console():
+    """Where the progress bar goes: stderr, never stdout."""
+    from rich.console import Console
+
+    return Console(stderr=True)
+
+
 def _run_engine(params, init, options, show_progress: bool):
     from .engine import simulate  # lazy: the engine (numba) is heavy to import
 
     if not show_progress:
         return simulate(params, init, options, progress=None)
 
-    from rich.console import Console
     from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn,
                                TimeElapsedColumn)
 
-    console = Console(stderr=True)
+    console = _progress_console()
     if not console.is_terminal:
         return simulate(params, init, options, progress=None)
     with Progress(TextColumn("simulating"), BarColumn(), TaskProgressColumn(),

@@ -402,10 +402,12 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                 raise SimulationError(f"step size underflow (h = {h:.3g}) at t/t_ff = {t / t_ff:.6f}")
             elif code == ADV_MAX_STEPS:
                 raise SimulationError(f"more than max_steps = {options.max_steps} steps at t/t_ff = {t / t_ff:.6f}")
-            if progress is not None and t / t_stop - last_report >= 0.002:
-                last_report = t / t_stop
-                progress(min(1.0, t / t_ff / 1.0), {"t_over_tff": t / t_ff, "events": len(run.log.t),
-                                                     "landed": int(np.sum(run.landed()))})
+            if progress is not None:
+                landed = int(np.sum(run.landed()))
+                frac = t / t_stop if options.until is not None else 0.5 * min(1.0, t / t_ff) + 0.5 * landed / n
+                if frac - last_report >= 0.002:
+                    last_report = frac
+                    progress(min(frac, 1.0), {"t_over_tff": t / t_ff, "events": len(run.log.t), "landed": landed})
     except SimulationError as exc:
         status, message = "error", str(exc)
     except KeyboardInterrupt:
