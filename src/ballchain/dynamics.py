@@ -198,13 +198,6 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
 # ------------------------------------------------------------- block Cholesky
 
 
-@njit(cache=True, inline="always")
-def _seg_w(anchored, i, q):
-    if _is_landed(anchored, i):
-        return 0.0
-    return W_V if q < 3 else W_W
-
-
 @njit(cache=True)
 def _chol_inplace(S, j, nr, drop):
     """Cholesky of the nr x nr block S[j] (lower triangle), dropping redundant rows
@@ -251,51 +244,60 @@ def _chol_solve(S, j, nr, drop, b):
         b[k] = s / S[j, k, k]
 
 
+@njit(cache=True, inline="always")
+def _weights(anchored, i, n):
+    """(1/m, 3/(m b^2)) of segment i, or (0, 0) if landed or outside the chain."""
+    if i < 0 or i >= n or _is_landed(anchored, i):
+        return 0.0, 0.0
+    return W_V, W_W
+
+
 @njit(cache=True)
 def factor(anchored, J, nrow, S, G, drop):
     """Block Cholesky of J W J^T: S[j] <- chol(D_j - E_{j-1}^T S_{j-1}^{-1} E_{j-1}),
-    G[j] = S_j^{-1} E_j, with D_j = J_j W J_j^T and E_j = J_j^(c) W_j J_{j+1}^(a)T."""
+    G[j] = S_j^{-1} E_j, with D_j = J_j W J_j^T and E_j = J_j^(c) W_j J_{j+1}^(a)T
+    (the coupling of points j and j+1 through their shared segment j)."""
     npts = nrow.shape[0]
+    n = npts - 1
+    E = np.zeros((MAXR, MAXR))  # E_j, kept for the next point's Schur complement
     col = np.empty(MAXR)
     ndrop = 0
     for j in range(npts):
         nr = nrow[j]
-        # diagonal block
+        av, aw = _weights(anchored, j - 1, n)
+        cv, cw = _weights(anchored, j, n)
         for r in range(nr):
             for s in range(r + 1):
                 acc = 0.0
-                if j >= 1:
-                    for q in range(6):
-                        acc += J[j, r, q] * _seg_w(anchored, j - 1, q) * J[j, s, q]
-                if j < npts - 1:
-                    for q in range(6):
-                        acc += J[j, r, 6 + q] * _seg_w(anchored, j, q) * J[j, s, 6 + q]
+                for q in range(3):
+                    acc += (av * J[j, r, q] * J[j, s, q] + aw * J[j, r, 3 + q] * J[j, s, 3 + q]
+                            + cv * J[j, r, 6 + q] * J[j, s, 6 + q] + cw * J[j, r, 9 + q] * J[j, s, 9 + q])
                 S[j, r, s] = acc
-        if j >= 1:
+        if j >= 1 and nr > 0:
             np_ = nrow[j - 1]
-            if np_ > 0 and nr > 0:
-                # S_j -= E_{j-1}^T G_{j-1}, E_{j-1}[r, s] = J[j-1, r, 6:] W J[j, s, :6]
-                for r in range(nr):
-                    for s in range(r + 1):
-                        acc = 0.0
-                        for p in range(np_):
-                            e_pr = 0.0
-                            for q in range(6):
-                                e_pr += J[j - 1, p, 6 + q] * _seg_w(anchored, j - 1, q) * J[j, r, q]
-                            acc += e_pr * G[j - 1, p, s]
-                        S[j, r, s] -= acc
+            # S_j -= E_{j-1}^T G_{j-1}  (E holds E_{j-1})
+            for r in range(nr):
+                for s in range(r + 1):
+                    acc = 0.0
+                    for p in range(np_):
+                        acc += E[p, r] * G[j - 1, p, s]
+                    S[j, r, s] -= acc
         _chol_inplace(S, j, nr, drop)
         for k in range(nr):
             ndrop += drop[j, k]
-        # G_j = S_j^{-1} E_j
         if j < npts - 1:
             nn = nrow[j + 1]
+            # E_j[r, s] = J[j, r, 6:] W_j J[j+1, s, :6]
+            for r in range(nr):
+                for s in range(nn):
+                    acc = 0.0
+                    for q in range(3):
+                        acc += cv * J[j, r, 6 + q] * J[j + 1, s, q] + cw * J[j, r, 9 + q] * J[j + 1, s, 3 + q]
+                    E[r, s] = acc
+            # G_j = S_j^{-1} E_j
             for s in range(nn):
                 for r in range(nr):
-                    acc = 0.0
-                    for q in range(6):
-                        acc += J[j, r, 6 + q] * _seg_w(anchored, j, q) * J[j + 1, s, q]
-                    col[r] = acc
+                    col[r] = E[r, s]
                 _chol_solve(S, j, nr, drop, col)
                 for r in range(nr):
                     G[j, r, s] = col[r]
