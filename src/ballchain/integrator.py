@@ -76,10 +76,9 @@ def _rhs(Y, anchored, locked, cone, ws, dY):
     return accelerations(Y[0], Y[1], anchored, locked, cone, J, kind, nrow, S, G, drop, rhs, x, gf, dY[0], dY[1])
 
 
-@njit(cache=True)
-def _dense(Y0, K, h, theta, out):
-    """Continuous extension: y(t0 + theta h) = y0 + h sum_s K_s (sum_p P[s,p] theta^(p+1))."""
-    b = np.empty(7)
+@njit(cache=True, inline="always")
+def _dense_weights(h, theta, b):
+    """b_s = h sum_p P[s, p] theta^(p+1): y(t0 + theta h) = y0 + sum_s b_s K_s."""
     for s in range(7):
         acc = 0.0
         tp = theta
@@ -87,6 +86,13 @@ def _dense(Y0, K, h, theta, out):
             acc += P[s, p] * tp
             tp *= theta
         b[s] = acc * h
+
+
+@njit(cache=True)
+def _dense(Y0, K, h, theta, out):
+    """Continuous extension of the step (4th order) at t0 + theta h, whole state."""
+    b = np.empty(7)
+    _dense_weights(h, theta, b)
     n = Y0.shape[1]
     for a in range(2):
         for i in range(n):
@@ -97,26 +103,21 @@ def _dense(Y0, K, h, theta, out):
                 out[a, i, q] = v
 
 
-@njit(cache=True)
-def _dense_e(Y0, K, h, theta, i, q):
-    """One component e[i, q] of the dense output."""
+@njit(cache=True, inline="always")
+def _dense_e(Y0, K, b, i, q):
+    """One component e[i, q] of the dense output, weights b from _dense_weights."""
     v = Y0[0, i, q]
     for s in range(7):
-        acc = 0.0
-        tp = theta
-        for p in range(4):
-            acc += P[s, p] * tp
-            tp *= theta
-        v += h * acc * K[s, 0, i, q]
+        v += b[s] * K[s, 0, i, q]
     return v
 
 
 @njit(cache=True)
-def _zpoint_dense(Y0, K, h, theta, j):
+def _zpoint_dense(Y0, K, b, j):
     n = Y0.shape[1]
     z = 0.0
     for i in range(j, n):
-        z += 2.0 * _dense_e(Y0, K, h, theta, i, 2)
+        z += 2.0 * _dense_e(Y0, K, b, i, 2)
     return z
 
 
@@ -144,27 +145,29 @@ def _zpoint(e, j):
 @njit(cache=True)
 def event_value(kind, idx, theta, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam):
     """Value of event function (kind, idx) at t0 + theta h on the dense output."""
+    b = np.empty(7)
+    _dense_weights(h, theta, b)
     if kind == EV_LOCK:
         acc = 0.0
         for q in range(3):
-            acc += _dense_e(Y0, K, h, theta, idx, q) * _dense_e(Y0, K, h, theta, idx + 1, q)
+            acc += _dense_e(Y0, K, b, idx, q) * _dense_e(Y0, K, b, idx + 1, q)
         # normalise: the dense output is not exactly unit length
         na = 0.0
         nc = 0.0
         for q in range(3):
-            na += _dense_e(Y0, K, h, theta, idx, q) ** 2
-            nc += _dense_e(Y0, K, h, theta, idx + 1, q) ** 2
+            na += _dense_e(Y0, K, b, idx, q) ** 2
+            nc += _dense_e(Y0, K, b, idx + 1, q) ** 2
         return acc / math.sqrt(na * nc) - cos_alpha
     if kind == EV_LANDING:
         if idx >= 0:
-            return _zpoint_dense(Y0, K, h, theta, idx)
+            return _zpoint_dense(Y0, K, b, idx)
         m = -idx - 1  # pivot floor: segment m
         nz = 0.0
         for q in range(3):
-            nz += _dense_e(Y0, K, h, theta, m, q) ** 2
-        return _dense_e(Y0, K, h, theta, m, 2) / math.sqrt(nz)
+            nz += _dense_e(Y0, K, b, m, q) ** 2
+        return _dense_e(Y0, K, b, m, 2) / math.sqrt(nz)
     if kind == EV_TOP:
-        return _zpoint_dense(Y0, K, h, theta, 0)
+        return _zpoint_dense(Y0, K, b, 0)
     # EV_UNLOCK: lambda_k at the interpolated state
     _dense(Y0, K, h, theta, Yt)
     _rhs(Yt, anchored, locked, cone, ws, dYt)
