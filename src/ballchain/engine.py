@@ -343,9 +343,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     t = 0.0
     h = 1e-3
     status, message = "landed", ""
-    n_events = 0
     recent = []
-    # the first frame is recorded by advance (frame_next = 0)
     frames_lost_fill = 0
 
     def fill_losses():
@@ -375,7 +373,6 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
             if code == ADV_EVENT:
                 nev = int(counters[2])
                 run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
-                n_events += 1
                 recent.append(t)
                 if len(recent) > ZENO_EVENTS:
                     recent.pop(0)
@@ -420,7 +417,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
         progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log.t), "landed": int(np.sum(run.landed()))})
     T_end, U_end = run.energy_now()
     nf = int(fr_count[0])
-    return _make_result(params, ic if state is None else ic, options, run, status, message, z0, t_ff, E0, T_end,
+    return _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
                         U_end, np.concatenate([[0.0]] + trace_chunks_t), np.concatenate([[z0]] + trace_chunks_z),
                         fr_t[:nf], fr_e[:nf], fr_w[:nf], fr_anch[:nf], fr_lock[:nf], fr_force[:nf], fr_kin[:nf],
                         fr_pot[:nf], fr_lostl[:nf], fr_lostf[:nf], -min(stats[0], 0.0), wall0, counters)

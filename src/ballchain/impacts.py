@@ -78,7 +78,7 @@ def hinge_accels(e, w, de, dw, out):
 
 
 @njit(cache=True)
-def _pivot_update(active, cand, viol, nviol_hist, it, use_murty):
+def _pivot_update(active, viol, use_murty):
     """Flip violated indices: all of them (block pivoting) or the least one (Murty)."""
     if use_murty:
         for k in range(viol.shape[0]):
@@ -172,7 +172,7 @@ def velocity_impact(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, dro
             stall += 1
             if stall >= 3:
                 use_murty = True
-        _pivot_update(active, cand, viol, best, it, use_murty)
+        _pivot_update(active, viol, use_murty)
     return -1
 
 
@@ -215,5 +215,5 @@ def lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs,
             stall += 1
             if stall >= 3:
                 use_murty = True
-        _pivot_update(active, cand, viol, best, it, use_murty)
+        _pivot_update(active, viol, use_murty)
     return -1
