@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+from collections import deque
 from typing import Callable
 
 import numpy as np
@@ -197,7 +198,7 @@ class Run:
         cand = (in_force & ((gaps <= GAP_TOL) | (self.locked != 0)) & (exclude == 0)).astype(np.uint8)
         approaching = (cand != 0) & (rates < -RATE_TOL)
         was_locked = self.locked.copy()
-        new_locks = set()
+        new_lock = np.zeros(nh, bool)  # locked by an impulse in this impact
         if new_anchor.size or np.any(approaching):
             active = ((self.locked != 0) | approaching).astype(np.uint8)
             impulse, aimp, split = sc["impulse"], sc["anchor_impulse"], sc["split"]
@@ -216,8 +217,7 @@ class Run:
             for k in np.flatnonzero(impulse > 0):
                 lost = -0.5 * impulse[k] * (rates[k] + rates_after[k])
                 self.log.add(t, EV_IMPULSE if was_locked[k] else 1, int(k), (impulse[k], 0.0, 0.0), lost)
-                if not was_locked[k]:
-                    new_locks.add(int(k))
+                new_lock[k] = not was_locked[k]
             for r, j in enumerate(new_anchor):
                 imp = aimp[j].copy()
                 self.floor_impulse += imp
@@ -239,9 +239,9 @@ class Run:
             raise SimulationError(f"lock-set LCP did not converge at t = {t:.17g}")
         self.locked[:] = active
         for k in np.flatnonzero((was_locked == 0) & (self.locked != 0)):
-            if int(k) not in new_locks:
+            if not new_lock[k]:
                 self.log.add(t, 1, int(k))  # locked without impulse (a touch)
-        for k in np.flatnonzero((self.locked == 0) & ((was_locked != 0) | np.isin(np.arange(nh), list(new_locks)))):
+        for k in np.flatnonzero((self.locked == 0) & ((was_locked != 0) | new_lock)):
             self.log.add(t, 2, int(k))  # released (possibly right after its impact: stopped, then separating)
         # 5. hold new locks at the angle reached, project, disarm what sits at zero
         newly = (was_locked == 0) & (self.locked != 0)
@@ -343,7 +343,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     t = 0.0
     h = 1e-3
     status, message = "landed", ""
-    recent = []
+    recent = deque(maxlen=ZENO_EVENTS + 1)  # times of the latest events
     frames_lost_fill = 0
 
     def fill_losses():
@@ -375,7 +375,6 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                 run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
                 recent.append(t)
                 if len(recent) > ZENO_EVENTS:
-                    recent.pop(0)
                     if t - recent[0] < ZENO_WINDOW * t_ff:
                         raise SimulationError(
                             f"event accumulation: {ZENO_EVENTS} events within {t - recent[0]:.3g} time units "
