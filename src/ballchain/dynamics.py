@@ -119,6 +119,13 @@ def _zero_cols(J, j, r0, nr, col):
 def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
     """Fill the constraint rows of every point; if ``with_acc_rhs``, also the
     acceleration right-hand side rhs = -(J W f_gravity + velocity-product terms)."""
+    _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, True)
+
+
+@njit(cache=True)
+def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_J):
+    """build_rows; with ``with_J`` False only the row kinds, counts and rhs (the
+    fixed-size path forms J W J^T in closed form and needs no J)."""
     n = e.shape[0]
     for j in range(n + 1):
         a = j - 1
@@ -128,8 +135,9 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
         r = 0
         if anchored[j] == 0:
             if a_air and c_air:
-                _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
-                _end_rows(J, j, 0, 6, e, c, -1.0, 1.0)
+                if with_J:
+                    _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
+                    _end_rows(J, j, 0, 6, e, c, -1.0, 1.0)
                 for q in range(3):
                     kind[j, q] = ROW_HINGE
                 if with_acc_rhs:
@@ -140,8 +148,9 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
                 r = 3
         else:
             if a_air:
-                _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
-                _zero_cols(J, j, 0, 3, 6)
+                if with_J:
+                    _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
+                    _zero_cols(J, j, 0, 3, 6)
                 for q in range(3):
                     kind[j, q] = ROW_ANCHOR_LOWER
                 if with_acc_rhs:
@@ -151,8 +160,9 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
                     rhs[j, 2] += 1.0  # gravity: -(J W f) = +e_z
                 r = 3
             if c_air:
-                _end_rows(J, j, r, 6, e, c, 1.0, -1.0)
-                _zero_cols(J, j, r, 3, 0)
+                if with_J:
+                    _end_rows(J, j, r, 6, e, c, 1.0, -1.0)
+                    _zero_cols(J, j, r, 3, 0)
                 for q in range(3):
                     kind[j, r + q] = ROW_ANCHOR_UPPER
                 if with_acc_rhs:
@@ -168,16 +178,17 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
             cx = x1 * y2 - x2 * y1
             cy = x2 * y0 - x0 * y2
             cz = x0 * y1 - x1 * y0
-            for q in range(12):
-                J[j, r, q] = 0.0
-            if a_air:
-                J[j, r, 3] = cx
-                J[j, r, 4] = cy
-                J[j, r, 5] = cz
-            if c_air:
-                J[j, r, 9] = -cx
-                J[j, r, 10] = -cy
-                J[j, r, 11] = -cz
+            if with_J:
+                for q in range(12):
+                    J[j, r, q] = 0.0
+                if a_air:
+                    J[j, r, 3] = cx
+                    J[j, r, 4] = cy
+                    J[j, r, 5] = cz
+                if c_air:
+                    J[j, r, 9] = -cx
+                    J[j, r, 10] = -cy
+                    J[j, r, 11] = -cz
             kind[j, r] = ROW_LOCK
             if with_acc_rhs:
                 # d2g/dt2 = J acc - (|w_a|^2 + |w_c|^2) (e_a.e_c) + 2 de_a . de_c
@@ -193,6 +204,62 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
                 rhs[j, r] = (wa2 + wc2) * cdot - 2.0 * (dax * dcx + day * dcy + daz * dcz)
             r += 1
         nrow[j] = r
+
+
+@njit(cache=True)
+def rows_rhs4(e, w, anchored, locked, cone, kind, nrow, rhs):
+    """``_build`` without J, for the fixed-size path, in one pass that carries each
+    segment's |w|^2, de = w x e and airborne flag to the next point.  Returns False if
+    some point needs more than 4 rows (then the general path must be used)."""
+    n = e.shape[0]
+    fits = True
+    a_air = False
+    wa2 = 0.0
+    da0 = da1 = da2 = 0.0
+    for j in range(n + 1):
+        c_air = j < n and not (anchored[j] == 1 and anchored[j + 1] == 1)
+        wc2 = 0.0
+        dc0 = dc1 = dc2 = 0.0
+        if j < n:
+            w0, w1, w2 = w[j, 0], w[j, 1], w[j, 2]
+            e0, e1, e2 = e[j, 0], e[j, 1], e[j, 2]
+            wc2 = w0 * w0 + w1 * w1 + w2 * w2
+            dc0 = w1 * e2 - w2 * e1
+            dc1 = w2 * e0 - w0 * e2
+            dc2 = w0 * e1 - w1 * e0
+        r = 0
+        if anchored[j] == 0:
+            if a_air and c_air:
+                kind[j, 0] = kind[j, 1] = kind[j, 2] = ROW_HINGE
+                for q in range(3):
+                    rhs[j, q] = -(wa2 * e[j - 1, q] + wc2 * e[j, q])
+                r = 3
+        elif a_air and c_air:
+            fits = False  # an anchor between two airborne segments: 6 rows
+        elif a_air:
+            kind[j, 0] = kind[j, 1] = kind[j, 2] = ROW_ANCHOR_LOWER
+            for q in range(3):
+                rhs[j, q] = -wa2 * e[j - 1, q]
+            rhs[j, 2] += 1.0
+            r = 3
+        elif c_air:
+            kind[j, 0] = kind[j, 1] = kind[j, 2] = ROW_ANCHOR_UPPER
+            for q in range(3):
+                rhs[j, q] = wc2 * e[j, q]
+            rhs[j, 2] += 1.0
+            r = 3
+        if j >= 1 and j < n and locked[j - 1] != 0 and lock_active(anchored, j - 1, cone):
+            if r == 0:
+                fits = False
+            kind[j, r] = ROW_LOCK
+            cdot = e[j - 1, 0] * e[j, 0] + e[j - 1, 1] * e[j, 1] + e[j - 1, 2] * e[j, 2]
+            rhs[j, r] = (wa2 + wc2) * cdot - 2.0 * (da0 * dc0 + da1 * dc1 + da2 * dc2)
+            r += 1
+        nrow[j] = r
+        a_air = c_air
+        wa2 = wc2
+        da0, da1, da2 = dc0, dc1, dc2
+    return fits
 
 
 # ------------------------------------------------------------- block Cholesky
@@ -253,8 +320,9 @@ def _weights(anchored, i, n):
 
 
 @njit(cache=True)
-def factor(anchored, J, nrow, S, G, drop):
-    """Block Cholesky of J W J^T: S[j] <- chol(D_j - E_{j-1}^T S_{j-1}^{-1} E_{j-1}),
+def factor_general(anchored, J, nrow, S, G, drop):
+    """Block Cholesky of J W J^T for any row count per point (up to MAXR), products
+    taken from the rows J: S[j] <- chol(D_j - E_{j-1}^T S_{j-1}^{-1} E_{j-1}),
     G[j] = S_j^{-1} E_j, with D_j = J_j W J_j^T and E_j = J_j^(c) W_j J_{j+1}^(a)T
     (the coupling of points j and j+1 through their shared segment j)."""
     npts = nrow.shape[0]
@@ -305,8 +373,8 @@ def factor(anchored, J, nrow, S, G, drop):
 
 
 @njit(cache=True)
-def solve(nrow, S, G, drop, rhs, x):
-    """Solve (J W J^T) x = rhs with the factors from ``factor`` (block Thomas)."""
+def solve_general(nrow, S, G, drop, rhs, x):
+    """Solve (J W J^T) x = rhs with the factors from ``factor_general`` (block Thomas)."""
     npts = nrow.shape[0]
     for j in range(npts):
         nr = nrow[j]
@@ -319,7 +387,6 @@ def solve(nrow, S, G, drop, rhs, x):
                 for p in range(np_):
                     acc += G[j - 1, p, r] * x[j - 1, p]  # G^T y: uses y_{j-1} before its solve
                 x[j, r] -= acc
-        # keep y_j for the next block's G^T y, then solve in a copy afterwards
     # forward pass above used y (not z); now z_j = S_j^{-1} y_j and back substitution
     for j in range(npts):
         _chol_solve(S, j, nrow[j], drop, x[j])
@@ -331,6 +398,284 @@ def solve(nrow, S, G, drop, rhs, x):
             for s in range(nn):
                 acc += G[j, r, s] * x[j + 1, s]
             x[j, r] -= acc
+
+
+# ---------------------------------------------- fixed-size path (<= 4 rows per point)
+#
+# Every point has at most one group of three end rows (hinge, or one anchor) and one
+# lock row unless it is an anchored point between two airborne segments.  Then each
+# block is padded to 4 x 4 (an unused row has diagonal 1 and no coupling, so its
+# unknown is 0) and J W J^T is formed in closed form from the segment axes, with the
+# row coefficients of an end row on a segment written (A, B): A v + B (e x w), and a
+# lock row L n . w, n = e_a x e_c:
+#   end . end   = wv A1 A2 delta + ww B1 B2 (delta - e e^T)
+#   end . lock  = ww B L (e x n)_q          lock . lock = ww L1 L2 n1 . n2
+# Hinge row: a (1, 1), c (-1, 1); anchor, lower: a (1, 1); anchor, upper: c (1, -1);
+# lock row: a L = 1, c L = -1.  The factor is L L^T with F_j = L_j^{-1} E_j:
+#   L_j L_j^T = D_j - F_{j-1}^T F_{j-1},   y_j = L_j^{-1} (b_j - F_{j-1}^T y_{j-1}),
+#   x_j = L_j^{-T} (y_j - F_j x_{j+1});  S holds L_j and 1/L_kk on its diagonal.
+
+
+@njit(cache=True, inline="always")
+def _end_coeffs(kind0, nr):
+    """(A_a, B_a, A_c, B_c) of the end rows of a point whose first row kind is kind0."""
+    if nr < 3:
+        return 0.0, 0.0, 0.0, 0.0
+    if kind0 == ROW_HINGE:
+        return 1.0, 1.0, -1.0, 1.0
+    if kind0 == ROW_ANCHOR_LOWER:
+        return 1.0, 1.0, 0.0, 0.0
+    if kind0 == ROW_ANCHOR_UPPER:
+        return 0.0, 0.0, 1.0, -1.0
+    return 0.0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def _lock_vector(e, j, nr):
+    """n = e_a x e_c of point j's lock row (0 if the point has none)."""
+    if nr != 4:
+        return 0.0, 0.0, 0.0
+    a = j - 1
+    c = j
+    return (e[a, 1] * e[c, 2] - e[a, 2] * e[c, 1], e[a, 2] * e[c, 0] - e[a, 0] * e[c, 2],
+            e[a, 0] * e[c, 1] - e[a, 1] * e[c, 0])
+
+
+@njit(cache=True)
+def _fits4(nrow):
+    """Every point has 0, 3 or 4 rows (one end group and at most one lock row)."""
+    for j in range(nrow.shape[0]):
+        r = nrow[j]
+        if r != 0 and r != 3 and r != 4:
+            return False
+    return True
+
+
+@njit(cache=True)
+def factor4(e, anchored, kind, nrow, S, G, drop):
+    """L L^T factor of J W J^T in 4 x 4 blocks formed in closed form (see above), every
+    block held in scalars (generated code: one line per entry).  Returns the number of
+    redundant rows dropped."""
+    npts = nrow.shape[0]
+    n = npts - 1
+    ndrop = 0
+    f00 = 0.0; f01 = 0.0; f02 = 0.0; f03 = 0.0
+    f10 = 0.0; f11 = 0.0; f12 = 0.0; f13 = 0.0
+    f20 = 0.0; f21 = 0.0; f22 = 0.0; f23 = 0.0
+    f30 = 0.0; f31 = 0.0; f32 = 0.0; f33 = 0.0
+    nr = nrow[0]
+    Aa, Ba, Ac, Bc = _end_coeffs(kind[0, 0], nr)
+    nx, ny, nz = _lock_vector(e, 0, nr)
+    for j in range(npts):
+        av, aw = _weights(anchored, j - 1, n)
+        cv, cw = _weights(anchored, j, n)
+        ea0 = ea1 = ea2 = ec0 = ec1 = ec2 = 0.0
+        if j >= 1:
+            ea0, ea1, ea2 = e[j - 1, 0], e[j - 1, 1], e[j - 1, 2]
+        if j < n:
+            ec0, ec1, ec2 = e[j, 0], e[j, 1], e[j, 2]
+        qa = aw * Ba * Ba
+        qc = cw * Bc * Bc
+        base = av * Aa * Aa + qa + cv * Ac * Ac + qc
+        d00 = base - qa * ea0 * ea0 - qc * ec0 * ec0
+        d10 = - qa * ea1 * ea0 - qc * ec1 * ec0
+        d11 = base - qa * ea1 * ea1 - qc * ec1 * ec1
+        d20 = - qa * ea2 * ea0 - qc * ec2 * ec0
+        d21 = - qa * ea2 * ea1 - qc * ec2 * ec1
+        d22 = base - qa * ea2 * ea2 - qc * ec2 * ec2
+        if nr == 0:
+            d00 = d11 = d22 = 1.0
+        if nr == 4:
+            la = aw * Ba
+            lc = cw * Bc
+            d30 = la * (ea1 * nz - ea2 * ny) - lc * (ec1 * nz - ec2 * ny)
+            d31 = la * (ea2 * nx - ea0 * nz) - lc * (ec2 * nx - ec0 * nz)
+            d32 = la * (ea0 * ny - ea1 * nx) - lc * (ec0 * ny - ec1 * nx)
+            d33 = (aw + cw) * (nx * nx + ny * ny + nz * nz)
+        else:
+            d30 = d31 = d32 = 0.0
+            d33 = 1.0
+        # Schur complement D_j - F_{j-1}^T F_{j-1}
+        d00 -= f00 * f00 + f10 * f10 + f20 * f20 + f30 * f30
+        d10 -= f01 * f00 + f11 * f10 + f21 * f20 + f31 * f30
+        d11 -= f01 * f01 + f11 * f11 + f21 * f21 + f31 * f31
+        d20 -= f02 * f00 + f12 * f10 + f22 * f20 + f32 * f30
+        d21 -= f02 * f01 + f12 * f11 + f22 * f21 + f32 * f31
+        d22 -= f02 * f02 + f12 * f12 + f22 * f22 + f32 * f32
+        d30 -= f03 * f00 + f13 * f10 + f23 * f20 + f33 * f30
+        d31 -= f03 * f01 + f13 * f11 + f23 * f21 + f33 * f31
+        d32 -= f03 * f02 + f13 * f12 + f23 * f22 + f33 * f32
+        d33 -= f03 * f03 + f13 * f13 + f23 * f23 + f33 * f33
+        # Cholesky, dropping redundant rows (and padding rows k >= nr); l_kk holds 1/L_kk
+        t = d00
+        if t <= DROP_RTOL * max(abs(d00), 1e-300) or 0 >= nr:
+            if 0 < nr:
+                drop[j, 0] = 1
+                ndrop += 1
+            l00 = 0.0
+            l10 = 0.0
+            l20 = 0.0
+            l30 = 0.0
+        else:
+            drop[j, 0] = 0
+            l00 = 1.0 / math.sqrt(t)
+            l10 = (d10) * l00
+            l20 = (d20) * l00
+            l30 = (d30) * l00
+        t = d11 - l10 * l10
+        if t <= DROP_RTOL * max(abs(d11), 1e-300) or 1 >= nr:
+            if 1 < nr:
+                drop[j, 1] = 1
+                ndrop += 1
+            l11 = 0.0
+            l21 = 0.0
+            l31 = 0.0
+        else:
+            drop[j, 1] = 0
+            l11 = 1.0 / math.sqrt(t)
+            l21 = (d21 - l20 * l10) * l11
+            l31 = (d31 - l30 * l10) * l11
+        t = d22 - l20 * l20 - l21 * l21
+        if t <= DROP_RTOL * max(abs(d22), 1e-300) or 2 >= nr:
+            if 2 < nr:
+                drop[j, 2] = 1
+                ndrop += 1
+            l22 = 0.0
+            l32 = 0.0
+        else:
+            drop[j, 2] = 0
+            l22 = 1.0 / math.sqrt(t)
+            l32 = (d32 - l30 * l20 - l31 * l21) * l22
+        t = d33 - l30 * l30 - l31 * l31 - l32 * l32
+        if t <= DROP_RTOL * max(abs(d33), 1e-300) or 3 >= nr:
+            if 3 < nr:
+                drop[j, 3] = 1
+                ndrop += 1
+            l33 = 0.0
+        else:
+            drop[j, 3] = 0
+            l33 = 1.0 / math.sqrt(t)
+        S[j, 0, 0] = l00
+        S[j, 1, 0] = l10
+        S[j, 1, 1] = l11
+        S[j, 2, 0] = l20
+        S[j, 2, 1] = l21
+        S[j, 2, 2] = l22
+        S[j, 3, 0] = l30
+        S[j, 3, 1] = l31
+        S[j, 3, 2] = l32
+        S[j, 3, 3] = l33
+        if j == n:
+            break
+        # E_j: rows of point j (side c, segment j) x rows of point j+1 (side a, segment j)
+        nr1 = nrow[j + 1]
+        Aa1, Ba1, Ac1, Bc1 = _end_coeffs(kind[j + 1, 0], nr1)
+        mx, my, mz = _lock_vector(e, j + 1, nr1)
+        pv = cv * Ac * Aa1
+        pw = cw * Bc * Ba1
+        g00 = pv + pw - pw * ec0 * ec0
+        g01 = - pw * ec0 * ec1
+        g02 = - pw * ec0 * ec2
+        g10 = - pw * ec1 * ec0
+        g11 = pv + pw - pw * ec1 * ec1
+        g12 = - pw * ec1 * ec2
+        g20 = - pw * ec2 * ec0
+        g21 = - pw * ec2 * ec1
+        g22 = pv + pw - pw * ec2 * ec2
+        lc = cw * Bc
+        g03 = lc * (ec1 * mz - ec2 * my)
+        g13 = lc * (ec2 * mx - ec0 * mz)
+        g23 = lc * (ec0 * my - ec1 * mx)
+        la = -cw * Ba1
+        g30 = la * (ec1 * nz - ec2 * ny)
+        g31 = la * (ec2 * nx - ec0 * nz)
+        g32 = la * (ec0 * ny - ec1 * nx)
+        g33 = -cw * (nx * mx + ny * my + nz * mz)
+        # F_j = L_j^{-1} E_j
+        f00 = (g00) * l00
+        f10 = (g10 - l10 * f00) * l11
+        f20 = (g20 - l20 * f00 - l21 * f10) * l22
+        f30 = (g30 - l30 * f00 - l31 * f10 - l32 * f20) * l33
+        f01 = (g01) * l00
+        f11 = (g11 - l10 * f01) * l11
+        f21 = (g21 - l20 * f01 - l21 * f11) * l22
+        f31 = (g31 - l30 * f01 - l31 * f11 - l32 * f21) * l33
+        f02 = (g02) * l00
+        f12 = (g12 - l10 * f02) * l11
+        f22 = (g22 - l20 * f02 - l21 * f12) * l22
+        f32 = (g32 - l30 * f02 - l31 * f12 - l32 * f22) * l33
+        f03 = (g03) * l00
+        f13 = (g13 - l10 * f03) * l11
+        f23 = (g23 - l20 * f03 - l21 * f13) * l22
+        f33 = (g33 - l30 * f03 - l31 * f13 - l32 * f23) * l33
+        G[j, 0, 0] = f00; G[j, 0, 1] = f01; G[j, 0, 2] = f02; G[j, 0, 3] = f03
+        G[j, 1, 0] = f10; G[j, 1, 1] = f11; G[j, 1, 2] = f12; G[j, 1, 3] = f13
+        G[j, 2, 0] = f20; G[j, 2, 1] = f21; G[j, 2, 2] = f22; G[j, 2, 3] = f23
+        G[j, 3, 0] = f30; G[j, 3, 1] = f31; G[j, 3, 2] = f32; G[j, 3, 3] = f33
+        nr = nr1
+        Aa, Ba, Ac, Bc = Aa1, Ba1, Ac1, Bc1
+        nx, ny, nz = mx, my, mz
+    return ndrop
+
+
+@njit(cache=True)
+def solve4(nrow, S, G, rhs, x):
+    """Solve (J W J^T) x = rhs with the factors from ``factor4`` (y, x carried in scalars)."""
+    npts = nrow.shape[0]
+    y0 = y1 = y2 = y3 = 0.0
+    for j in range(npts):
+        nr = nrow[j]
+        b0 = b1 = b2 = b3 = 0.0
+        if nr >= 3:
+            b0, b1, b2 = rhs[j, 0], rhs[j, 1], rhs[j, 2]
+        if nr == 4:
+            b3 = rhs[j, 3]
+        if j >= 1:
+            b0 -= G[j - 1, 0, 0] * y0 + G[j - 1, 1, 0] * y1 + G[j - 1, 2, 0] * y2 + G[j - 1, 3, 0] * y3
+            b1 -= G[j - 1, 0, 1] * y0 + G[j - 1, 1, 1] * y1 + G[j - 1, 2, 1] * y2 + G[j - 1, 3, 1] * y3
+            b2 -= G[j - 1, 0, 2] * y0 + G[j - 1, 1, 2] * y1 + G[j - 1, 2, 2] * y2 + G[j - 1, 3, 2] * y3
+            b3 -= G[j - 1, 0, 3] * y0 + G[j - 1, 1, 3] * y1 + G[j - 1, 2, 3] * y2 + G[j - 1, 3, 3] * y3
+        y0 = (b0) * S[j, 0, 0]
+        y1 = (b1 - S[j, 1, 0] * y0) * S[j, 1, 1]
+        y2 = (b2 - S[j, 2, 0] * y0 - S[j, 2, 1] * y1) * S[j, 2, 2]
+        y3 = (b3 - S[j, 3, 0] * y0 - S[j, 3, 1] * y1 - S[j, 3, 2] * y2) * S[j, 3, 3]
+        x[j, 0] = y0; x[j, 1] = y1; x[j, 2] = y2; x[j, 3] = y3
+    z0 = z1 = z2 = z3 = 0.0
+    for j in range(npts - 1, -1, -1):
+        b0 = x[j, 0]
+        b1 = x[j, 1]
+        b2 = x[j, 2]
+        b3 = x[j, 3]
+        if j < npts - 1:
+            b0 -= G[j, 0, 0] * z0 + G[j, 0, 1] * z1 + G[j, 0, 2] * z2 + G[j, 0, 3] * z3
+            b1 -= G[j, 1, 0] * z0 + G[j, 1, 1] * z1 + G[j, 1, 2] * z2 + G[j, 1, 3] * z3
+            b2 -= G[j, 2, 0] * z0 + G[j, 2, 1] * z1 + G[j, 2, 2] * z2 + G[j, 2, 3] * z3
+            b3 -= G[j, 3, 0] * z0 + G[j, 3, 1] * z1 + G[j, 3, 2] * z2 + G[j, 3, 3] * z3
+        z3 = (b3) * S[j, 3, 3]
+        z2 = (b2 - S[j, 3, 2] * z3) * S[j, 2, 2]
+        z1 = (b1 - S[j, 2, 1] * z2 - S[j, 3, 1] * z3) * S[j, 1, 1]
+        z0 = (b0 - S[j, 1, 0] * z1 - S[j, 2, 0] * z2 - S[j, 3, 0] * z3) * S[j, 0, 0]
+        x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2; x[j, 3] = z3
+
+
+
+@njit(cache=True)
+def factor(e, anchored, J, kind, nrow, S, G, drop):
+    """Factor J W J^T (the fixed-size path when every point has <= 4 rows, else the
+    general one); returns the number of redundant rows dropped.  ``solve`` picks the
+    same path."""
+    if _fits4(nrow):
+        return factor4(e, anchored, kind, nrow, S, G, drop)
+    return factor_general(anchored, J, nrow, S, G, drop)
+
+
+@njit(cache=True)
+def solve(nrow, S, G, drop, rhs, x):
+    """Solve (J W J^T) x = rhs with the factors from ``factor``."""
+    if _fits4(nrow):
+        solve4(nrow, S, G, rhs, x)
+    else:
+        solve_general(nrow, S, G, drop, rhs, x)
 
 
 @njit(cache=True)
@@ -347,6 +692,38 @@ def generalized_forces(anchored, J, nrow, x, gf):
             gf[i, q] = acc
 
 
+@njit(cache=True)
+def torques4(e, kind, nrow, x, gf):
+    """gf[i, 3:6] = torque of the multipliers x on segment i (fixed-size layout):
+    an end group with multiplier f and w-coefficient B gives B f x e_i, a lock row
+    L lambda n (``generalized_forces`` computes the same from J; forces are not needed)."""
+    n = e.shape[0]
+    for i in range(n):
+        ex, ey, ez = e[i, 0], e[i, 1], e[i, 2]
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        for side in range(2):
+            j = i + side  # point i: segment i is its side c; point i+1: its side a
+            nr = nrow[j]
+            Aa, Ba, Ac, Bc = _end_coeffs(kind[j, 0], nr)
+            B = Ba if side == 1 else Bc
+            if B != 0.0:
+                fx, fy, fz = x[j, 0], x[j, 1], x[j, 2]
+                tx += B * (fy * ez - fz * ey)
+                ty += B * (fz * ex - fx * ez)
+                tz += B * (fx * ey - fy * ex)
+            if nr == 4:
+                nx, ny, nz = _lock_vector(e, j, nr)
+                lam = x[j, 3] if side == 1 else -x[j, 3]
+                tx += lam * nx
+                ty += lam * ny
+                tz += lam * nz
+        gf[i, 3] = tx
+        gf[i, 4] = ty
+        gf[i, 5] = tz
+
+
 # ------------------------------------------------------------ accelerations
 
 
@@ -358,10 +735,15 @@ def accelerations(e, w, anchored, locked, cone, J, kind, nrow, S, G, drop, rhs, 
     anchors; returns the number of redundant rows dropped.
     """
     n = e.shape[0]
-    build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, True)
-    ndrop = factor(anchored, J, nrow, S, G, drop)
-    solve(nrow, S, G, drop, rhs, x)
-    generalized_forces(anchored, J, nrow, x, gf)
+    if rows_rhs4(e, w, anchored, locked, cone, kind, nrow, rhs):
+        ndrop = factor4(e, anchored, kind, nrow, S, G, drop)
+        solve4(nrow, S, G, rhs, x)
+        torques4(e, kind, nrow, x, gf)
+    else:
+        _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, True, True)
+        ndrop = factor_general(anchored, J, nrow, S, G, drop)
+        solve_general(nrow, S, G, drop, rhs, x)
+        generalized_forces(anchored, J, nrow, x, gf)
     for i in range(n):
         if _is_landed(anchored, i):
             for q in range(3):
@@ -566,7 +948,7 @@ def project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, n
     res = res0
     it = 0
     while res > tol and it < iters:
-        factor(anchored, J, nrow, S, G, drop)
+        factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)
         rotate_by(e, anchored, gf, -1.0)
@@ -581,7 +963,7 @@ def project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, n
         for r in range(nrow[j]):
             vres = max(vres, abs(rhs[j, r]))
     if vres > tol:
-        factor(anchored, J, nrow, S, G, drop)
+        factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
         apply_impulses(e, w, anchored, J, nrow, x, gf, -1.0)
     return res0

@@ -115,7 +115,7 @@ def velocity_impact(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, dro
         for j in range(nrow.shape[0]):
             for r in range(nrow[j]):
                 rhs[j, r] = -jv_minus[j, r]
-        factor(anchored, J, nrow, S, G, drop)
+        factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
         for i in range(n):
             for q in range(3):
