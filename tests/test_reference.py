@@ -420,3 +420,48 @@ def test_impact_limit_next_to_segment_landing_now():
             break
     f = fast_impact(e, w, anchored, cand)
     np.testing.assert_allclose(f["w"], r["w_plus"], atol=1e-10)
+
+
+# ---------------------------------------------- fixed-size path vs general path
+
+
+def _general_path(e, w, anchored, locked):
+    """Multipliers and torques from the general (J-based, any row count) kernels."""
+    n = e.shape[0]
+    ws = dyn.Workspace(n)
+    dyn.build_rows(e, w, anchored, locked, False, ws.J, ws.kind, ws.nrow, ws.rhs, True)
+    dyn.factor_general(anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
+    dyn.solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
+    dyn.generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
+    return ws
+
+
+@pytest.mark.parametrize("n", [2, 3, 8, 40])
+def test_fixed_size_path_equals_general_path(n):
+    """The closed-form 4x4 path (rows_rhs4, factor4, solve4, torques4) solves the same
+    system as the general path built from J: multipliers and torques agree."""
+    rng = np.random.default_rng(100 + n)
+    fitted = 0
+    for _ in range(60):
+        e, w, anchored, locked, _alpha = random_acc_state(rng, n)
+        a8, l8 = anchored.astype(np.uint8), locked.astype(np.uint8)
+        g = _general_path(e, w, a8, l8)
+        ws = dyn.Workspace(n)
+        if not dyn.rows_rhs4(e, w, a8, l8, False, ws.kind, ws.nrow, ws.rhs):
+            continue  # some point has 6 rows: only the general path applies
+        fitted += 1
+        assert np.array_equal(ws.nrow, g.nrow)
+        for j in range(n + 1):
+            r = g.nrow[j]
+            assert np.array_equal(ws.kind[j, :r], g.kind[j, :r])
+            assert np.allclose(ws.rhs[j, :r], g.rhs[j, :r], rtol=0, atol=1e-13 * max(1.0, np.abs(g.rhs).max()))
+        ndrop = dyn.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop)
+        dyn.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
+        dyn.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
+        assert ndrop == sum(int(g.drop[j, :g.nrow[j]].sum()) for j in range(n + 1))
+        scale = max(1.0, np.abs(g.x).max())
+        for j in range(n + 1):
+            r = g.nrow[j]
+            np.testing.assert_allclose(ws.x[j, :r], g.x[j, :r], rtol=0, atol=1e-10 * scale)
+        np.testing.assert_allclose(ws.gf[:, 3:], g.gf[:, 3:], rtol=0, atol=1e-10 * scale)
+    assert fitted >= 10  # the fixed-size path was exercised
