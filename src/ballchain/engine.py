@@ -40,6 +40,18 @@ from .dynamics import (
     velocities,
 )
 from .impacts import GAP_TOL, RATE_TOL, hinge_gaps, hinge_rates, lock_set, velocity_impact
+from .events import (
+    ERR_ENERGY,
+    ERR_IMPACT_LCP,
+    ERR_LOCK_LCP,
+    ERR_MAX_EVENTS,
+    ERR_ZENO,
+    EV_LANDED,
+    EV_RETURN,
+    LOG_IMPULSE,
+    Z_TOL,
+    run_events,
+)
 from .initial import check_inside_cone, initial_directions
 from .integrator import (
     ADV_BUFFER,
@@ -59,10 +71,17 @@ from .integrator import (
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from .result import Result
 
+RETURN_EVERY = 256  # events handled in compiled code between returns to Python (progress)
 ZENO_EVENTS = 20000
 ZENO_WINDOW = 1e-9  # in units of t_ff
-Z_TOL = 1e-9  # a free point with z below this (units b) at an event touches the floor
-EV_IMPULSE = 5  # event-log kind: impulse on an already-locked hinge during an impact
+EV_IMPULSE = LOG_IMPULSE  # event-log kind: impulse on an already-locked hinge during an impact
+
+
+ERROR_MESSAGES = {
+    ERR_IMPACT_LCP: "impact LCP did not converge",
+    ERR_ENERGY: "an impact raised the kinetic energy",
+    ERR_LOCK_LCP: "lock-set LCP did not converge",
+}
 
 
 class SimulationError(RuntimeError):
@@ -70,15 +89,41 @@ class SimulationError(RuntimeError):
 
 
 class _Log:
-    def __init__(self):
-        self.t, self.kind, self.index, self.impulse, self.energy = [], [], [], [], []
+    """The event log in growable arrays (written by the compiled handler in place)."""
+
+    def __init__(self, cap: int = 4096):
+        self.n = np.zeros(1, np.int64)
+        self._alloc(cap)
+
+    def _alloc(self, cap):
+        old = getattr(self, "arrays", None)
+        k = int(self.n[0])
+        self.arrays = (np.zeros(cap), np.zeros(cap, np.int64), np.zeros(cap, np.int64), np.zeros((cap, 3)),
+                       np.zeros(cap))
+        if old is not None:
+            for new_a, old_a in zip(self.arrays, old):
+                new_a[:k] = old_a[:k]
+
+    def reserve(self, rows: int) -> None:
+        """Make room for ``rows`` more rows (capacity doubles)."""
+        cap = self.arrays[0].shape[0]
+        if cap - int(self.n[0]) < rows:
+            self._alloc(max(2 * cap, int(self.n[0]) + rows))
+
+    def __len__(self) -> int:
+        return int(self.n[0])
 
     def add(self, t, kind, index, impulse=(0.0, 0.0, 0.0), energy=0.0):
-        self.t.append(t)
-        self.kind.append(kind)
-        self.index.append(index)
-        self.impulse.append(tuple(impulse))
-        self.energy.append(energy)
+        self.reserve(1)
+        k = int(self.n[0])
+        lt, lk, li, limp, le = self.arrays
+        lt[k], lk[k], li[k], limp[k], le[k] = t, kind, index, impulse, energy
+        self.n[0] = k + 1
+
+    def view(self):
+        """(t, kind, index, impulse, energy) of the rows written so far."""
+        k = int(self.n[0])
+        return tuple(a[:k] for a in self.arrays)
 
 
 class Run:
@@ -111,11 +156,8 @@ class Run:
         self.floor_all = params.floor == "all"
         self.cone = params.anchor_cone
         self.log = _Log()
-        self.lost_locking = 0.0
-        self.lost_landing = 0.0
-        self.floor_impulse = np.zeros(3)
-        self.t_fall = math.nan
-        self.t_landed = math.nan
+        # [lost_locking, lost_landing, floor impulse (3), t_fall, t_landed] (events.ACC_*)
+        self.acc = np.array([0.0, 0.0, 0.0, 0.0, 0.0, math.nan, math.nan])
         # scratch
         nh = max(n - 1, 0)
         self.scratch = {
@@ -128,6 +170,29 @@ class Run:
         self.vel = np.zeros((n, 3))
         self.pts = np.zeros((n + 1, 3))
         self.afor = np.zeros((n + 1, 3))
+
+    # the run's scalars live in ``acc`` (shared with the compiled event handler)
+    lost_locking = property(lambda self: self.acc[0], lambda self, v: self.acc.__setitem__(0, v))
+    lost_landing = property(lambda self: self.acc[1], lambda self, v: self.acc.__setitem__(1, v))
+    t_fall = property(lambda self: self.acc[5], lambda self, v: self.acc.__setitem__(5, v))
+    t_landed = property(lambda self: self.acc[6], lambda self, v: self.acc.__setitem__(6, v))
+
+    @property
+    def floor_impulse(self) -> np.ndarray:
+        return self.acc[2:5]
+
+    @floor_impulse.setter
+    def floor_impulse(self, v):
+        self.acc[2:5] = v
+
+    def compiled_scratch(self) -> tuple:
+        """Scratch arrays of ``events.handle_event`` (its ``sc`` argument)."""
+        n, nh = self.n, max(self.n - 1, 0)
+        sc = self.scratch
+        u8 = lambda: np.zeros(nh, np.uint8)  # noqa: E731
+        return (sc["gaps"], sc["rates"], sc["rates_after"], sc["impulse"], sc["anchor_impulse"], sc["split"],
+                sc["jv"], sc["w_plus"], sc["de"], sc["dw"], sc["ddg"], sc["lam"], u8(), u8(), u8(), u8(), u8(), u8(),
+                np.zeros(n + 1, np.int64), np.zeros((n + 1, 3)))
 
     # ------------------------------------------------------------- helpers
     def landed(self) -> np.ndarray:
@@ -294,9 +359,14 @@ def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> t
 
 
 def simulate(params: ChainParams, ic: InitialCondition | None = None, options: SolverOptions | None = None, *,
-             state=None, progress: Callable[[float, dict], None] | None = None) -> Result:
+             state=None, progress: Callable[[float, dict], None] | None = None, events: str = "compiled") -> Result:
     """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
-    overrides the initial condition family.  Returns a Result in the run's units."""
+    overrides the initial condition family.  ``events``: ``compiled`` (the step loop
+    and the event handler in one compiled loop, ``events.run_events``) or ``python``
+    (the plain-Python handler ``Run.handle_event``: slow, the reference the compiled
+    one is tested against).  Returns a Result in the run's units."""
+    if events not in ("compiled", "python"):
+        raise ParameterError(f"events must be 'compiled' or 'python', got {events!r}")
     options = options or SolverOptions()
     wall0 = _time.perf_counter()
     e0, w0 = _initial_state(params, ic, state)
@@ -354,66 +424,119 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
         frames_lost_fill = k
 
     last_report = -1.0
+
+    def report():
+        nonlocal last_report
+        if progress is None:
+            return
+        landed = int(np.sum(run.landed()))
+        frac = t / t_stop if options.until is not None else 0.5 * min(1.0, t / t_ff) + 0.5 * landed / n
+        if frac - last_report >= 0.002:
+            last_report = frac
+            progress(min(frac, 1.0), {"t_over_tff": t / t_ff, "events": len(run.log), "landed": landed})
+
+    def flush_trace():
+        k = int(tr_count[0])
+        trace_chunks_t.append(tr_t[:k].copy())
+        trace_chunks_z.append(tr_z[:k].copy())
+        tr_count[0] = 0
+
+    def stop_code(code):
+        """Status and message of an integrator code that ends the run (None: go on)."""
+        if code == ADV_STOP:
+            st = "until" if options.until is not None else "max_time"
+            return st, (f"not all segments landed by t = {options.max_time} t_ff" if st == "max_time" else "")
+        if code == ADV_FAIL_NAN:
+            raise SimulationError(f"non-finite state (blow-up) at t/t_ff = {t / t_ff:.6f}")
+        if code == ADV_FAIL_STEP:
+            raise SimulationError(f"step size underflow (h = {h:.3g}) at t/t_ff = {t / t_ff:.6f}")
+        if code == ADV_MAX_STEPS:
+            raise SimulationError(f"more than max_steps = {options.max_steps} steps at t/t_ff = {t / t_ff:.6f}")
+        return None
+
     try:
-        while True:
-            code, t, h = advance(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
-                                 run.locked, run.lock_cos, run.anchor_pos, run.thr_lock, run.thr_land, run.thr_unlock,
-                                 run.thr_top, options.rtol, options.rtol, xtol, run.wst, K, K2, Y1, Ytmp, dYtmp, lam,
-                                 lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
-                                 fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, run.pts,
-                                 run.vel, run.afor, counters, options.max_steps, stats)
-            fill_losses()
-            if code == ADV_BUFFER or tr_count[0] >= tr_t.shape[0] - 2:
-                k = int(tr_count[0])
-                trace_chunks_t.append(tr_t[:k].copy())
-                trace_chunks_z.append(tr_z[:k].copy())
-                tr_count[0] = 0
+        if events == "compiled":
+            ws = run.wst
+            adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1)
+            frames = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot,
+                      fr_count)
+            sc = run.compiled_scratch()
+            zeno_t = np.zeros(ZENO_EVENTS + 1)
+            zeno_n = np.zeros(1, np.int64)
+            fill = np.zeros(1, np.int64)
+            while True:
+                run.log.reserve(4 * (3 * n + 8))
+                code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
+                                        run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.thr_lock,
+                                        run.thr_land, run.thr_unlock, run.thr_top, options.rtol, xtol, ws, adv,
+                                        frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
+                                        run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,
+                                        run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
+                                        options.max_events, RETURN_EVERY, fr_lostl, fr_lostf, fill)
+                frames_lost_fill = int(fill[0])
                 if code == ADV_BUFFER:
+                    flush_trace()
                     continue
-            if code == ADV_EVENT:
-                nev = int(counters[2])
-                run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
-                recent.append(t)
-                if len(recent) > ZENO_EVENTS:
-                    if t - recent[0] < ZENO_WINDOW * t_ff:
-                        raise SimulationError(
-                            f"event accumulation: {ZENO_EVENTS} events within {t - recent[0]:.3g} time units "
-                            f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
-                if len(run.log.t) > options.max_events:
-                    raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
-                if run.all_landed():
-                    run.t_landed = t
-                    if math.isnan(run.t_fall):
-                        run.t_fall = t
+                if code == EV_LANDED:
                     status = "landed"
                     break
-            elif code == ADV_STOP:
-                status = "until" if options.until is not None else "max_time"
-                if status == "max_time":
-                    message = f"not all segments landed by t = {options.max_time} t_ff"
-                break
-            elif code == ADV_FAIL_NAN:
-                raise SimulationError(f"non-finite state (blow-up) at t/t_ff = {t / t_ff:.6f}")
-            elif code == ADV_FAIL_STEP:
-                raise SimulationError(f"step size underflow (h = {h:.3g}) at t/t_ff = {t / t_ff:.6f}")
-            elif code == ADV_MAX_STEPS:
-                raise SimulationError(f"more than max_steps = {options.max_steps} steps at t/t_ff = {t / t_ff:.6f}")
-            if progress is not None:
-                landed = int(np.sum(run.landed()))
-                frac = t / t_stop if options.until is not None else 0.5 * min(1.0, t / t_ff) + 0.5 * landed / n
-                if frac - last_report >= 0.002:
-                    last_report = frac
-                    progress(min(frac, 1.0), {"t_over_tff": t / t_ff, "events": len(run.log.t), "landed": landed})
+                if code == ERR_ZENO:
+                    raise SimulationError(f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff "
+                                          f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
+                if code == ERR_MAX_EVENTS:
+                    raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
+                if code in ERROR_MESSAGES:
+                    raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}")
+                if code != EV_RETURN:
+                    stop = stop_code(code)
+                    if stop is not None:
+                        status, message = stop
+                        break
+                report()
+        else:
+            while True:
+                code, t, h = advance(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
+                                     run.locked, run.lock_cos, run.anchor_pos, run.thr_lock, run.thr_land,
+                                     run.thr_unlock, run.thr_top, options.rtol, options.rtol, xtol, run.wst, K, K2, Y1,
+                                     Ytmp, dYtmp, lam, lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch,
+                                     fr_lock, fr_force, fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx,
+                                     ev_theta, run.pts, run.vel, run.afor, counters, options.max_steps, stats)
+                fill_losses()
+                if code == ADV_BUFFER or tr_count[0] >= tr_t.shape[0] - 2:
+                    flush_trace()
+                    if code == ADV_BUFFER:
+                        continue
+                if code == ADV_EVENT:
+                    nev = int(counters[2])
+                    run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
+                    recent.append(t)
+                    if len(recent) > ZENO_EVENTS:
+                        if t - recent[0] < ZENO_WINDOW * t_ff:
+                            raise SimulationError(
+                                f"event accumulation: {ZENO_EVENTS} events within {t - recent[0]:.3g} time units "
+                                f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
+                    if len(run.log) > options.max_events:
+                        raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
+                    if run.all_landed():
+                        run.t_landed = t
+                        if math.isnan(run.t_fall):
+                            run.t_fall = t
+                        status = "landed"
+                        break
+                else:
+                    stop = stop_code(code)
+                    if stop is not None:
+                        status, message = stop
+                        break
+                report()
     except SimulationError as exc:
         status, message = "error", str(exc)
     except KeyboardInterrupt:
         raise
     fill_losses()
-    k = int(tr_count[0])
-    trace_chunks_t.append(tr_t[:k].copy())
-    trace_chunks_z.append(tr_z[:k].copy())
+    flush_trace()
     if progress is not None:
-        progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log.t), "landed": int(np.sum(run.landed()))})
+        progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log), "landed": int(np.sum(run.landed()))})
     T_end, U_end = run.energy_now()
     nf = int(fr_count[0])
     return _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
@@ -430,7 +553,7 @@ def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
     fu = params.force_unit
     eu = params.energy_unit
     iu = fu * tu
-    log = run.log
+    log_t, log_kind, log_index, log_imp, log_energy = run.log.view()
     energy = {
         "initial": E0 * eu,
         "potential": U_end * eu,
@@ -446,10 +569,8 @@ def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
         frame_t=fr_t * tu, frame_e=fr_e.copy(), frame_omega=fr_w / tu, frame_anchored=fr_anch.astype(bool),
         frame_locked=fr_lock.astype(bool), frame_floor_force=fr_force * fu, frame_kinetic=fr_kin * eu,
         frame_potential=fr_pot * eu, frame_lost_locking=fr_lostl * eu, frame_lost_landing=fr_lostf * eu,
-        event_t=np.asarray(log.t, dtype=float) * tu, event_kind=np.asarray(log.kind, dtype=np.int8),
-        event_index=np.asarray(log.index, dtype=np.int64),
-        event_impulse=np.asarray(log.impulse, dtype=float).reshape(-1, 3) * iu,
-        event_energy=np.asarray(log.energy, dtype=float) * eu,
+        event_t=log_t * tu, event_kind=log_kind.astype(np.int8), event_index=log_index.copy(),
+        event_impulse=log_imp * iu, event_energy=log_energy * eu,
         anchor_t=run.anchor_t * tu, anchor_pos=run.anchor_pos * lu,
         energy=energy, max_depth=max_depth * lu, floor_impulse=run.floor_impulse * iu,
         wall_seconds=_time.perf_counter() - wall0, n_steps=int(counters[0]), n_evals=int(counters[1]),
