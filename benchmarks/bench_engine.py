@@ -11,34 +11,15 @@ Prints the machine and library versions; quotes medians of repeated runs.
 from __future__ import annotations
 
 import argparse
-import math
 import os
-import platform
 import statistics
 import sys
 import time
 
 import numpy as np
 
-
-def machine_info() -> str:
-    import numba
-    import scipy
-
-    import ballchain
-
-    cpu = platform.processor() or "?"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return (f"machine: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-            f"python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
-            f"scipy {scipy.__version__}, ballchain {ballchain.__version__}")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import machine_info  # noqa: E402
 
 
 def random_state(n: int, rng, locked_fraction: float = 0.3):

@@ -172,7 +172,6 @@ class FastPath:
 
 def energy(e, w):
     """T + U of the chain on its pivot (nondimensional), from positions and velocities."""
-    n = e.shape[0]
     edot = np.cross(w, e)
     below = np.cumsum(2.0 * e[::-1], axis=0)[::-1]  # 2 sum_{k>=i} e_k
     below_d = np.cumsum(2.0 * edot[::-1], axis=0)[::-1]

@@ -430,7 +430,10 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
             # a full 5th-order step to the event time (the 4th-order interpolant is
             # good enough to locate the event, not to restart from)
             if theta_stop > 0.0:
-                K2[0] = K[0]
+                for a in range(2):
+                    for i in range(n):
+                        for q in range(3):
+                            K2[0, a, i, q] = K[0, a, i, q]
                 _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, cone, ws)
                 counters[1] += 6
                 for a in range(2):
