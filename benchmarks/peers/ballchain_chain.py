@@ -88,3 +88,18 @@ def simulate_interval(n: int, until: float, rtol: float, frames: int = 1):
     return dict(t=float(r.frame_t[k]), e=r.frame_e[k].copy(), w=r.frame_omega[k].copy(), wall=wall,
                 min_z=float(heights.min()), landings=int(r.event_counts()["landing"]), status=r.status,
                 t_ff=r.t_ff, e0=e0, steps=int(r.n_steps), evals=int(r.n_evals))
+
+
+def full_fall(n: int, alpha: float = math.pi / 4):
+    """ballchain's full fall (default helix, default solver options, floor model of the
+    defaults) at bend limit alpha.  Returns a dict: wall, status, t_fall and t_landed
+    (in t_ff), steps, evals, and the energy imbalance relative to the initial energy."""
+    from ballchain.engine import simulate
+    from ballchain.model import ChainParams, InitialCondition, SolverOptions
+
+    t0 = time.perf_counter()
+    r = simulate(ChainParams(segments=n, alpha=alpha), InitialCondition(), SolverOptions())
+    wall = time.perf_counter() - t0
+    return dict(wall=wall, status=r.status, t_fall=r.t_fall / r.t_ff,
+                t_landed=None if r.t_landed is None else r.t_landed / r.t_ff, steps=int(r.n_steps),
+                evals=int(r.n_evals), imbalance=abs(r.energy["imbalance"]) / r.energy["initial"])

@@ -9,6 +9,9 @@
 (b) a fixed interval of free motion (alpha = pi, default helix start, before the first
     floor contact): ballchain's ``simulate`` vs MuJoCo stepping the same chain, at
     matched accuracy against a ballchain reference at rtol = 1e-12.
+(c) full falls (``--only full``; not run by default): bend limit alpha, floor, pile-up,
+    until every segment has landed: ballchain's ``simulate`` vs MuJoCo (limited ball
+    joints, capsules on a floor plane, friction; ``mujoco_fall.py``) at a fixed step.
 
 Single-threaded (the thread variables are set before numpy is imported).  Prints the
 machine and library versions and markdown tables of medians; ``--output`` also writes
@@ -317,6 +320,86 @@ def free_motion_table(rows, interval, axial, max_seconds) -> str:
     return table(headers, out) + "\n\n" + "\n".join(f"- {x}" for x in notes)
 
 
+# ------------------------------------------------------------------ (c) full falls
+
+
+def parse_runs(text: str) -> list[tuple[str, float]]:
+    """'Euler:1e-3,RK4:1e-3' -> [('Euler', 0.001), ('RK4', 0.001)]."""
+    return [(x.split(":")[0], float(x.split(":")[1])) for x in text.split(",") if x.strip()]
+
+
+def bench_full_falls(sizes, alpha, runs, study_runs, opts):
+    """Rows of section (c): per N, ballchain's fall then MuJoCo's (the dt study at the
+    smallest N adds the ``study_runs``)."""
+    from ballchain_chain import full_fall
+    from mujoco_fall import mujoco_fall
+
+    full_fall(4, alpha)  # numba warm-up
+    rows = []
+    for n in sizes:
+        bc = full_fall(n, alpha)
+        log(f"  (c) N={n}: ballchain {bc['status']} in {bc['wall']:.1f} s, t_fall {bc['t_fall']:.3f}, "
+            f"t_landed {fmt(bc['t_landed'], '.3f')}")
+        rows.append(dict(n=n, code="ballchain", **bc))
+        for integ, dt in (runs + [r for r in study_runs if r not in runs]) if n == min(sizes) else runs:
+            r = mujoco_fall(n, alpha, dt, integ, opts["radius"], opts["friction"], opts["axial"],
+                            t_max=opts["t_max"], wall_cap=opts["wall_cap"])
+            log(f"  (c) N={n}: MuJoCo {integ} dt={dt:g}: {r.status} at {r.t_end:.3f} t_ff, {r.step_wall:.1f} s, "
+                f"{r.us_per_step:.0f} us/step")
+            rows.append(dict(n=n, code="MuJoCo", integ=integ, dt=dt, res=r, bc_wall=bc["wall"]))
+    return rows
+
+
+def full_fall_table(rows, alpha, opts, main_run, project_to=512) -> str:
+    out = []
+    for row in rows:
+        if row["code"] == "ballchain":
+            out.append([row["n"], "ballchain", "adaptive", row["steps"], fmt(row["wall"] / row["steps"] * 1e6, ".0f"),
+                        fmt(row["wall"], ".2f"), row["status"], fmt(row["t_fall"], ".3f"), fmt(row["t_landed"], ".3f"),
+                        fmt(row["imbalance"], ".1e") + " (imbalance)", "0 (anchored)", "0 (locks)", "1"])
+            continue
+        r = row["res"]
+        status = {"wall cap": f"did not finish in {r.step_wall:.0f} s (at {r.t_end:.2f} t_ff)",
+                  "unstable": f"blew up at {r.t_end:.2f} t_ff", "time cap": f"not landed at {r.t_end:.2f} t_ff"
+                  }.get(r.status, r.status)
+        out.append([row["n"], "MuJoCo", f"{row['integ']} {row['dt']:g}", r.steps, fmt(r.us_per_step, ".0f"),
+                    fmt(r.step_wall, ".2f"), status, fmt(r.t_fall, ".3f"), fmt(r.t_landed, ".3f"),
+                    fmt(r.max_excess, ".1e") + " (max excess)", fmt(r.max_slide, ".2g"),
+                    fmt(r.max_limit_violation, ".2f"), ratio_fmt(r.step_wall / row["bc_wall"])])
+    headers = ["N", "code", "step", "steps", "µs/step", "wall s", "status", "t_fall/t_ff", "t_landed/t_ff",
+               "energy / E0", "max slide (b)", "max over-bend (rad)", "wall / ballchain wall"]
+    mj = [r for r in rows if r["code"] == "MuJoCo" and (r["integ"], r["dt"]) == main_run]
+    proj = ""
+    if mj:
+        big = max(mj, key=lambda r: r["n"])
+        r = big["res"]
+        us = r.us_per_step * (project_to / big["n"]) ** 2.7
+        t_land = (r.t_landed or r.t_end) * r.t_ff * math.sqrt(project_to / big["n"])
+        proj = (f"N = {project_to} not run: from {r.us_per_step:.0f} µs/step at N = {big['n']} and MuJoCo's ~N^2.7 "
+                f"step cost, ~{us / 1e3:.0f} ms/step; ~{t_land / big['dt']:.2g} steps of {big['dt']:g} to land "
+                f"(t_ff ∝ √N) -> ~{us * 1e-6 * t_land / big['dt'] / 3600:.1f} h.")
+    notes = [
+        f"alpha = {alpha:.4g}, default helix at rest. ballchain: default `simulate` (floor 'all': points anchored on "
+        "landing; inelastic locks); energy: |imbalance| / E0 of its closed budget. 'wall s': ballchain's whole "
+        "`simulate` call; MuJoCo's `mj_step` loop only (diagnostics between chunks of ~t_ff/400 not timed).",
+        f"MuJoCo: bend limit = ball-joint range [0, alpha] on the relative rotation angle (twist included; = the "
+        f"bend angle only without twist), default soft limit solref (0.02, 1), solimp (0.9, 0.95, 0.001, 0.5, 2); "
+        f"capsules r = {opts['radius']:g} b colliding only with a floor plane at z = -r (rod axes rest at z = 0), "
+        f"friction {opts['friction']:g} (pyramidal cone, condim 3), default contact solref/solimp, Newton solver; "
+        f"axial inertia {opts['axial']:g} (1e-6, as in (a)/(b), blows up within 0.3 t_ff at every dt and integrator "
+        "tried: the limit constraint acts on the twist). A point is down at height <= r + 1e-3; t_fall: the top "
+        f"point first down; t_landed: all points down at once; runs capped at {opts['t_max']:g} t_ff or "
+        f"{opts['wall_cap']:g} s of stepping.",
+        "energy / E0 (MuJoCo): max over samples of ((T + U) - E0) / E0 (> 0: energy injected; MuJoCo's contacts "
+        "and limits otherwise dissipate). 'max slide': largest horizontal distance a point moved after first going "
+        "down (ballchain: 0, points are anchored). 'max over-bend': largest (relative rotation angle - alpha) over "
+        "the samples (soft limit).",
+        "Single falls are chaotic: t_fall/t_ff differs between codes and between MuJoCo steps; ballchain's ensemble "
+        "at N = 128, pi/4: t_fall/t_ff = 0.978 ± 0.010, t_landed/t_ff = 1.019 ± 0.012.",
+    ] + ([proj] if proj else [])
+    return table(headers, out) + "\n\n" + "\n".join(f"- {x}" for x in notes)
+
+
 # ------------------------------------------------------------------ main
 
 
@@ -335,7 +418,18 @@ def main(argv=None) -> None:
     ap.add_argument("--axial-study", default="1e-2,1e-4,1e-6,1e-9", help="axial inertias compared (empty: skip)")
     ap.add_argument("--max-seconds", type=float, default=None, help="cap of one MuJoCo run (default 60; quick 5)")
     ap.add_argument("--pin-max-gb", type=float, default=4.0, help="skip Pinocchio when its Data would exceed this")
-    ap.add_argument("--only", choices=("eval", "fall"), default=None, help="run only section (a) or (b)")
+    ap.add_argument("--only", choices=("eval", "fall", "full"), default=None,
+                    help="run only section (a), (b) or (c) ((c), full falls, runs only when asked for)")
+    ap.add_argument("--full-sizes", default="32,128", help="N for (c) (default 32,128)")
+    ap.add_argument("--full-alpha", type=float, default=math.pi / 4, help="bend limit of (c) (default pi/4)")
+    ap.add_argument("--full-runs", default="Euler:1e-3", help="MuJoCo integrator:dt of (c) at every N")
+    ap.add_argument("--full-dt-study", default="Euler:3e-4,Euler:1e-4,RK4:1e-3,implicitfast:1e-3",
+                    help="extra MuJoCo integrator:dt of (c) at the smallest N")
+    ap.add_argument("--full-axial", type=float, default=1e-2, help="axial inertia of MuJoCo's rods in (c)")
+    ap.add_argument("--full-radius", type=float, default=0.05, help="capsule radius in (c)")
+    ap.add_argument("--full-friction", type=float, default=1.0, help="floor friction in (c)")
+    ap.add_argument("--full-t-max", type=float, default=3.0, help="simulated-time cap of a MuJoCo fall, in t_ff")
+    ap.add_argument("--full-wall-cap", type=float, default=300.0, help="cap of mj_step wall time of one fall (s)")
     ap.add_argument("--quick", action="store_true", help="small sizes and few repeats (a ~1 minute smoke test)")
     ap.add_argument("--output", default=None, help="also write the markdown section to this file")
     a = ap.parse_args(argv)
@@ -348,7 +442,7 @@ def main(argv=None) -> None:
     cmd = "python benchmarks/peers/compare.py " + " ".join(sys.argv[1:] if argv is None else argv)
     parts = ["## ballchain vs Pinocchio and MuJoCo", "", f"Command: `{cmd.strip()}`", "", *machine_info(), ""]
     print("\n".join(parts), flush=True)
-    if a.only != "fall":
+    if a.only not in ("fall", "full"):
         rows = bench_eval(sizes, repeats, target, a.axial, a.pin_max_gb)
         sec = ["### (a) One evaluation of the accelerations", "", eval_tables(rows, a.axial, a.pin_max_gb, repeats, target), ""]
         if a.axial_study:
@@ -356,7 +450,15 @@ def main(argv=None) -> None:
                     axial_study(study_sizes, parse_list(a.axial_study, float)), ""]
         print("\n".join(sec), flush=True)
         parts += sec
-    if a.only != "eval":
+    if a.only == "full":
+        opts = dict(radius=a.full_radius, friction=a.full_friction, axial=a.full_axial, t_max=a.full_t_max,
+                    wall_cap=a.full_wall_cap)
+        rows = bench_full_falls(parse_list(a.full_sizes), a.full_alpha, parse_runs(a.full_runs),
+                                parse_runs(a.full_dt_study), opts)
+        sec = ["### (c) Full falls: bend limit, floor, pile-up", "", full_fall_table(rows, a.full_alpha, opts, parse_runs(a.full_runs)[0]), ""]
+        print("\n".join(sec), flush=True)
+        parts += sec
+    if a.only not in ("eval", "full"):
         rows = bench_free_motion(fall_sizes, a.interval, parse_list(a.rtols, float), a.integrators.split(","),
                                  a.axial, 3 if a.quick else 5, max_seconds)
         sec = ["### (b) A fixed interval of free motion at matched accuracy", "",
