@@ -494,6 +494,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                         break
                 report()
         else:
+            handled = 0
             while True:
                 code, t, h = advance(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
                                      run.locked, run.lock_cos, run.anchor_pos, run.thr_lock, run.thr_land,
@@ -510,12 +511,13 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                     nev = int(counters[2])
                     run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
                     recent.append(t)
+                    handled += 1
                     if len(recent) > ZENO_EVENTS:
                         if t - recent[0] < ZENO_WINDOW * t_ff:
                             raise SimulationError(
                                 f"event accumulation: {ZENO_EVENTS} events within {t - recent[0]:.3g} time units "
                                 f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
-                    if len(run.log) > options.max_events:
+                    if handled > options.max_events:
                         raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
                     if run.all_landed():
                         run.t_landed = t

@@ -297,7 +297,7 @@ def run_events(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_c
         zeno_n[0] = zk + 1
         if zk + 1 >= zcap and t - zeno_t[(zk + 1) % zcap] < zeno_window:
             return ERR_ZENO, t, h
-        if log_n[0] > max_events:
+        if zk + 1 > max_events:  # event instants handled (not log rows)
             return ERR_MAX_EVENTS, t, h
         if _all_anchored(anchored):
             acc[ACC_T_LANDED] = t

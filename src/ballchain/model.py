@@ -187,7 +187,8 @@ class SolverOptions:
     until: stop at this time in units of t_ff (None: run until every segment has
         landed, at most ``max_time`` t_ff).
     frames_per_tff: output frames (all segment directions) per t_ff.
-    max_events: stop with a clear error after this many events (a Zeno guard).
+    max_events: stop with a clear error after this many event instants (a Zeno guard;
+        one instant can add many rows to the event log).
     event_xtol: tolerance of event times, in units of sqrt(b/g).
     """
 
