@@ -119,13 +119,6 @@ def _zero_cols(J, j, r0, nr, col):
 def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
     """Fill the constraint rows of every point; if ``with_acc_rhs``, also the
     acceleration right-hand side rhs = -(J W f_gravity + velocity-product terms)."""
-    _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, True)
-
-
-@njit(cache=True)
-def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_J):
-    """build_rows; with ``with_J`` False only the row kinds, counts and rhs (the
-    fixed-size path forms J W J^T in closed form and needs no J)."""
     n = e.shape[0]
     for j in range(n + 1):
         a = j - 1
@@ -135,9 +128,8 @@ def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_
         r = 0
         if anchored[j] == 0:
             if a_air and c_air:
-                if with_J:
-                    _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
-                    _end_rows(J, j, 0, 6, e, c, -1.0, 1.0)
+                _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
+                _end_rows(J, j, 0, 6, e, c, -1.0, 1.0)
                 for q in range(3):
                     kind[j, q] = ROW_HINGE
                 if with_acc_rhs:
@@ -148,9 +140,8 @@ def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_
                 r = 3
         else:
             if a_air:
-                if with_J:
-                    _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
-                    _zero_cols(J, j, 0, 3, 6)
+                _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
+                _zero_cols(J, j, 0, 3, 6)
                 for q in range(3):
                     kind[j, q] = ROW_ANCHOR_LOWER
                 if with_acc_rhs:
@@ -160,9 +151,8 @@ def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_
                     rhs[j, 2] += 1.0  # gravity: -(J W f) = +e_z
                 r = 3
             if c_air:
-                if with_J:
-                    _end_rows(J, j, r, 6, e, c, 1.0, -1.0)
-                    _zero_cols(J, j, r, 3, 0)
+                _end_rows(J, j, r, 6, e, c, 1.0, -1.0)
+                _zero_cols(J, j, r, 3, 0)
                 for q in range(3):
                     kind[j, r + q] = ROW_ANCHOR_UPPER
                 if with_acc_rhs:
@@ -178,17 +168,16 @@ def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_
             cx = x1 * y2 - x2 * y1
             cy = x2 * y0 - x0 * y2
             cz = x0 * y1 - x1 * y0
-            if with_J:
-                for q in range(12):
-                    J[j, r, q] = 0.0
-                if a_air:
-                    J[j, r, 3] = cx
-                    J[j, r, 4] = cy
-                    J[j, r, 5] = cz
-                if c_air:
-                    J[j, r, 9] = -cx
-                    J[j, r, 10] = -cy
-                    J[j, r, 11] = -cz
+            for q in range(12):
+                J[j, r, q] = 0.0
+            if a_air:
+                J[j, r, 3] = cx
+                J[j, r, 4] = cy
+                J[j, r, 5] = cz
+            if c_air:
+                J[j, r, 9] = -cx
+                J[j, r, 10] = -cy
+                J[j, r, 11] = -cz
             kind[j, r] = ROW_LOCK
             if with_acc_rhs:
                 # d2g/dt2 = J acc - (|w_a|^2 + |w_c|^2) (e_a.e_c) + 2 de_a . de_c
@@ -208,7 +197,7 @@ def _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs, with_
 
 @njit(cache=True)
 def rows_rhs4(e, w, anchored, locked, cone, kind, nrow, rhs):
-    """``_build`` without J, for the fixed-size path, in one pass that carries each
+    """``build_rows`` without J, for the fixed-size path, in one pass that carries each
     segment's |w|^2, de = w x e and airborne flag to the next point.  Returns False if
     some point needs more than 4 rows (then the general path must be used)."""
     n = e.shape[0]
@@ -740,7 +729,7 @@ def accelerations(e, w, anchored, locked, cone, J, kind, nrow, S, G, drop, rhs, 
         solve4(nrow, S, G, rhs, x)
         torques4(e, kind, nrow, x, gf)
     else:
-        _build(e, w, anchored, locked, cone, J, kind, nrow, rhs, True, True)
+        build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, True)
         ndrop = factor_general(anchored, J, nrow, S, G, drop)
         solve_general(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)

@@ -50,6 +50,7 @@ from .events import (
     EV_RETURN,
     LOG_IMPULSE,
     Z_TOL,
+    bottom_airborne,
     run_events,
 )
 from .initial import check_inside_cone, initial_directions
@@ -244,7 +245,7 @@ class Run:
                                         & (self.pv[:n, 2] <= RATE_TOL))
         else:
             new_anchor = []
-            m = self._bottom_airborne()
+            m = bottom_airborne(self.anchored)
             if np.any(near & (ev_kind == EV_LANDING)):
                 while m >= 0 and e[m, 2] / np.linalg.norm(e[m]) <= Z_TOL:  # cascade
                     new_anchor.append(m)  # point m = upper end of segment m
@@ -325,22 +326,13 @@ class Run:
             if self.anchored[0] and math.isnan(self.t_fall):
                 self.t_fall = t
         else:
-            m = self._bottom_airborne()
+            m = bottom_airborne(self.anchored)
             if m >= 0:
                 ez = e[m, 2] / np.linalg.norm(e[m])
                 self.thr_land[m] = 0.0 if ez > ARM else min(ez, 0.0) - PEN
             z = self.pts[0, 2]
             if math.isnan(self.t_fall) and self.thr_top[0] == 0.0 and z <= ARM:
                 self.thr_top[0] = min(z, 0.0) - PEN
-
-    def _bottom_airborne(self) -> int:
-        a = self.anchored
-        for i in range(self.n - 1, -1, -1):
-            if not (a[i] and a[i + 1]):
-                return i
-        return -1
-
-
 
 
 def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> tuple[np.ndarray, np.ndarray]:
