@@ -183,19 +183,3 @@ def test_helix_is_exactly_model_md():
         v = np.array([eps * math.cos(phi), eps * math.sin(phi), 1.0])
         np.testing.assert_allclose(e[i], v / np.linalg.norm(v), rtol=0, atol=1e-15)
 
-
-@pytest.mark.parametrize("floor", ["all", "pivot"])
-def test_compiled_event_loop_equals_python_handler(floor):
-    """events.run_events (compiled handler and loop) reproduces the plain-Python event
-    handler bit for bit: same event log, frames, trace and energy budget."""
-    p = ChainParams(segments=8, alpha=math.pi / 4, floor=floor)
-    ic = InitialCondition(kind="random", seed=3)
-    a = simulate(p, ic, SolverOptions(), events="python")
-    b = simulate(p, ic, SolverOptions(), events="compiled")
-    assert a.status == b.status == "landed"
-    assert len(a.event_t) > 100  # many events were handled
-    for name in ("event_t", "event_kind", "event_index", "event_impulse", "event_energy", "frame_e", "frame_omega",
-                 "frame_lost_locking", "frame_lost_landing", "t", "z_top", "anchor_t", "anchor_pos", "floor_impulse"):
-        assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
-    assert a.energy == b.energy
-    assert (a.t_fall, a.t_landed) == (b.t_fall, b.t_landed)

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -465,3 +467,38 @@ def test_fixed_size_path_equals_general_path(n):
             np.testing.assert_allclose(ws.x[j, :r], g.x[j, :r], rtol=0, atol=1e-10 * scale)
         np.testing.assert_allclose(ws.gf[:, 3:], g.gf[:, 3:], rtol=0, atol=1e-10 * scale)
     assert fitted >= 10  # the fixed-size path was exercised
+
+
+def test_fixed_size_path_off_unit_axes_and_folded():
+    """Runge-Kutta stages evaluate the equations at axes with |e| != 1.  The closed-form
+    path must still solve the system the rows J define (its end.end blocks carry |e|^2,
+    not 1): near two segments folded flat between two anchors the smallest eigenvalue
+    of J W J^T is ~ (fold angle)^2, so an O(|e|^2 - 1) mismatch makes it indefinite."""
+    n = 4
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        u = rng.normal(size=3)
+        u -= u[2] * np.array([0.0, 0.0, 1.0])
+        u /= np.linalg.norm(u)
+        v = np.cross(u, [0.0, 0.0, 1.0])
+        tilt = 1e-3 * rng.uniform(0.2, 1.0)
+        e = np.zeros((n, 3))
+        e[0] = -u * math.cos(tilt) + v * math.sin(tilt)  # folded back onto segment 1
+        e[1] = u
+        e[2] = u
+        e[3] = u
+        e *= (1.0 + 1e-6 * rng.uniform(-1, 1, size=(n, 1)))  # an RK stage: |e| != 1
+        w = rng.normal(size=(n, 3))
+        w -= np.einsum("ij,ij->i", w, e)[:, None] * e / np.einsum("ij,ij->i", e, e)[:, None]
+        a8 = np.array([1, 0, 1, 1, 1], np.uint8)  # top anchored, segments 2, 3 landed
+        l8 = np.zeros(n - 1, np.uint8)
+        w[2:] = 0.0
+        g = _general_path(e, w, a8, l8)
+        ws = dyn.Workspace(n)
+        assert dyn.rows_rhs4(e, w, a8, l8, False, ws.kind, ws.nrow, ws.rhs)
+        assert dyn.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop) == 0
+        dyn.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
+        dyn.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
+        scale = max(1.0, np.abs(g.x).max())
+        np.testing.assert_allclose(ws.x, g.x, rtol=0, atol=1e-6 * scale)
+        np.testing.assert_allclose(ws.gf[:, 3:], g.gf[:, 3:], rtol=0, atol=1e-6 * scale)

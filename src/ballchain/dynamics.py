@@ -76,23 +76,6 @@ def _is_landed(anchored, i):
 
 
 @njit(cache=True, inline="always")
-def _landed_or_landing(anchored, i):
-    return anchored[i] != 0 and anchored[i + 1] != 0
-
-
-@njit(cache=True, inline="always")
-def lock_active(anchored, k, cone):
-    """Is the limit of hinge k in force?  Between two segments that have not landed,
-    always; between a landed (or landing in the current impact) and an airborne
-    segment only with ``anchor_cone``."""
-    la = _landed_or_landing(anchored, k)
-    lc = _landed_or_landing(anchored, k + 1)
-    if not la and not lc:
-        return True
-    return cone and (la != lc)
-
-
-@njit(cache=True, inline="always")
 def _end_rows(J, j, r0, col, e, i, sv, sw):
     """Rows r0..r0+2 of point j, columns col..col+5: sv * v_i + sw * (e_i x w_i)."""
     ex, ey, ez = e[i, 0], e[i, 1], e[i, 2]
@@ -162,7 +145,7 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
                     rhs[j, r + 2] += 1.0
                 r += 3
         # lock row of hinge k = j - 1 (between segments a and c)
-        if a >= 0 and c < n and locked[a] != 0 and lock_active(anchored, a, cone):
+        if a >= 0 and c < n and locked[a] != 0:  # (the locked set holds only limits in force)
             x0, x1, x2 = e[a, 0], e[a, 1], e[a, 2]
             y0, y1, y2 = e[c, 0], e[c, 1], e[c, 2]
             cx = x1 * y2 - x2 * y1
@@ -237,7 +220,7 @@ def rows_rhs4(e, w, anchored, locked, cone, kind, nrow, rhs):
                 rhs[j, q] = wc2 * e[j, q]
             rhs[j, 2] += 1.0
             r = 3
-        if j >= 1 and j < n and locked[j - 1] != 0 and lock_active(anchored, j - 1, cone):
+        if j >= 1 and j < n and locked[j - 1] != 0:
             if r == 0:
                 fits = False
             kind[j, r] = ROW_LOCK
@@ -397,7 +380,11 @@ def solve_general(nrow, S, G, drop, rhs, x):
 # unknown is 0) and J W J^T is formed in closed form from the segment axes, with the
 # row coefficients of an end row on a segment written (A, B): A v + B (e x w), and a
 # lock row L n . w, n = e_a x e_c:
-#   end . end   = wv A1 A2 delta + ww B1 B2 (delta - e e^T)
+#   end . end   = wv A1 A2 delta + ww B1 B2 (|e|^2 delta - e e^T)
+# (|e|^2, not 1: the Runge-Kutta stages evaluate off |e| = 1, and near a redundant
+# configuration, e.g. two segments folded flat between anchors, the smallest eigenvalue
+# of J W J^T is ~1e-7, so an O(|e|^2 - 1) mismatch with the rows makes the matrix
+# inconsistent or indefinite and the right-hand side discontinuous)
 #   end . lock  = ww B L (e x n)_q          lock . lock = ww L1 L2 n1 . n2
 # Hinge row: a (1, 1), c (-1, 1); anchor, lower: a (1, 1); anchor, upper: c (1, -1);
 # lock row: a L = 1, c L = -1.  The factor is L L^T with F_j = L_j^{-1} E_j:
@@ -465,7 +452,9 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
             ec0, ec1, ec2 = e[j, 0], e[j, 1], e[j, 2]
         qa = aw * Ba * Ba
         qc = cw * Bc * Bc
-        base = av * Aa * Aa + qa + cv * Ac * Ac + qc
+        na2 = ea0 * ea0 + ea1 * ea1 + ea2 * ea2  # |e|^2: 1 only on the constraint manifold
+        nc2 = ec0 * ec0 + ec1 * ec1 + ec2 * ec2
+        base = av * Aa * Aa + qa * na2 + cv * Ac * Ac + qc * nc2
         d00 = base - qa * ea0 * ea0 - qc * ec0 * ec0
         d10 = - qa * ea1 * ea0 - qc * ec1 * ec0
         d11 = base - qa * ea1 * ea1 - qc * ec1 * ec1
@@ -562,15 +551,16 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         mx, my, mz = _lock_vector(e, j + 1, nr1)
         pv = cv * Ac * Aa1
         pw = cw * Bc * Ba1
-        g00 = pv + pw - pw * ec0 * ec0
+        pe = pw * nc2
+        g00 = pv + pe - pw * ec0 * ec0
         g01 = - pw * ec0 * ec1
         g02 = - pw * ec0 * ec2
         g10 = - pw * ec1 * ec0
-        g11 = pv + pw - pw * ec1 * ec1
+        g11 = pv + pe - pw * ec1 * ec1
         g12 = - pw * ec1 * ec2
         g20 = - pw * ec2 * ec0
         g21 = - pw * ec2 * ec1
-        g22 = pv + pw - pw * ec2 * ec2
+        g22 = pv + pe - pw * ec2 * ec2
         lc = cw * Bc
         g03 = lc * (ec1 * mz - ec2 * my)
         g13 = lc * (ec2 * mx - ec0 * mz)

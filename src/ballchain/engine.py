@@ -1,45 +1,24 @@
 """One run: parameters -> initial state -> integrator + events -> Result.
 
-The compiled step loop (``integrator.advance``) returns here at every event; this
-module applies MODEL.md section 3 at that instant, in this order:
-
-1. unlock the hinges whose multiplier crossed zero (not re-locked in the same instant);
-2. anchor the points that reached the floor moving down (floor ``all``: every free
-   point and the top end; floor ``pivot``: the bottom airborne segment once it lies
-   flat, cascading while the next one points at or below the horizontal);
-3. one Moreau impact over every new anchor and every hinge at its limit
-   (``impacts.velocity_impact``): a floor contact and a lock in the same instant are
-   one impact;
-4. the acceleration-level LCP decides which hinges at the limit stay locked
-   (``impacts.lock_set``);
-5. the state is projected back onto the constraints and the event functions that sit
-   at zero are disarmed until they move away.
-
-A grazing hinge (|dg/dt| < impacts.RATE_TOL) gets no impulse; it locks only if the
-acceleration LCP requires it.  Event accumulation (Zeno) stops the run with a clear
-error: more than ``ZENO_EVENTS`` events within ``ZENO_WINDOW`` t_ff, or more than
-``options.max_events`` events in all.
+The step loop (``integrator.advance``) and the one event handler
+(``events.handle_event``) run together in compiled code (``events.run_events``),
+returning here only every ``RETURN_EVERY`` event instants for progress, when a buffer
+fills, or at the end.  The rules they apply are in ``rules`` (docs/model.md, "Events").
+Event accumulation that the rules cannot resolve stops the run with a clear error:
+more than ``ZENO_EVENTS`` event instants within ``ZENO_WINDOW`` t_ff, or more than
+``options.max_events`` in all; the result keeps what was computed.
 """
 
 from __future__ import annotations
 
 import math
 import time as _time
-from collections import deque
 from typing import Callable
 
 import numpy as np
 
 from . import __version__
-from .dynamics import (
-    Workspace,
-    kinetic_energy,
-    point_positions,
-    potential_energy,
-    project_state,
-    velocities,
-)
-from .impacts import GAP_TOL, RATE_TOL, hinge_gaps, hinge_rates, lock_set, velocity_impact
+from .dynamics import Workspace, kinetic_energy, potential_energy
 from .events import (
     ERR_ENERGY,
     ERR_IMPACT_LCP,
@@ -48,34 +27,19 @@ from .events import (
     ERR_ZENO,
     EV_LANDED,
     EV_RETURN,
-    LOG_IMPULSE,
-    Z_TOL,
-    bottom_airborne,
+    arm_functions,
     run_events,
 )
+from .impacts import hinge_gaps
 from .initial import check_inside_cone, initial_directions
-from .integrator import (
-    ADV_BUFFER,
-    ADV_EVENT,
-    ADV_FAIL_NAN,
-    ADV_FAIL_STEP,
-    ADV_MAX_STEPS,
-    ADV_STOP,
-    EV_LANDING,
-    EV_TOP,
-    EV_UNLOCK,
-    ARM,
-    PEN,
-    PROJ_TOL,
-    advance,
-)
+from .integrator import ADV_BUFFER, ADV_FAIL_NAN, ADV_FAIL_STEP, ADV_MAX_STEPS, ADV_STOP
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from .result import Result
+from .rules import FLOOR_CODES
 
 RETURN_EVERY = 256  # events handled in compiled code between returns to Python (progress)
 ZENO_EVENTS = 20000
 ZENO_WINDOW = 1e-9  # in units of t_ff
-EV_IMPULSE = LOG_IMPULSE  # event-log kind: impulse on an already-locked hinge during an impact
 
 
 ERROR_MESSAGES = {
@@ -146,15 +110,17 @@ class Run:
         self.anchor_pos[n] = 0.0
         self.anchor_t = np.full(n + 1, np.nan)
         self.anchor_t[n] = 0.0
-        # event thresholds: 0 = armed; min(f, 0) - PEN = disarmed (integrator docstring)
-        self.thr_lock = np.zeros(max(n - 1, 0))
-        self.thr_unlock = np.zeros(max(n - 1, 0))
-        self.thr_land = np.zeros(n + 1)
-        self.thr_top = np.zeros(1)
+        # how each event function is watched (rules.arm_state; set by arm_functions)
+        self.arm_lock = np.zeros(max(n - 1, 0), np.int8)
+        self.arm_unlock = np.zeros(max(n - 1, 0), np.int8)
+        self.arm_land = np.zeros(n + 1, np.int8)
+        self.arm_top = np.zeros(1, np.int8)
+        self.arms = (self.arm_lock, self.arm_unlock, self.arm_land, self.arm_top)
+        self.refs = (np.zeros(max(n - 1, 0)), np.zeros(max(n - 1, 0)), np.zeros(n + 1), np.zeros(1))
         self.ws = Workspace(n)
         self.wst = self.ws.arrays()
         self.cos_alpha = math.cos(params.alpha)
-        self.floor_all = params.floor == "all"
+        self.floor = FLOOR_CODES[params.floor]
         self.cone = params.anchor_cone
         self.log = _Log()
         # [lost_locking, lost_landing, floor impulse (3), t_fall, t_landed] (events.ACC_*)
@@ -193,146 +159,23 @@ class Run:
         u8 = lambda: np.zeros(nh, np.uint8)  # noqa: E731
         return (sc["gaps"], sc["rates"], sc["rates_after"], sc["impulse"], sc["anchor_impulse"], sc["split"],
                 sc["jv"], sc["w_plus"], sc["de"], sc["dw"], sc["ddg"], sc["lam"], u8(), u8(), u8(), u8(), u8(), u8(),
-                np.zeros(n + 1, np.int64), np.zeros((n + 1, 3)))
+                np.zeros(n + 1, np.int64), np.zeros((n + 1, 3)), u8(), u8(), np.zeros(nh), np.zeros(nh),
+                np.zeros((n + 1, 3)), np.zeros(n + 1))
 
-    # ------------------------------------------------------------- helpers
+    def arm(self) -> None:
+        """Arm the event functions of the current state (events.arm_functions)."""
+        gaps = np.zeros(max(self.n - 1, 0))
+        hinge_gaps(self.Y[0], self.cos_alpha, gaps)
+        arm_functions(self.floor, self.p.alpha, self.cone, self.Y[0], self.anchored, self.locked, gaps,
+                      self.scratch["lam"], not math.isnan(self.t_fall), self.arms, self.refs, np.zeros(self.n + 1))
+
     def landed(self) -> np.ndarray:
         a = self.anchored
         return (a[:-1] != 0) & (a[1:] != 0)
 
-    def all_landed(self) -> bool:
-        return bool(np.all(self.anchored))
-
     def energy_now(self) -> tuple[float, float]:
         e, w = self.Y
         return kinetic_energy(e, w, self.pv, self.vel), potential_energy(e)
-
-    def lock_in_force(self) -> np.ndarray:
-        """Hinges whose limit is in force (dynamics.lock_active, vectorised)."""
-        a = self.anchored != 0
-        gone = a[:-1] & a[1:]  # landed or landing now
-        la, lc = gone[:-1], gone[1:]
-        f = ~la & ~lc
-        if self.cone:
-            f |= la != lc
-        if self.p.alpha >= math.pi:
-            f[:] = False
-        return f
-
-    # ------------------------------------------------------------- events
-    def handle_event(self, t: float, ev_kind, ev_idx, ev_time, xtol: float) -> None:
-        """Apply everything that happens at the instant t (module docstring, steps 1-5)."""
-        n, nh = self.n, self.n - 1
-        e, w = self.Y[0], self.Y[1]
-        J, kind, nrow, S, G, drop, rhs, x, gf = self.wst
-        sc = self.scratch
-        near = ev_time <= t + 10 * xtol
-        exclude = np.zeros(nh, np.uint8)
-        # 1. unlocks (and the top end crossing the floor in the pivot model)
-        for k in ev_idx[near & (ev_kind == EV_UNLOCK)]:
-            if self.locked[k]:
-                self.locked[k] = 0
-                exclude[k] = 1
-                self.log.add(t, 2, int(k))
-        if np.any(near & (ev_kind == EV_TOP)) and math.isnan(self.t_fall):
-            self.t_fall = t
-            self.thr_top[0] = -math.inf  # recorded once
-        # 2. floor contacts
-        point_positions(e, self.pts)
-        velocities(e, w, self.pv, self.vel)
-        if self.floor_all:
-            new_anchor = np.flatnonzero((self.anchored[:n] == 0) & (self.pts[:n, 2] <= Z_TOL)
-                                        & (self.pv[:n, 2] <= RATE_TOL))
-        else:
-            new_anchor = []
-            m = bottom_airborne(self.anchored)
-            if np.any(near & (ev_kind == EV_LANDING)):
-                while m >= 0 and e[m, 2] / np.linalg.norm(e[m]) <= Z_TOL:  # cascade
-                    new_anchor.append(m)  # point m = upper end of segment m
-                    m -= 1
-            new_anchor = np.array(new_anchor, dtype=np.int64)
-        pre_v = self.pv[new_anchor].copy()
-        self.anchored[new_anchor] = 2  # anchored; its neighbours still move during the impact
-        self.anchor_pos[new_anchor] = self.pts[new_anchor]  # held where it touched (|z| < Z_TOL)
-        self.anchor_t[new_anchor] = t
-        # 3. one impact over the new anchors and every hinge at its limit
-        gaps, rates = sc["gaps"], sc["rates"]
-        hinge_gaps(e, self.cos_alpha, gaps)
-        hinge_rates(e, w, rates)
-        in_force = self.lock_in_force()
-        self.locked[~in_force] = 0
-        cand = (in_force & ((gaps <= GAP_TOL) | (self.locked != 0)) & (exclude == 0)).astype(np.uint8)
-        approaching = (cand != 0) & (rates < -RATE_TOL)
-        was_locked = self.locked.copy()
-        new_lock = np.zeros(nh, bool)  # locked by an impulse in this impact
-        if new_anchor.size or np.any(approaching):
-            active = ((self.locked != 0) | approaching).astype(np.uint8)
-            impulse, aimp, split = sc["impulse"], sc["anchor_impulse"], sc["split"]
-            T0 = kinetic_energy(e, w, self.pv, self.vel)
-            it = velocity_impact(e, w, self.anchored, cand, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf,
-                                 self.pv, self.vel, sc["jv"], sc["w_plus"], sc["rates_after"], impulse, aimp, split)
-            if it < 0:
-                raise SimulationError(f"impact LCP did not converge at t = {t:.17g}")
-            T1 = kinetic_energy(e, w, self.pv, self.vel)
-            if T1 > T0 * (1 + 1e-9) + 1e-12:
-                raise SimulationError(f"impact raised the kinetic energy ({T0:.17g} -> {T1:.17g}) at t = {t:.17g}")
-            self.lost_locking += split[0]
-            self.lost_landing += split[1]
-            rates_after = sc["rates_after"]
-            hinge_rates(e, w, rates_after)
-            for k in np.flatnonzero(impulse > 0):
-                lost = -0.5 * impulse[k] * (rates[k] + rates_after[k])
-                self.log.add(t, EV_IMPULSE if was_locked[k] else 1, int(k), (impulse[k], 0.0, 0.0), lost)
-                new_lock[k] = not was_locked[k]
-            for r, j in enumerate(new_anchor):
-                imp = aimp[j].copy()
-                self.floor_impulse += imp
-                self.log.add(t, 3, int(j), imp, -0.5 * float(imp @ pre_v[r]))
-            self.locked[:] = active  # hinges kept at the limit by the impact
-            rates[:] = rates_after
-        self.anchored[self.anchored == 2] = 1
-        in_force = self.lock_in_force()
-        self.locked[~in_force] = 0
-        w[self.landed()] = 0.0
-        # 4. which hinges at the limit stay locked (acceleration-level LCP)
-        cand2 = ((in_force & (gaps <= GAP_TOL) & (np.abs(rates) <= RATE_TOL) | (self.locked != 0))
-                 & (exclude == 0)).astype(np.uint8)
-        active = ((self.locked != 0) & (cand2 != 0)).astype(np.uint8)
-        lam = sc["lam"]
-        it = lock_set(e, w, self.anchored, cand2, self.cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, sc["de"],
-                      sc["dw"], sc["ddg"], lam)
-        if it < 0:
-            raise SimulationError(f"lock-set LCP did not converge at t = {t:.17g}")
-        self.locked[:] = active
-        for k in np.flatnonzero((was_locked == 0) & (self.locked != 0)):
-            if not new_lock[k]:
-                self.log.add(t, 1, int(k))  # locked without impulse (a touch)
-        for k in np.flatnonzero((self.locked == 0) & ((was_locked != 0) | new_lock)):
-            self.log.add(t, 2, int(k))  # released (possibly right after its impact: stopped, then separating)
-        # 5. hold new locks at the angle reached, project, disarm what sits at zero
-        newly = (was_locked == 0) & (self.locked != 0)
-        self.lock_cos[newly] = self.cos_alpha + gaps[newly]
-        project_state(e, w, self.anchored, self.locked, self.cone, self.lock_cos, self.anchor_pos, J, kind, nrow, S,
-                      G, drop, rhs, x, gf, self.pts, self.vel, PROJ_TOL, 5)
-        hinge_gaps(e, self.cos_alpha, gaps)
-        lk = self.locked != 0
-        self.thr_unlock[lk] = np.where(lam[lk] > ARM, 0.0, np.minimum(lam[lk], 0.0) - PEN)
-        self.thr_lock[~lk] = np.where(gaps[~lk] > ARM, 0.0, np.minimum(gaps[~lk], 0.0) - PEN)
-        point_positions(e, self.pts)
-        if self.floor_all:
-            z = self.pts[:, 2]
-            free = self.anchored == 0
-            self.thr_land[free] = np.where(z[free] > ARM, 0.0, np.minimum(z[free], 0.0) - PEN)
-            if self.anchored[0] and math.isnan(self.t_fall):
-                self.t_fall = t
-        else:
-            m = bottom_airborne(self.anchored)
-            if m >= 0:
-                ez = e[m, 2] / np.linalg.norm(e[m])
-                self.thr_land[m] = 0.0 if ez > ARM else min(ez, 0.0) - PEN
-            z = self.pts[0, 2]
-            if math.isnan(self.t_fall) and self.thr_top[0] == 0.0 and z <= ARM:
-                self.thr_top[0] = min(z, 0.0) - PEN
 
 
 def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> tuple[np.ndarray, np.ndarray]:
@@ -351,14 +194,9 @@ def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> t
 
 
 def simulate(params: ChainParams, ic: InitialCondition | None = None, options: SolverOptions | None = None, *,
-             state=None, progress: Callable[[float, dict], None] | None = None, events: str = "compiled") -> Result:
+             state=None, progress: Callable[[float, dict], None] | None = None) -> Result:
     """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
-    overrides the initial condition family.  ``events``: ``compiled`` (the step loop
-    and the event handler in one compiled loop, ``events.run_events``) or ``python``
-    (the plain-Python handler ``Run.handle_event``: slow, the reference the compiled
-    one is tested against).  Returns a Result in the run's units."""
-    if events not in ("compiled", "python"):
-        raise ParameterError(f"events must be 'compiled' or 'python', got {events!r}")
+    overrides the initial condition family.  Returns a Result in the run's units."""
     options = options or SolverOptions()
     wall0 = _time.perf_counter()
     e0, w0 = _initial_state(params, ic, state)
@@ -405,16 +243,6 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     t = 0.0
     h = 1e-3
     status, message = "landed", ""
-    recent = deque(maxlen=ZENO_EVENTS + 1)  # times of the latest events
-    frames_lost_fill = 0
-
-    def fill_losses():
-        nonlocal frames_lost_fill
-        k = int(fr_count[0])
-        fr_lostl[frames_lost_fill:k] = run.lost_locking
-        fr_lostf[frames_lost_fill:k] = run.lost_landing
-        frames_lost_fill = k
-
     last_report = -1.0
 
     def report():
@@ -446,88 +274,45 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
             raise SimulationError(f"more than max_steps = {options.max_steps} steps at t/t_ff = {t / t_ff:.6f}")
         return None
 
+    run.arm()
+    ws = run.wst
+    adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1)
+    frames = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count)
+    sc = run.compiled_scratch()
+    zeno_t = np.zeros(ZENO_EVENTS + 1)
+    zeno_n = np.zeros(1, np.int64)
+    fill = np.zeros(1, np.int64)
     try:
-        if events == "compiled":
-            ws = run.wst
-            adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1)
-            frames = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot,
-                      fr_count)
-            sc = run.compiled_scratch()
-            zeno_t = np.zeros(ZENO_EVENTS + 1)
-            zeno_n = np.zeros(1, np.int64)
-            fill = np.zeros(1, np.int64)
-            while True:
-                run.log.reserve(4 * (3 * n + 8))
-                code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
-                                        run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.thr_lock,
-                                        run.thr_land, run.thr_unlock, run.thr_top, options.rtol, xtol, ws, adv,
-                                        frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
-                                        run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,
-                                        run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
-                                        options.max_events, RETURN_EVERY, fr_lostl, fr_lostf, fill)
-                frames_lost_fill = int(fill[0])
-                if code == ADV_BUFFER:
-                    flush_trace()
-                    continue
-                if code == EV_LANDED:
-                    status = "landed"
+        while True:
+            run.log.reserve(4 * (4 * n + 8))
+            code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor, run.cone, run.anchored,
+                                    run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs, options.rtol,
+                                    xtol,
+                                    ws, adv, frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
+                                    run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,
+                                    run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
+                                    options.max_events, RETURN_EVERY, fr_lostl, fr_lostf, fill)
+            if code == ADV_BUFFER:
+                flush_trace()
+                continue
+            if code == EV_LANDED:
+                status = "landed"
+                break
+            if code == ERR_ZENO:
+                raise SimulationError(f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff "
+                                      f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
+            if code == ERR_MAX_EVENTS:
+                raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
+            if code in ERROR_MESSAGES:
+                raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}")
+            if code != EV_RETURN:
+                stop = stop_code(code)
+                if stop is not None:
+                    status, message = stop
                     break
-                if code == ERR_ZENO:
-                    raise SimulationError(f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff "
-                                          f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
-                if code == ERR_MAX_EVENTS:
-                    raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
-                if code in ERROR_MESSAGES:
-                    raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}")
-                if code != EV_RETURN:
-                    stop = stop_code(code)
-                    if stop is not None:
-                        status, message = stop
-                        break
-                report()
-        else:
-            handled = 0
-            while True:
-                code, t, h = advance(run.Y, t, h, t_stop, params.alpha, run.floor_all, run.cone, run.anchored,
-                                     run.locked, run.lock_cos, run.anchor_pos, run.thr_lock, run.thr_land,
-                                     run.thr_unlock, run.thr_top, options.rtol, options.rtol, xtol, run.wst, K, K2, Y1,
-                                     Ytmp, dYtmp, lam, lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch,
-                                     fr_lock, fr_force, fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx,
-                                     ev_theta, run.pts, run.vel, run.afor, counters, options.max_steps, stats)
-                fill_losses()
-                if code == ADV_BUFFER or tr_count[0] >= tr_t.shape[0] - 2:
-                    flush_trace()
-                    if code == ADV_BUFFER:
-                        continue
-                if code == ADV_EVENT:
-                    nev = int(counters[2])
-                    run.handle_event(t, ev_kind[:nev].copy(), ev_idx[:nev].copy(), ev_theta[:nev].copy(), xtol)
-                    recent.append(t)
-                    handled += 1
-                    if len(recent) > ZENO_EVENTS:
-                        if t - recent[0] < ZENO_WINDOW * t_ff:
-                            raise SimulationError(
-                                f"event accumulation: {ZENO_EVENTS} events within {t - recent[0]:.3g} time units "
-                                f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
-                    if handled > options.max_events:
-                        raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
-                    if run.all_landed():
-                        run.t_landed = t
-                        if math.isnan(run.t_fall):
-                            run.t_fall = t
-                        status = "landed"
-                        break
-                else:
-                    stop = stop_code(code)
-                    if stop is not None:
-                        status, message = stop
-                        break
-                report()
+            report()
     except SimulationError as exc:
         status, message = "error", str(exc)
-    except KeyboardInterrupt:
-        raise
-    fill_losses()
     flush_trace()
     if progress is not None:
         progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log), "landed": int(np.sum(run.landed()))})

@@ -1,20 +1,26 @@
-"""What happens at an event instant (MODEL.md section 3), compiled: ``handle_event``,
-and the loop ``run_events`` that alternates the integrator and the event handler
-without returning to Python.
+"""What happens at an event instant (docs/model.md, "Events"), compiled: the one event
+handler ``handle_event``, and the loop ``run_events`` that alternates the integrator
+and the handler without returning to Python.
 
-``handle_event`` applies, in this order (engine.py's module docstring states the
-rules; ``engine.Run.handle_event`` is the plain-Python version it is tested against):
+``handle_event`` applies, in this order:
 
-1. unlock the hinges whose multiplier crossed zero (they cannot re-lock in this instant);
-2. anchor the points that reached the floor moving down (floor ``all``), or the bottom
-   airborne segment that lies flat, cascading (floor ``pivot``);
-3. one Moreau impact over every new anchor and every hinge at its limit;
-4. the acceleration-level LCP: which hinges at the limit stay locked;
-5. new locks hold the angle reached; the state is projected onto the constraints and
-   the event functions sitting at zero are disarmed.
+1. unlock the hinges whose multiplier crossed zero (they cannot re-lock in this
+   instant); in the pivot model, record the top end reaching the floor;
+2. anchor the points the floor model lets touch the floor (``rules.floor_contacts``);
+3. one Moreau impact (``impacts.velocity_impact``) over every new anchor and every
+   hinge at its limit;
+4. the acceleration-level LCP (``impacts.lock_set``): which hinges at the limit stay
+   locked.  A hinge released in this instant that accelerates back to its limit and
+   would return slower than ``rules.HOLD_RATE``, or after an excursion below
+   ``rules.APEX_MIN``, is held at its limit (the limit of the converging series of
+   impacts it would start), and steps 3-4 are solved again with it held;
+5. new locks hold the angle reached; the state is projected onto the constraints; each
+   event function is armed or marked departing (``arm_functions``), and the first step
+   after the instant is capped so that a departing hinge's return is resolved.
 
-The event log is kept in preallocated arrays (``log_*``, ``log_n[0]`` rows); the run's
-scalars in ``acc``: [lost_locking, lost_landing, floor impulse x, y, z, t_fall, t_landed].
+The event log is kept in preallocated arrays (``log_*``, ``log_n[0]`` rows); each row is
+one of ``result.EVENT_KINDS``.  The run's scalars are in ``acc``: [lost_locking, lost_landing,
+floor impulse x, y, z, t_fall, t_landed].
 """
 
 from __future__ import annotations
@@ -23,18 +29,31 @@ import math
 
 from numba import njit
 
-from .dynamics import (
-    kinetic_energy,
-    lock_active,
-    point_positions,
-    project_state,
-    velocities,
+from .dynamics import kinetic_energy, point_positions, project_state, velocities
+from .impacts import hinge_gaps, hinge_rates, lock_set, velocity_impact
+from .result import EVENT_CODES
+from .integrator import ADV_EVENT, EV_LANDING, EV_TOP, EV_UNLOCK, PROJ_TOL, advance
+from .rules import (
+    DEPARTING,
+    FLOOR_PIVOT,
+    GAP_TOL,
+    APEX_MIN,
+    HOLD_RATE,
+    OFF,
+    RATE_TOL,
+    ZERO_BAND,
+    arm_state,
+    floor_contacts,
+    floor_values,
+    floor_watched,
+    limit_in_force,
 )
-from .impacts import GAP_TOL, RATE_TOL, hinge_gaps, hinge_rates, lock_set, velocity_impact
-from .integrator import ADV_EVENT, ARM, EV_LANDING, EV_TOP, EV_UNLOCK, PEN, PROJ_TOL, advance
 
-Z_TOL = 1e-9  # a free point with z below this (units b) at an event touches the floor
-LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_IMPULSE = 1, 2, 3, 5
+# event-log kinds (result.EVENT_KINDS says what each means)
+LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = EVENT_CODES["lock"], EVENT_CODES["unlock"], EVENT_CODES["landing"], \
+    EVENT_CODES["top"]
+LOG_IMPULSE, LOG_RELEASE, LOG_HOLD = EVENT_CODES["impulse"], EVENT_CODES["release"], EVENT_CODES["hold"]
+
 ACC_LOST_LOCKING, ACC_LOST_LANDING, ACC_FLOOR_IMPULSE, ACC_T_FALL, ACC_T_LANDED = 0, 1, 2, 5, 6
 
 # handle_event / run_events status codes (negative: the run cannot go on)
@@ -58,46 +77,76 @@ def _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, kind, index,
 
 
 @njit(cache=True)
-def bottom_airborne(anchored):
-    """Index of the lowest segment that has not landed (-1 if all have)."""
-    n = anchored.shape[0] - 1
-    for i in range(n - 1, -1, -1):
-        if not (anchored[i] != 0 and anchored[i + 1] != 0):
-            return i
-    return -1
+def arm_functions(floor, alpha, cone, e, anchored, locked, gaps, lam, t_fall_known, arms, refs, fv):
+    """Arm state of every event function after an instant (or at the start): a function
+    is watched only where its rule applies, ARMED where positive, DEPARTING at its zero;
+    its reference level (where a departing function starts) is min(f, 0).
+    ``arms`` = (arm_lock, arm_unlock, arm_land, arm_top), ``refs`` likewise."""
+    arm_lock, arm_unlock, arm_land, arm_top = arms
+    ref_lock, ref_unlock, ref_land, ref_top = refs
+    nh = locked.shape[0]
+    for k in range(nh):
+        arm_lock[k] = OFF
+        arm_unlock[k] = OFF
+        if not limit_in_force(anchored, k, cone, alpha):
+            continue
+        if locked[k] != 0:
+            arm_unlock[k] = arm_state(lam[k])
+            ref_unlock[k] = min(lam[k], 0.0)
+        else:
+            arm_lock[k] = arm_state(gaps[k])
+            ref_lock[k] = min(gaps[k], 0.0)
+    floor_values(floor, e, anchored, fv)
+    for j in range(arm_land.shape[0]):
+        arm_land[j] = arm_state(fv[j]) if floor_watched(floor, anchored, j) else OFF
+        ref_land[j] = min(fv[j], 0.0)
+    arm_top[0] = OFF
+    if floor == FLOOR_PIVOT and not t_fall_known:
+        z = 0.0
+        for i in range(e.shape[0]):
+            z += 2.0 * e[i, 2]
+        arm_top[0] = arm_state(z)
+        ref_top[0] = min(z, 0.0)
 
 
 @njit(cache=True)
-def _in_force(anchored, cone, alpha, out):
-    """out[k] = 1 if the limit of hinge k is in force (never when alpha = pi)."""
-    for k in range(out.shape[0]):
-        out[k] = 1 if (alpha < math.pi and lock_active(anchored, k, cone)) else 0
+def _return_time_cap(e, w, de, dw, anchored, arm_lock, arm_land, rates, ddg, pv):
+    """Time to the apex of the slowest-returning departing constraint: a hinge (or a
+    free point, floor ``all``) that leaves its zero at rate v > 0 while accelerating back
+    (a < 0) returns after 2 v/|a|; a first step no longer than v/|a| ends near the apex,
+    where the function is positive, so that its return is located as a crossing.  Only
+    excursions that rise above rules.ZERO_BAND (v^2 / 2|a|) can be resolved; smaller
+    ones are hovering and are not waited for."""
+    cap = math.inf
+    for k in range(arm_lock.shape[0]):
+        if arm_lock[k] == DEPARTING and ddg[k] < 0.0 and rates[k] ** 2 > -2.0 * ZERO_BAND * ddg[k]:
+            cap = min(cap, rates[k] / -ddg[k])
+    n = e.shape[0]
+    az = 0.0  # d2z/dt2 of point j = 2 sum_{i>=j} (dw_i x e_i + w_i x de_i)_z
+    for j in range(n - 1, -1, -1):
+        az += 2.0 * (dw[j, 0] * e[j, 1] - dw[j, 1] * e[j, 0] + w[j, 0] * de[j, 1] - w[j, 1] * de[j, 0])
+        if arm_land[j] == DEPARTING and az < 0.0 and pv[j, 2] > 0.0 and pv[j, 2] ** 2 > -2.0 * ZERO_BAND * az:
+            cap = min(cap, pv[j, 2] / -az)
+    return cap
 
 
 @njit(cache=True)
-def _thr(f):
-    """Threshold of an event function at value f after an event: armed or disarmed."""
-    return 0.0 if f > ARM else min(f, 0.0) - PEN
-
-
-@njit(cache=True)
-def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor_all, cone,
+def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor, cone,
                  e, w, anchored, locked, lock_cos, anchor_pos, anchor_t,
-                 thr_lock, thr_unlock, thr_land, thr_top, ws, sc, pts, pv, vel,
-                 log_t, log_kind, log_index, log_imp, log_energy, log_n, acc):
+                 arms, refs, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc):
     """Apply everything that happens at the instant t (module docstring, steps 1-5).
-    ``ws``: the Workspace arrays; ``sc``: scratch (see ``engine.Run``).  Returns EV_OK
-    or a negative error code."""
+    ``ws``: the Workspace arrays; ``sc``: scratch (``engine.Run.scratch``).  Returns
+    (status, h_cap): EV_OK or a negative error code, and the largest first step."""
     J, kind, nrow, S, G, drop, rhs, x, gf = ws
     (gaps, rates, rates_after, impulse, anchor_impulse, split, jv, w_plus, de, dw, ddg, lam,
-     exclude, cand, active, was_locked, new_lock, in_force, new_anchor, pre_v) = sc
+     exclude, cand, active, was_locked, new_lock, in_force, new_anchor, pre_v,
+     forced, entry, imp_sum, lost_h, stage_aimp, fv) = sc
     n = e.shape[0]
     nh = n - 1
     cos_alpha = math.cos(alpha)
-    # 1. unlocks (and the top end crossing the floor in the pivot model)
+    # 1. unlocks; the top end crossing the floor in the pivot model
     for k in range(nh):
         exclude[k] = 0
-    any_top = False
     any_landing = False
     for i in range(nev):
         if ev_time[i] > t + 10.0 * xtol:
@@ -109,28 +158,15 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor_all, cone,
                 exclude[k] = 1
                 _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0)
         elif ev_kind[i] == EV_TOP:
-            any_top = True
+            if math.isnan(acc[ACC_T_FALL]):
+                acc[ACC_T_FALL] = t
+                _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0)
         elif ev_kind[i] == EV_LANDING:
             any_landing = True
-    if any_top and math.isnan(acc[ACC_T_FALL]):
-        acc[ACC_T_FALL] = t
-        thr_top[0] = -math.inf  # recorded once
     # 2. floor contacts
     point_positions(e, pts)
     velocities(e, w, pv, vel)
-    na = 0
-    if floor_all:
-        for j in range(n):
-            if anchored[j] == 0 and pts[j, 2] <= Z_TOL and pv[j, 2] <= RATE_TOL:
-                new_anchor[na] = j
-                na += 1
-    else:
-        m = bottom_airborne(anchored)
-        if any_landing:
-            while m >= 0 and e[m, 2] / math.sqrt(e[m, 0] ** 2 + e[m, 1] ** 2 + e[m, 2] ** 2) <= Z_TOL:  # cascade
-                new_anchor[na] = m  # point m = upper end of segment m
-                na += 1
-                m -= 1
+    na = floor_contacts(floor, e, pts, pv, anchored, any_landing, new_anchor)
     for r in range(na):
         j = new_anchor[r]
         for q in range(3):
@@ -138,12 +174,13 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor_all, cone,
             anchor_pos[j, q] = pts[j, q]  # held where it touched (|z| < Z_TOL)
         anchored[j] = 2  # anchored; its neighbours still move during the impact
         anchor_t[j] = t
-    # 3. one impact over the new anchors and every hinge at its limit
+    # 3-4. one impact over the new anchors and every hinge at its limit, then the lock
+    # set; repeated while the accumulation rule holds another hinge (rules.HOLD_RATE)
     hinge_gaps(e, cos_alpha, gaps)
     hinge_rates(e, w, rates)
-    _in_force(anchored, cone, alpha, in_force)
     any_approaching = False
     for k in range(nh):
+        in_force[k] = 1 if limit_in_force(anchored, k, cone, alpha) else 0
         if not in_force[k]:
             locked[k] = 0
         cand[k] = 1 if (in_force[k] and (gaps[k] <= GAP_TOL or locked[k] != 0) and exclude[k] == 0) else 0
@@ -151,92 +188,113 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor_all, cone,
         any_approaching = any_approaching or approaching
         was_locked[k] = locked[k]
         new_lock[k] = 0
+        forced[k] = 0
+        imp_sum[k] = 0.0
+        lost_h[k] = 0.0
         active[k] = 1 if (locked[k] != 0 or approaching) else 0
-    if na > 0 or any_approaching:
-        T0 = kinetic_energy(e, w, pv, vel)
-        it = velocity_impact(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf,
-                             pv, vel, jv, w_plus, rates_after, impulse, anchor_impulse, split)
-        if it < 0:
-            return ERR_IMPACT_LCP
-        T1 = kinetic_energy(e, w, pv, vel)
-        if T1 > T0 * (1 + 1e-9) + 1e-12:
-            return ERR_ENERGY
-        acc[ACC_LOST_LOCKING] += split[0]
-        acc[ACC_LOST_LANDING] += split[1]
-        hinge_rates(e, w, rates_after)
-        for k in range(nh):
-            if impulse[k] > 0:
-                lost = -0.5 * impulse[k] * (rates[k] + rates_after[k])
-                _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t,
-                     LOG_IMPULSE if was_locked[k] else LOG_LOCK, k, impulse[k], 0.0, 0.0, lost)
-                new_lock[k] = 0 if was_locked[k] else 1
-        for r in range(na):
-            j = new_anchor[r]
-            i0, i1, i2 = anchor_impulse[j, 0], anchor_impulse[j, 1], anchor_impulse[j, 2]
-            acc[ACC_FLOOR_IMPULSE] += i0
-            acc[ACC_FLOOR_IMPULSE + 1] += i1
-            acc[ACC_FLOOR_IMPULSE + 2] += i2
-            lost = -0.5 * (i0 * pre_v[r, 0] + i1 * pre_v[r, 1] + i2 * pre_v[r, 2])
-            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_LANDING, j, i0, i1, i2, lost)
-        for k in range(nh):
-            locked[k] = active[k]  # hinges kept at the limit by the impact
-            rates[k] = rates_after[k]
     for j in range(n + 1):
-        if anchored[j] == 2:
-            anchored[j] = 1
-    _in_force(anchored, cone, alpha, in_force)
+        for q in range(3):
+            anchor_impulse[j, q] = 0.0
+    T0 = kinetic_energy(e, w, pv, vel)
+    impact = na > 0 or any_approaching
+    for rnd in range(nh + 1):  # each round holds at least one more hinge
+        if impact:
+            for k in range(nh):
+                entry[k] = active[k]
+            hinge_rates(e, w, rates)
+            it = velocity_impact(e, w, anchored, cand, forced, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf,
+                                 pv, vel, jv, w_plus, rates_after, impulse, stage_aimp, split)
+            if it < 0:
+                return ERR_IMPACT_LCP, 0.0
+            acc[ACC_LOST_LOCKING] += split[0]
+            acc[ACC_LOST_LANDING] += split[1]
+            for j in range(n + 1):  # the floor's impulse on the chain: every anchor, new or old
+                for q in range(3):
+                    anchor_impulse[j, q] += stage_aimp[j, q]
+                    acc[ACC_FLOOR_IMPULSE + q] += stage_aimp[j, q]
+            for k in range(nh):
+                imp_sum[k] += impulse[k]
+                lost_h[k] += -0.5 * impulse[k] * (rates[k] + rates_after[k])
+                if rnd == 0 and active[k] and not was_locked[k]:
+                    new_lock[k] = 1
+                locked[k] = active[k]  # hinges kept at the limit by the impact
+            hinge_rates(e, w, rates)
+        if rnd == 0:
+            for j in range(n + 1):
+                if anchored[j] == 2:
+                    anchored[j] = 1
+            for k in range(nh):
+                in_force[k] = 1 if limit_in_force(anchored, k, cone, alpha) else 0
+                if not in_force[k]:
+                    locked[k] = 0
+            for i in range(n):
+                if anchored[i] != 0 and anchored[i + 1] != 0:
+                    w[i, 0] = 0.0
+                    w[i, 1] = 0.0
+                    w[i, 2] = 0.0
+        # which hinges at the limit stay locked (acceleration-level LCP)
+        for k in range(nh):
+            c2 = (((in_force[k] and gaps[k] <= GAP_TOL and abs(rates[k]) <= RATE_TOL) or locked[k] != 0)
+                  and exclude[k] == 0)
+            cand[k] = 1 if c2 else 0
+            active[k] = 1 if (locked[k] != 0 and c2) else 0
+        it = lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam)
+        if it < 0:
+            return ERR_LOCK_LCP, 0.0
+        for k in range(nh):
+            locked[k] = active[k]
+        # the accumulation limit: a hinge this instant has released (it was locked, or
+        # took an impulse) that accelerates back to its limit and would return either
+        # slower than HOLD_RATE or after an excursion too small to resolve
+        nhold = 0
+        for k in range(nh):
+            if locked[k] or forced[k] or not (was_locked[k] or new_lock[k]) or exclude[k] or gaps[k] > GAP_TOL:
+                continue
+            if ddg[k] < 0.0 and (rates[k] < HOLD_RATE or rates[k] ** 2 < -2.0 * APEX_MIN * ddg[k]):
+                forced[k] = 1
+                nhold += 1
+        if nhold == 0:
+            break
+        impact = True
+        for k in range(nh):
+            cand[k] = 1 if (in_force[k] and (gaps[k] <= GAP_TOL or locked[k] != 0 or forced[k])) and not exclude[k] \
+                else 0
+            active[k] = 1 if (locked[k] or forced[k]) else 0
+    T1 = kinetic_energy(e, w, pv, vel)
+    if T1 > T0 * (1 + 1e-9) + 1e-12:
+        return ERR_ENERGY, 0.0
+    # the log: one row per constraint that acted
     for k in range(nh):
-        if not in_force[k]:
-            locked[k] = 0
-    for i in range(n):
-        if anchored[i] != 0 and anchored[i + 1] != 0:
-            w[i, 0] = 0.0
-            w[i, 1] = 0.0
-            w[i, 2] = 0.0
-    # 4. which hinges at the limit stay locked (acceleration-level LCP)
-    for k in range(nh):
-        c2 = ((in_force[k] and gaps[k] <= GAP_TOL and abs(rates[k]) <= RATE_TOL) or locked[k] != 0) and exclude[k] == 0
-        cand[k] = 1 if c2 else 0
-        active[k] = 1 if (locked[k] != 0 and c2) else 0
-    it = lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam)
-    if it < 0:
-        return ERR_LOCK_LCP
-    for k in range(nh):
-        locked[k] = active[k]
-    for k in range(nh):
-        if was_locked[k] == 0 and locked[k] != 0 and not new_lock[k]:
+        if forced[k]:
+            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_HOLD, k, imp_sum[k], 0.0, 0.0,
+                 lost_h[k])
+        elif imp_sum[k] != 0.0 or new_lock[k]:
+            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t,
+                 LOG_IMPULSE if was_locked[k] else LOG_LOCK, k, imp_sum[k], 0.0, 0.0, lost_h[k])
+        elif locked[k] and not was_locked[k]:  # a touch that locks
             _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_LOCK, k, 0.0, 0.0, 0.0, 0.0)
-    for k in range(nh):
-        if locked[k] == 0 and (was_locked[k] != 0 or new_lock[k]):
-            # released (possibly right after its impact: stopped, then separating)
-            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0)
-    # 5. hold new locks at the angle reached, project, disarm what sits at zero
+        if not locked[k] and (was_locked[k] or new_lock[k] or forced[k]):
+            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0)
+    for r in range(na):
+        j = new_anchor[r]
+        i0, i1, i2 = anchor_impulse[j, 0], anchor_impulse[j, 1], anchor_impulse[j, 2]
+        lost = -0.5 * (i0 * pre_v[r, 0] + i1 * pre_v[r, 1] + i2 * pre_v[r, 2])
+        _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_LANDING, j, i0, i1, i2, lost)
+    # 5. hold new locks at the angle reached, project, arm the event functions
     for k in range(nh):
         if was_locked[k] == 0 and locked[k] != 0:
             lock_cos[k] = cos_alpha + gaps[k]
+    velocities(e, w, pv, vel)
     project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs, x, gf,
                   pts, vel, PROJ_TOL, 5)
     hinge_gaps(e, cos_alpha, gaps)
-    for k in range(nh):
-        if locked[k] != 0:
-            thr_unlock[k] = _thr(lam[k])
-        else:
-            thr_lock[k] = _thr(gaps[k])
-    point_positions(e, pts)
-    if floor_all:
-        for j in range(n + 1):
-            if anchored[j] == 0:
-                thr_land[j] = _thr(pts[j, 2])
-        if anchored[0] and math.isnan(acc[ACC_T_FALL]):
-            acc[ACC_T_FALL] = t
-    else:
-        m = bottom_airborne(anchored)
-        if m >= 0:
-            thr_land[m] = _thr(e[m, 2] / math.sqrt(e[m, 0] ** 2 + e[m, 1] ** 2 + e[m, 2] ** 2))
-        z = pts[0, 2]
-        if math.isnan(acc[ACC_T_FALL]) and thr_top[0] == 0.0 and z <= ARM:
-            thr_top[0] = min(z, 0.0) - PEN
-    return EV_OK
+    if floor != FLOOR_PIVOT and anchored[0] and math.isnan(acc[ACC_T_FALL]):
+        acc[ACC_T_FALL] = t
+    arm_functions(floor, alpha, cone, e, anchored, locked, gaps, lam, not math.isnan(acc[ACC_T_FALL]), arms, refs,
+                  fv)
+    hinge_rates(e, w, rates)
+    velocities(e, w, pv, vel)
+    return EV_OK, _return_time_cap(e, w, de, dw, anchored, arms[0], arms[2], rates, ddg, pv)
 
 
 @njit(cache=True)
@@ -248,34 +306,38 @@ def _all_anchored(anchored):
 
 
 @njit(cache=True)
-def run_events(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos, anchor_pos, anchor_t,
-               thr_lock, thr_land, thr_unlock, thr_top, rtol, xtol, ws, adv, frames, trace, ev, pts, pv, vel, afor,
+def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos, anchor_t,
+               arms, refs, rtol, xtol, ws, adv, frames, trace, ev, pts, pv, vel, afor,
                counters, max_steps, stats, sc, log, log_n, acc, zeno_t, zeno_n, zeno_window, max_events,
                return_every, fr_lostl, fr_lostf, fill):
     """Integrate and handle events in one compiled loop.  Returns (code, t, h): an
     integrator code (integrator.ADV_*; never ADV_EVENT), EV_LANDED, EV_RETURN (after
     ``return_every`` events, or when the log has no room for another event), or a
-    negative error code (ERR_*).  ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1),
-    ``frames`` = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
-    fr_kin, fr_pot, fr_count), ``trace`` = (tr_t, tr_z, tr_count), ``ev`` = (ev_kind,
-    ev_idx, ev_theta), ``log`` = (log_t, log_kind, log_index, log_imp, log_energy).
-    ``zeno_t``: ring of the latest event times (length ZENO_EVENTS + 1), ``zeno_n[0]``
-    events seen.  Frames ``fill[0]`` .. ``fr_count[0]`` get the cumulative losses as
-    they stand when the integrator returns (no loss happens between events)."""
+    negative error code (ERR_*).  ``arms`` = (arm_lock, arm_unlock, arm_land, arm_top),
+    ``refs`` their reference levels (``arm_functions``),
+    ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1), ``frames`` = (frame_dt, frame_next,
+    cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count),
+    ``trace`` = (tr_t, tr_z, tr_count), ``ev`` = (ev_kind, ev_idx, ev_theta), ``log`` =
+    (log_t, log_kind, log_index, log_imp, log_energy).  ``zeno_t``: ring of the latest
+    event times (length ZENO_EVENTS + 1), ``zeno_n[0]`` events seen.  Frames ``fill[0]``
+    .. ``fr_count[0]`` get the cumulative losses as they stand when the integrator
+    returns (no loss happens between events)."""
     K, K2, Y1, Ytmp, dYtmp, lam, lam1 = adv
     frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count = frames
     tr_t, tr_z, tr_count = trace
     ev_kind, ev_idx, ev_theta = ev
     log_t, log_kind, log_index, log_imp, log_energy = log
+    arm_lock, arm_unlock, arm_land, arm_top = arms
+    ref_lock, ref_unlock, ref_land, ref_top = refs
     n = Y.shape[1]
-    room = 3 * n + 8  # log rows one event can add at most
+    room = 4 * n + 8  # log rows one event can add at most
     handled = 0
     zcap = zeno_t.shape[0]
     while True:
         if log_t.shape[0] - log_n[0] < room:
             return EV_RETURN, t, h
-        code, t, h = advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos, anchor_pos,
-                             thr_lock, thr_land, thr_unlock, thr_top, rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
+        code, t, h = advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos,
+                             arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
                              lam, lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
                              fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel,
                              afor, counters, max_steps, stats)
@@ -285,12 +347,13 @@ def run_events(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_c
         fill[0] = fr_count[0]
         if code != ADV_EVENT:
             return code, t, h
-        status = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, alpha, floor_all, cone,
-                              Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t,
-                              thr_lock, thr_unlock, thr_land, thr_top, ws, sc, pts, pv, vel,
-                              log_t, log_kind, log_index, log_imp, log_energy, log_n, acc)
+        status, h_cap = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, alpha, floor, cone,
+                                     Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t,
+                                     arms, refs, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc)
         if status < 0:
             return status, t, h
+        if h_cap < h:
+            h = max(h_cap, 1e-12 * max(1.0, abs(t)))
         # event accumulation: ZENO_EVENTS (= zcap - 1) events within zeno_window
         zk = zeno_n[0]
         zeno_t[zk % zcap] = t

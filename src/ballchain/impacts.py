@@ -31,12 +31,10 @@ from .dynamics import (
     build_rows,
     constraint_velocities,
     factor,
-    lock_active,
     solve,
 )
+from .rules import RATE_TOL
 
-GAP_TOL = 1e-9  # |g| below this: the hinge is at its limit
-RATE_TOL = 1e-8  # |dg/dt| below this (units sqrt(g/b)): a touch, not an impact
 MULT_TOL = 1e-11  # multipliers/accelerations below -MULT_TOL violate complementarity
 MAX_PIVOTS = 100000
 
@@ -92,7 +90,7 @@ def _pivot_update(active, viol, use_murty):
 
 
 @njit(cache=True)
-def velocity_impact(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel,
+def velocity_impact(e, w, anchored, cand, forced, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel,
                     jv_minus, w_plus, rates, impulse, anchor_impulse, energy_split):
     """Moreau's inelastic impact.  ``cand[k]``: hinge k at its limit (a candidate);
     ``active`` on entry: initial guess (e.g. locked or approaching hinges), on exit: the
@@ -133,10 +131,10 @@ def velocity_impact(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, dro
                     if kind[k + 1, r] == ROW_LOCK:
                         lam = x[k + 1, r]
                 impulse[k] = lam
-                if lam < -MULT_TOL:
+                if lam < -MULT_TOL and not forced[k]:
                     viol[k] = 1
                     nviol += 1
-            elif cand[k] and lock_active(anchored, k, cone) and rates[k] < -RATE_TOL:
+            elif cand[k] and rates[k] < -RATE_TOL:
                 viol[k] = 1
                 nviol += 1
         if nviol == 0:
@@ -203,7 +201,7 @@ def lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs,
                 if lam[k] < -MULT_TOL:
                     viol[k] = 1
                     nviol += 1
-            elif cand[k] and lock_active(anchored, k, cone) and ddg[k] < -MULT_TOL:
+            elif cand[k] and ddg[k] < -MULT_TOL:
                 viol[k] = 1
                 nviol += 1
         if nviol == 0:

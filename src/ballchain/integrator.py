@@ -9,18 +9,29 @@ velocities w.
 
 Event functions (each located by Brent's method on the dense output to ``xtol``):
 
-  kind 1  lock       g_k = e_k . e_{k+1} - cos(alpha)     unlocked hinge in force
+  kind 1  lock       g_k = e_k . e_{k+1} - cos(alpha)     unlocked hinge whose limit is in force
   kind 2  unlock     lambda_k                              locked hinge
-  kind 3  landing    z_j (floor "all": every free point)  or  e_M . e_z (floor "pivot":
-                     the bottom airborne segment M)
+  kind 3  landing    rules.floor_value (floor "all": the height of every free point;
+                     floor "pivot": e_M . e_z of the bottom airborne segment M)
   kind 4  top        z_0 (floor "pivot" only: t_fall, no state change)
 
-Each event function f triggers when it falls below its threshold (``thr_*`` arrays):
-0 when *armed*.  A function left at (or just past) zero by an event it was part of is
-*disarmed*: its threshold becomes min(f, 0) - PEN, so it fires again only if it moves
-PEN further in (a penetration guard, not a re-trigger of the event just handled); it
-is re-armed (threshold 0) once f exceeds ``ARM``.  A step is checked at its end and at
-its midpoint.
+How each function is watched is its arm state (``rules.arm_state``, arrays ``arm_*``):
+ARMED functions are positive and fire when they reach zero; a DEPARTING function sits at
+its zero after the event that put it there and is known to leave it (the event
+handler has made its rate non-negative), so it fires only when it returns to zero
+after having been positive, and that return is located like any other crossing: no
+penetration margin delays an event.  A departing function becomes armed once a step
+ends with it above ``rules.ZERO_BAND``.  One that has not yet been above it (a
+constraint hovering at its limit: rate and acceleration both about zero) fires when it
+sinks below ``-rules.ZERO_BAND``.  A step is checked at its end and its midpoint (armed
+functions), or at 16 points (departing functions that were triggered).  The sinking
+level is measured from where the function started (``ref_*``: min(f, 0) after the
+event), since an event leaves it only within round-off of its zero.  After an
+instant the event handler caps the first step so that a departing constraint that
+accelerates back is seen positive before it returns (``events._return_time_cap``).
+
+The step error is the largest component error over the state (a max norm), so its
+meaning does not change with N.
 """
 
 from __future__ import annotations
@@ -34,11 +45,11 @@ from .dynamics import (
     accelerations,
     anchor_forces,
     kinetic_energy,
-    lock_active,
     lock_multipliers,
     potential_energy,
     project_state,
 )
+from .rules import ARMED, DEPARTING, OFF, ZERO_BAND, floor_value, floor_values
 
 # Dormand-Prince 5(4) (Hairer's DOPRI5; the coefficients of scipy's RK45)
 C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
@@ -65,8 +76,7 @@ P = np.array([
 EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP = 1, 2, 3, 4
 ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0, 1, 2, 3, 4, 5
 
-ARM = 1e-10  # an event function re-arms above this value
-PEN = 1e-8  # a disarmed function triggers below -PEN
+NSCAN = 16  # samples per step for a triggered departing function
 PROJ_TOL = 1e-12  # constraint drift tolerated before projection
 
 
@@ -113,119 +123,6 @@ def _dense_e(Y0, K, b, i, q):
 
 
 @njit(cache=True)
-def _zpoint_dense(Y0, K, b, j):
-    n = Y0.shape[1]
-    z = 0.0
-    for i in range(j, n):
-        z += 2.0 * _dense_e(Y0, K, b, i, 2)
-    return z
-
-
-@njit(cache=True, inline="always")
-def _gap(e, k, cos_alpha):
-    """g_k of unit-normalised axes."""
-    d = 0.0
-    na = 0.0
-    nc = 0.0
-    for q in range(3):
-        d += e[k, q] * e[k + 1, q]
-        na += e[k, q] * e[k, q]
-        nc += e[k + 1, q] * e[k + 1, q]
-    return d / math.sqrt(na * nc) - cos_alpha
-
-
-@njit(cache=True)
-def _zpoint(e, j):
-    z = 0.0
-    for i in range(j, e.shape[0]):
-        z += 2.0 * e[i, 2]
-    return z
-
-
-@njit(cache=True)
-def event_value(kind, idx, theta, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam):
-    """Value of event function (kind, idx) at t0 + theta h on the dense output."""
-    b = np.empty(7)
-    _dense_weights(h, theta, b)
-    if kind == EV_LOCK:
-        acc = 0.0
-        for q in range(3):
-            acc += _dense_e(Y0, K, b, idx, q) * _dense_e(Y0, K, b, idx + 1, q)
-        # normalise: the dense output is not exactly unit length
-        na = 0.0
-        nc = 0.0
-        for q in range(3):
-            na += _dense_e(Y0, K, b, idx, q) ** 2
-            nc += _dense_e(Y0, K, b, idx + 1, q) ** 2
-        return acc / math.sqrt(na * nc) - cos_alpha
-    if kind == EV_LANDING:
-        if idx >= 0:
-            return _zpoint_dense(Y0, K, b, idx)
-        m = -idx - 1  # pivot floor: segment m
-        nz = 0.0
-        for q in range(3):
-            nz += _dense_e(Y0, K, b, m, q) ** 2
-        return _dense_e(Y0, K, b, m, 2) / math.sqrt(nz)
-    if kind == EV_TOP:
-        return _zpoint_dense(Y0, K, b, 0)
-    # EV_UNLOCK: lambda_k at the interpolated state
-    _dense(Y0, K, h, theta, Yt)
-    _rhs(Yt, anchored, locked, cone, ws, dYt)
-    J, kind_, nrow, S, G, drop, rhs, x, gf = ws
-    lock_multipliers(kind_, nrow, x, lam)
-    return lam[idx]
-
-
-@njit(cache=True)
-def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam):
-    """Root of f + off on [a, b] (theta units) with f(a) + off > 0 >= f(b) + off (Brent)."""
-    c, fc = a, fa
-    d = b - a
-    e_ = d
-    for _ in range(200):
-        if fb * fc > 0.0:
-            c, fc = a, fa
-            d = b - a
-            e_ = d
-        if abs(fc) < abs(fb):
-            a, b, c = b, c, b
-            fa, fb, fc = fb, fc, fb
-        tol1 = 2.0 * 1e-16 * abs(b) + 0.5 * xtol
-        xm = 0.5 * (c - b)
-        if abs(xm) <= tol1 or fb == 0.0:
-            return b
-        if abs(e_) >= tol1 and abs(fa) > abs(fb):
-            s = fb / fa
-            if a == c:
-                p = 2.0 * xm * s
-                q = 1.0 - s
-            else:
-                q = fa / fc
-                r = fb / fc
-                p = s * (2.0 * xm * q * (q - r) - (b - a) * (r - 1.0))
-                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
-            if p > 0.0:
-                q = -q
-            p = abs(p)
-            if 2.0 * p < min(3.0 * xm * q - abs(tol1 * q), abs(e_ * q)):
-                e_ = d
-                d = p / q
-            else:
-                d = xm
-                e_ = d
-        else:
-            d = xm
-            e_ = d
-        a, fa = b, fb
-        if abs(d) > tol1:
-            b += d
-        else:
-            b += tol1 if xm > 0 else -tol1
-        fb = event_value(kind, idx, b, Y0, K, h, cos_alpha, anchored, locked, cone, ws, Yt, dYt, lam) + off
-    return b
-
-
-@njit(cache=True)
 def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws):
     """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y) given);
     Y1 = the 5th-order solution, K[6] = f(Y1)."""
@@ -263,8 +160,192 @@ def _nonfinite(Y):
 
 
 @njit(cache=True)
-def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos, anchor_pos,
-            thr_lock, thr_land, thr_unlock, thr_top,
+def _dense_axes(Y0, K, b, out):
+    """The axes e of the dense output (weights b from _dense_weights) into out."""
+    for i in range(Y0.shape[1]):
+        for q in range(3):
+            out[i, q] = _dense_e(Y0, K, b, i, q)
+
+
+@njit(cache=True, inline="always")
+def _gap(e, k, cos_alpha):
+    """g_k of unit-normalised axes."""
+    d = 0.0
+    na = 0.0
+    nc = 0.0
+    for q in range(3):
+        d += e[k, q] * e[k + 1, q]
+        na += e[k, q] * e[k, q]
+        nc += e[k + 1, q] * e[k + 1, q]
+    return d / math.sqrt(na * nc) - cos_alpha
+
+
+@njit(cache=True)
+def _zpoint(e, j):
+    z = 0.0
+    for i in range(j, e.shape[0]):
+        z += 2.0 * e[i, 2]
+    return z
+
+
+@njit(cache=True)
+def event_value(kind, idx, theta, Y0, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam):
+    """Value of event function (kind, idx) at t0 + theta h on the dense output."""
+    b = np.empty(7)
+    _dense_weights(h, theta, b)
+    if kind == EV_LOCK:
+        acc = 0.0
+        na = 0.0
+        nc = 0.0
+        for q in range(3):
+            ea = _dense_e(Y0, K, b, idx, q)
+            ec = _dense_e(Y0, K, b, idx + 1, q)
+            acc += ea * ec
+            na += ea * ea
+            nc += ec * ec
+        # normalise: the dense output is not exactly unit length
+        return acc / math.sqrt(na * nc) - cos_alpha
+    if kind == EV_LANDING:
+        _dense_axes(Y0, K, b, Yt[0])
+        return floor_value(floor, Yt[0], idx)
+    if kind == EV_TOP:
+        _dense_axes(Y0, K, b, Yt[0])
+        return _zpoint(Yt[0], 0)
+    # EV_UNLOCK: lambda_k at the interpolated state
+    _dense(Y0, K, h, theta, Yt)
+    _rhs(Yt, anchored, locked, cone, ws, dYt)
+    J, kind_, nrow, S, G, drop, rhs, x, gf = ws
+    lock_multipliers(kind_, nrow, x, lam)
+    return lam[idx]
+
+
+@njit(cache=True)
+def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt,
+           lam):
+    """Root of f + off on [a, b] (theta units) with fa > 0 >= fb (the values of f + off
+    there) by Brent's method; returns a theta at which f + off <= 0 (the crossing, to
+    xtol)."""
+    c, fc = a, fa
+    d = b - a
+    e_ = d
+    for _ in range(200):
+        if fb * fc > 0.0:
+            c, fc = a, fa
+            d = b - a
+            e_ = d
+        if abs(fc) < abs(fb):
+            a, b, c = b, c, b
+            fa, fb, fc = fb, fc, fb
+        tol1 = 2.0 * 1e-16 * abs(b) + 0.5 * xtol
+        xm = 0.5 * (c - b)
+        if abs(xm) <= tol1 or fb == 0.0:
+            break
+        if abs(e_) >= tol1 and abs(fa) > abs(fb):
+            s = fb / fa
+            if a == c:
+                p = 2.0 * xm * s
+                q = 1.0 - s
+            else:
+                q = fa / fc
+                r = fb / fc
+                p = s * (2.0 * xm * q * (q - r) - (b - a) * (r - 1.0))
+                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
+            if p > 0.0:
+                q = -q
+            p = abs(p)
+            if 2.0 * p < min(3.0 * xm * q - abs(tol1 * q), abs(e_ * q)):
+                e_ = d
+                d = p / q
+            else:
+                d = xm
+                e_ = d
+        else:
+            d = xm
+            e_ = d
+        a, fa = b, fb
+        if abs(d) > tol1:
+            b += d
+        else:
+            b += tol1 if xm > 0 else -tol1
+        fb = event_value(kind, idx, b, Y0, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam) + off
+    # return the end of the bracket on the far side of the crossing
+    if fb <= 0.0:
+        return b
+    return c
+
+
+@njit(cache=True)
+def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam):
+    """Where in the step (theta in [0, 1]) event function (kd, ix) fires, or 2.0 if it
+    does not (module docstring).  ``fmid``, ``fend``: its values at the midpoint and the
+    end (fmid = inf: unknown)."""
+    if mode == ARMED:
+        f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam)
+        if f0 <= 0.0:
+            return 0.0
+        if fmid <= 0.0:
+            return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, xtol, Y, K, h, cos_alpha, floor, anchored, locked, cone,
+                          ws, Yt, dYt, lam)
+        if fend <= 0.0:
+            if fmid == math.inf:
+                return _brent(kd, ix, 0.0, 0.0, 1.0, f0, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
+                              cone, ws, Yt, dYt, lam)
+            return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked, cone,
+                          ws, Yt, dYt, lam)
+        return 2.0
+    # DEPARTING: it fires when it returns to zero after a sample above ZERO_BAND, or,
+    # never having been there, when it sinks below ref - ZERO_BAND
+    nscan = NSCAN if kd != EV_UNLOCK else 2  # lambda costs an evaluation per sample
+    thp = -1.0
+    fp = 0.0
+    thq = 0.0
+    fq = 0.0
+    for s in range(nscan + 1):
+        th = s / nscan
+        if s == nscan:
+            f = fend
+        elif 2 * s == nscan and fmid != math.inf:
+            f = fmid
+        else:
+            f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam)
+        if f > ZERO_BAND:
+            thp = th
+            fp = f
+        elif thp >= 0.0 and f <= 0.0:
+            return _brent(kd, ix, 0.0, thp, th, fp, f, xtol, Y, K, h, cos_alpha, floor, anchored, locked, cone, ws,
+                          Yt, dYt, lam)
+        elif f < ref - ZERO_BAND:
+            sink = ZERO_BAND - ref
+            if s == 0 or fq + sink <= 0.0:
+                return thq
+            return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, xtol, Y, K, h, cos_alpha, floor, anchored,
+                          locked, cone, ws, Yt, dYt, lam)
+        thq = th
+        fq = f
+    return 2.0
+
+
+@njit(cache=True)
+def _step_error(Y, Y1, K, h, rtol, atol):
+    """Largest component error of the step, in units of its tolerance (max norm)."""
+    n = Y.shape[1]
+    err = 0.0
+    for a in range(2):
+        for i in range(n):
+            for q in range(3):
+                ev = 0.0
+                for s in range(7):
+                    ev += E[s] * K[s, a, i, q]
+                sc = atol + rtol * max(abs(Y[a, i, q]), abs(Y1[a, i, q]))
+                r = abs(ev * h) / sc
+                if r > err or not math.isfinite(r):
+                    err = r
+    return err
+
+
+@njit(cache=True)
+def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos,
+            arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top,
             rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1,
             frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
             tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, afor, counters, max_steps, stats):
@@ -272,15 +353,18 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
 
     Returns (code, t, h).  On ADV_EVENT, ``Y`` holds the state at the event time t,
     and ``ev_kind/ev_idx/ev_theta`` (``counters[2]`` rows) the triggered events with
-    their located times (absolute).  ``counters``: [0] steps, [1] evaluations,
-    [2] events found.  ``stats[0]``: lowest point seen (max depth is -stats[0]).
+    their located times (absolute; inf: not confirmed).  ``counters``: [0] steps,
+    [1] evaluations, [2] events found.  ``stats[0]``: lowest point seen (max depth is
+    -stats[0]).  ``arm_*``, ``ref_*``: how each event function is watched (module
+    docstring).
     """
     n = Y.shape[1]
     nh = n - 1
     cos_alpha = math.cos(alpha)
-    locks_possible = alpha < math.pi
     fr_k = fr_count[0]
     tr_k = tr_count[0]
+    fv_mid = np.empty(n + 1)
+    fv_end = np.empty(n + 1)
     # FSAL: derivative at the current state
     _rhs(Y, anchored, locked, cone, ws, K[0])
     counters[1] += 1
@@ -303,18 +387,7 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
         # --- one Dormand-Prince step
         _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws)
         counters[1] += 6
-        # error estimate
-        err = 0.0
-        for a in range(2):
-            for i in range(n):
-                for q in range(3):
-                    ev = 0.0
-                    for s in range(7):
-                        ev += E[s] * K[s, a, i, q]
-                    ev *= h
-                    sc = atol + rtol * max(abs(Y[a, i, q]), abs(Y1[a, i, q]))
-                    err += (ev / sc) ** 2
-        err = math.sqrt(err / (6.0 * n))
+        err = _step_error(Y, Y1, K, h, rtol, atol)
         if not math.isfinite(err) or _nonfinite(Y1):
             nfail += 1
             if nfail > 20:
@@ -325,97 +398,65 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
             h *= max(0.2, 0.9 * err ** -0.2)
             continue
         nfail = 0
-        counters[0] += 1
         J, kind_, nrow, S, G, drop, rhs, x, gf = ws
         lock_multipliers(kind_, nrow, x, lam1)  # lambda at Y1 (last stage)
         # --- event detection at the end and the midpoint of the step
         nev = 0
         _dense(Y, K, h, 0.5, Ytmp)  # midpoint state, for the midpoint checks
-        if locks_possible:
-            for k in range(nh):
-                if locked[k] or not lock_active(anchored, k, cone):
-                    continue
-                if _gap(Y1[0], k, cos_alpha) < thr_lock[k] or _gap(Ytmp[0], k, cos_alpha) < thr_lock[k]:
-                    ev_kind[nev] = EV_LOCK
-                    ev_idx[nev] = k
-                    nev += 1
         for k in range(nh):
-            if not locked[k] or not lock_active(anchored, k, cone):
+            if arm_lock[k] == OFF or locked[k]:
                 continue
-            if lam1[k] < thr_unlock[k]:
+            fm = _gap(Ytmp[0], k, cos_alpha)
+            fe = _gap(Y1[0], k, cos_alpha)
+            if fm <= 0.0 or fe <= 0.0:
+                ev_kind[nev] = EV_LOCK
+                ev_idx[nev] = k
+                ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
+                                        anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                nev += 1
+        for k in range(nh):
+            if arm_unlock[k] == OFF or not locked[k]:
+                continue
+            if lam1[k] <= 0.0:
                 ev_kind[nev] = EV_UNLOCK
                 ev_idx[nev] = k
+                ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], math.inf, lam1[k], Y, K, h, xtol / h,
+                                        cos_alpha, floor, anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                counters[1] += 2
                 nev += 1
-        if floor_all:
-            z1 = 0.0
-            zm = 0.0
-            for j in range(n - 1, -1, -1):
-                z1 += 2.0 * Y1[0, j, 2]
-                zm += 2.0 * Ytmp[0, j, 2]
-                if anchored[j]:
-                    continue
-                if z1 < thr_land[j] or zm < thr_land[j]:
-                    ev_kind[nev] = EV_LANDING
-                    ev_idx[nev] = j
-                    nev += 1
-        else:
-            m = -1
-            for i in range(n - 1, -1, -1):
-                if not (anchored[i] and anchored[i + 1]):
-                    m = i
-                    break
-            if m >= 0:
-                ez1 = Y1[0, m, 2] / math.sqrt(Y1[0, m, 0] ** 2 + Y1[0, m, 1] ** 2 + Y1[0, m, 2] ** 2)
-                if ez1 < thr_land[m]:
-                    ev_kind[nev] = EV_LANDING
-                    ev_idx[nev] = -m - 1
-                    nev += 1
-            if _zpoint(Y1[0], 0) < thr_top[0]:
+        _dense(Y, K, h, 0.5, Ytmp)  # (the locating above may have used Ytmp)
+        floor_values(floor, Ytmp[0], anchored, fv_mid)
+        floor_values(floor, Y1[0], anchored, fv_end)
+        for j in range(n + 1):
+            if arm_land[j] == OFF:
+                continue
+            fm = fv_mid[j]
+            fe = fv_end[j]
+            if fm <= 0.0 or fe <= 0.0:
+                ev_kind[nev] = EV_LANDING
+                ev_idx[nev] = j
+                ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
+                                        anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                nev += 1
+                _dense(Y, K, h, 0.5, Ytmp)
+        if arm_top[0] != OFF:
+            fm = _zpoint(Ytmp[0], 0)
+            fe = _zpoint(Y1[0], 0)
+            if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_TOP
                 ev_idx[nev] = 0
+                ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
+                                        anchored, locked, cone, ws, Ytmp, dYtmp, lam)
                 nev += 1
         theta_stop = 1.0
-        if nev > 0:
-            # locate every triggered event; keep the earliest
-            for r in range(nev):
-                kd = ev_kind[r]
-                ix = ev_idx[r]
-                if kd == EV_LOCK:
-                    off = -thr_lock[ix]
-                elif kd == EV_UNLOCK:
-                    off = -thr_unlock[ix]
-                elif kd == EV_LANDING:
-                    off = -(thr_land[ix] if ix >= 0 else thr_land[-ix - 1])
-                else:
-                    off = -thr_top[0]
-                f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp, lam) + off
-                if kd == EV_UNLOCK:
-                    counters[1] += 1
-                if f0 <= 0.0:
-                    ev_theta[r] = 0.0
-                    continue
-                thb = 1.0
-                fb = event_value(kd, ix, 1.0, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp, lam) + off
-                if fb > 0.0:
-                    fm = event_value(kd, ix, 0.5, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp, lam) + off
-                    thb = 0.5
-                    fb = fm
-                    if fb > 0.0:  # dipped and returned within the step: scan finer
-                        for sidx in range(1, 16):
-                            th = sidx / 16.0
-                            fb = event_value(kd, ix, th, Y, K, h, cos_alpha, anchored, locked, cone, ws, Ytmp, dYtmp,
-                                             lam) + off
-                            if fb <= 0.0:
-                                thb = th
-                                break
-                if fb > 0.0:
-                    ev_theta[r] = 2.0  # not confirmed
-                    continue
-                ev_theta[r] = _brent(kd, ix, off, 0.0, thb, f0, fb, xtol / h, Y, K, h, cos_alpha, anchored, locked,
-                                     cone, ws, Ytmp, dYtmp, lam)
-            for r in range(nev):
-                if ev_theta[r] < theta_stop:
-                    theta_stop = ev_theta[r]
+        for r in range(nev):
+            if ev_theta[r] < theta_stop:
+                theta_stop = ev_theta[r]
+        counters[0] += 1
+        fire = False
+        for r in range(nev):
+            if ev_theta[r] <= 1.0:
+                fire = True
         # --- frames and trace up to the step end (or the event)
         t_end = t + theta_stop * h
         while frame_next[0] <= t_end + 1e-300 and fr_k < frame_cap:
@@ -426,16 +467,22 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
             counters[1] += 1
             fr_k += 1
             frame_next[0] += frame_dt
-        if theta_stop < 1.0:
+        if fire:
             # a full 5th-order step to the event time (the 4th-order interpolant is
             # good enough to locate the event, not to restart from)
-            if theta_stop > 0.0:
-                for a in range(2):
-                    for i in range(n):
-                        for q in range(3):
-                            K2[0, a, i, q] = K[0, a, i, q]
-                _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, cone, ws)
-                counters[1] += 6
+            if theta_stop < 1.0:
+                if theta_stop > 0.0:
+                    for a in range(2):
+                        for i in range(n):
+                            for q in range(3):
+                                K2[0, a, i, q] = K[0, a, i, q]
+                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, cone, ws)
+                    counters[1] += 6
+                    for a in range(2):
+                        for i in range(n):
+                            for q in range(3):
+                                Y[a, i, q] = Y1[a, i, q]
+            else:
                 for a in range(2):
                     for i in range(n):
                         for q in range(3):
@@ -466,25 +513,24 @@ def advance(Y, t, h, t_stop, alpha, floor_all, cone, anchored, locked, lock_cos,
                 for i in range(n):
                     for q in range(3):
                         K[0, a, i, q] = K[6, a, i, q]
-        # re-arm
-        if locks_possible:
-            for k in range(nh):
-                if thr_lock[k] < 0.0 and not locked[k] and _gap(Y[0], k, cos_alpha) > ARM:
-                    thr_lock[k] = 0.0
+        # departing functions that have left their zero are armed
         for k in range(nh):
-            if locked[k] and thr_unlock[k] < 0.0 and lam1[k] > ARM:
-                thr_unlock[k] = 0.0
+            if arm_lock[k] == DEPARTING and not locked[k] and _gap(Y[0], k, cos_alpha) > ZERO_BAND:
+                arm_lock[k] = ARMED
+            if arm_unlock[k] == DEPARTING and locked[k] and lam1[k] > ZERO_BAND:
+                arm_unlock[k] = ARMED
+        floor_values(floor, Y[0], anchored, fv_end)
+        for j in range(n + 1):
+            if arm_land[j] == DEPARTING and fv_end[j] > ZERO_BAND:
+                arm_land[j] = ARMED
+        if arm_top[0] == DEPARTING and _zpoint(Y[0], 0) > ZERO_BAND:
+            arm_top[0] = ARMED
         zlow = 0.0
         zacc = 0.0
         for j in range(n - 1, -1, -1):
             zacc += 2.0 * Y[0, j, 2]
             if zacc < zlow:
                 zlow = zacc
-            if floor_all:
-                if thr_land[j] < 0.0 and not anchored[j] and zacc > ARM:
-                    thr_land[j] = 0.0
-            elif thr_land[j] < 0.0 and Y[0, j, 2] > ARM:
-                thr_land[j] = 0.0
         if zlow < stats[0]:
             stats[0] = zlow
         tr_t[tr_k] = t

@@ -16,7 +16,17 @@ import numpy as np
 
 from .model import ChainParams, InitialCondition, SolverOptions
 
-EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top"}
+# The event log's kinds (one row per constraint that acted at an event instant).
+EVENT_KINDS = {
+    1: "lock",  # a free hinge reaches its limit and locks: impulse Lambda >= 0 (0: a touch)
+    2: "unlock",  # a locked hinge's multiplier crosses zero in smooth motion; no impulse
+    3: "landing",  # a point reaches the floor and is anchored; impulse: the floor's on the chain
+    4: "top",  # floor "pivot": the top end reaches z = 0 (t_fall); no state change
+    5: "impulse",  # an impulse on a hinge that was locked and stays locked
+    6: "release",  # a hinge at its limit (locked, or locking in this instant) leaves it at an impact instant
+    7: "hold",  # a hinge held at its limit by the accumulation rule; impulse of either sign
+}
+EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 
 # field -> physical quantity; files.py turns these into unit strings
 QUANTITY = {
@@ -102,8 +112,9 @@ class Result:
 
     # ----------------------------------------------------------------- summaries
     def event_counts(self) -> dict:
+        """Rows of the event log by kind (EVENT_KINDS), every kind listed."""
         k = np.asarray(self.event_kind)
-        return {"lock": int(np.sum(k == 1)), "unlock": int(np.sum(k == 2)), "landing": int(np.sum(k == 3))}
+        return {name: int(np.sum(k == code)) for code, name in EVENT_KINDS.items()}
 
     @property
     def first_lock_time(self) -> float:
