@@ -45,7 +45,7 @@ def fake_result(params: ChainParams, ic: InitialCondition, options: SolverOption
         energy={"initial": 1.0 * n * n, "potential": 0.0, "kinetic": 0.0, "lost_locking": 0.5 * n * n,
                 "lost_landing": 0.5 * n * n, "imbalance": 1e-13},
         max_depth=0.0, floor_impulse=np.zeros(3), wall_seconds=0.01, n_steps=steps,
-        n_evals=6 * steps, units=units,
+        n_evals=6 * steps, n_instants=steps // 10, units=units,
     )
 
 
@@ -104,7 +104,7 @@ def test_json_summary(engine):
     for k in SUMMARY_KEYS:
         assert k in out, k
     assert set(out["events"]) >= {"lock", "unlock", "landing"}
-    assert out["events"] == {"lock": 2, "unlock": 1, "landing": 1}
+    assert out["events"] == {"lock": 2, "unlock": 1, "landing": 1, "top": 0, "impulse": 0, "release": 0, "hold": 0}
     assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking",
                                   "lost_landing", "imbalance"}
     assert out["segments"] == 16 and out["floor"] == "all"

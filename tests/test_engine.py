@@ -11,6 +11,7 @@ import pytest
 
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from ballchain.result import EVENT_CODES
 
 FULL = os.environ.get("BALLCHAIN_FULL") == "1"
 SIZES = [8, 16, 32, 64] if FULL else [8, 16]
@@ -138,15 +139,16 @@ def test_same_seed_is_bit_identical(floor):
 
 
 def test_locked_set_matches_event_log():
-    """Replaying the lock/unlock rows of the event log reproduces the locked set at every frame."""
+    """Replaying the event log reproduces the locked set at every frame: a hinge becomes
+    locked at a lock or hold row and free at an unlock or release row."""
     r = _fall(16)
     locked = np.zeros(15, bool)
     ev = 0
     for f, tf in enumerate(r.frame_t):
         while ev < r.event_t.size and r.event_t[ev] < tf:
-            if r.event_kind[ev] == 1:
+            if r.event_kind[ev] in (EVENT_CODES["lock"], EVENT_CODES["hold"]):
                 locked[r.event_index[ev]] = True
-            elif r.event_kind[ev] == 2:
+            elif r.event_kind[ev] in (EVENT_CODES["unlock"], EVENT_CODES["release"]):
                 locked[r.event_index[ev]] = False
             ev += 1
         landed = r.frame_anchored[f, :-1] & r.frame_anchored[f, 1:]

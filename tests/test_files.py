@@ -51,7 +51,7 @@ def make_result(n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="no
         energy={"initial": 10.0, "potential": 3.0, "kinetic": 2.5, "lost_locking": 4.0,
                 "lost_landing": 0.5, "imbalance": 1.2e-15},
         max_depth=0.0, floor_impulse=rng.normal(size=3),
-        wall_seconds=1.25, n_steps=steps, n_evals=6 * steps, units=units,
+        wall_seconds=1.25, n_steps=steps, n_evals=6 * steps, n_instants=steps // 10, units=units,
         extra={"note": "synthetic", "list": [1, 2.5, None], "nested": {"a": math.nan}},
     )
     kw.update(over)

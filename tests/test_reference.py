@@ -11,6 +11,7 @@ import pytest
 from ballchain import dynamics as dyn
 from ballchain import reference as ref
 from ballchain.impacts import velocity_impact
+from ballchain.rules import limit_in_force
 
 ACC_TOL = 1e-10  # relative to the scale of the compared values
 IMP_TOL = 1e-10
@@ -20,12 +21,19 @@ EZ = np.array([0.0, 0.0, 1.0])
 # ----------------------------------------------------------------- fast path calls
 
 
+def in_force(anchored, mask):
+    """The mask restricted to hinges whose limit is in force (rules.limit_in_force): the
+    kernels act on the locked set the event handler keeps, which holds only those."""
+    a8 = np.asarray(anchored, np.uint8)
+    return np.array([bool(m) and limit_in_force(a8, k, False, 1.0) for k, m in enumerate(mask)], np.uint8)
+
+
 def fast_accelerations(e, w, anchored, locked):
     n = e.shape[0]
     ws = dyn.Workspace(n)
     de = np.zeros((n, 3))
     dw = np.zeros((n, 3))
-    dyn.accelerations(e, w, np.asarray(anchored, np.uint8), np.asarray(locked, np.uint8), False, *ws.arrays(), de, dw)
+    dyn.accelerations(e, w, np.asarray(anchored, np.uint8), in_force(anchored, locked), False, *ws.arrays(), de, dw)
     lam = np.zeros(max(n - 1, 0))
     dyn.lock_multipliers(ws.kind, ws.nrow, ws.x, lam)
     af = np.zeros((n + 1, 3))
@@ -40,7 +48,7 @@ def fast_impact(e, w, anchored_u8, cand):
     ws = dyn.Workspace(n)
     nh = max(n - 1, 0)
     w_after = np.array(w, dtype=float, copy=True)
-    c8 = np.asarray(cand, np.uint8).copy()
+    c8 = in_force(anchored_u8, cand)
     active = c8.copy()
     pv = np.zeros((n + 1, 3))
     vel = np.zeros((n, 3))
@@ -53,7 +61,8 @@ def fast_impact(e, w, anchored_u8, cand):
         "energy_split": np.zeros(2),
     }
     T0 = dyn.kinetic_energy(e, w, pv, vel)
-    it = velocity_impact(e, w_after, np.asarray(anchored_u8, np.uint8), c8, False, active, *ws.arrays(), pv, vel,
+    it = velocity_impact(e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), False, active,
+                         *ws.arrays(), pv, vel,
                          out["jv_minus"], out["w_plus"], out["rates"], out["impulse"], out["anchor_impulse"],
                          out["energy_split"])
     out["T0"] = T0
@@ -446,7 +455,7 @@ def test_fixed_size_path_equals_general_path(n):
     fitted = 0
     for _ in range(60):
         e, w, anchored, locked, _alpha = random_acc_state(rng, n)
-        a8, l8 = anchored.astype(np.uint8), locked.astype(np.uint8)
+        a8, l8 = anchored.astype(np.uint8), in_force(anchored, locked)
         g = _general_path(e, w, a8, l8)
         ws = dyn.Workspace(n)
         if not dyn.rows_rhs4(e, w, a8, l8, False, ws.kind, ws.nrow, ws.rhs):

@@ -321,11 +321,13 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     return _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
                         U_end, np.concatenate([[0.0]] + trace_chunks_t), np.concatenate([[z0]] + trace_chunks_z),
                         fr_t[:nf], fr_e[:nf], fr_w[:nf], fr_anch[:nf], fr_lock[:nf], fr_force[:nf], fr_kin[:nf],
-                        fr_pot[:nf], fr_lostl[:nf], fr_lostf[:nf], -min(stats[0], 0.0), wall0, counters)
+                        fr_pot[:nf], fr_lostl[:nf], fr_lostf[:nf], -min(stats[0], 0.0), wall0, counters,
+                        int(zeno_n[0]))
 
 
 def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end, U_end, tr_t, tr_z, fr_t, fr_e, fr_w,
-                 fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_lostl, fr_lostf, max_depth, wall0, counters) -> Result:
+                 fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_lostl, fr_lostf, max_depth, wall0, counters,
+                 n_instants) -> Result:
     """Convert the nondimensional run to the run's units and package it."""
     tu = params.time_unit
     lu = params.half_length
@@ -353,5 +355,6 @@ def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
         anchor_t=run.anchor_t * tu, anchor_pos=run.anchor_pos * lu,
         energy=energy, max_depth=max_depth * lu, floor_impulse=run.floor_impulse * iu,
         wall_seconds=_time.perf_counter() - wall0, n_steps=int(counters[0]), n_evals=int(counters[1]),
+        n_instants=n_instants,
         units="SI" if params.is_si else "nondimensional",
     )

@@ -42,7 +42,7 @@ import numpy as np
 
 from . import __version__
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from .result import QUANTITY, Result
+from .result import EVENT_KINDS, QUANTITY, Result
 
 FORMAT_NAME = "ballchain-result"
 FORMAT_VERSION = 1
@@ -62,7 +62,7 @@ _UNITS_ND = {
 
 GROUPS = {
     "summary": ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "floor_impulse",
-                "wall_seconds", "n_steps", "n_evals"),
+                "wall_seconds", "n_steps", "n_evals", "n_instants"),
     "trace": ("t", "z_top"),
     "frames": ("frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked",
                "frame_floor_force", "frame_kinetic", "frame_potential",
@@ -71,7 +71,7 @@ GROUPS = {
     "anchors": ("anchor_t", "anchor_pos"),
 }
 _FLOAT_SCALARS = ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "wall_seconds")
-_INT_SCALARS = ("n_steps", "n_evals")
+_INT_SCALARS = ("n_steps", "n_evals", "n_instants")
 
 DESCRIPTIONS = {
     "z0": "height of the top end at t = 0",
@@ -79,10 +79,11 @@ DESCRIPTIONS = {
     "t_fall": "first time the top end reaches the floor (NaN: not reached)",
     "t_landed": "time the last segment landed (NaN: not reached)",
     "max_depth": "deepest airborne point below the floor (floor = pivot; 0 if none)",
-    "floor_impulse": "sum of the landing impulses of the floor on the chain (x, y, z)",
+    "floor_impulse": "sum of the floor's impulses on the chain at every impact (x, y, z), landings and anchored points",
     "wall_seconds": "wall-clock duration of the run",
     "n_steps": "accepted integrator steps",
     "n_evals": "evaluations of the equations of motion",
+    "n_instants": "event instants handled (one instant can log many rows)",
     "t": "trace times (every accepted step and event)",
     "z_top": "height of the top end of the chain at the trace times",
     "frame_t": "output frame times",
@@ -96,7 +97,7 @@ DESCRIPTIONS = {
     "frame_lost_locking": "cumulative kinetic energy lost in hinge locking",
     "frame_lost_landing": "cumulative kinetic energy lost in landings",
     "event_t": "event times, one row per constraint that acted",
-    "event_kind": "1 lock, 2 unlock, 3 landing, 4 top reaches the floor",
+    "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/model.md)",
     "event_index": "hinge k (0..N-2) or point j (0..N, from the top) of the event",
     "event_impulse": "lock: (Lambda, 0, 0); landing: impulse of the floor on the chain",
     "event_energy": "kinetic energy dissipated by that constraint",

@@ -39,7 +39,7 @@ QUANTITY = {
     "event_energy": "energy",
     "anchor_t": "time", "anchor_pos": "length",
     "floor_impulse": "impulse", "max_depth": "length",
-    "wall_seconds": "s", "n_steps": "1", "n_evals": "1",
+    "wall_seconds": "s", "n_steps": "1", "n_evals": "1", "n_instants": "1",
 }
 
 
@@ -107,6 +107,7 @@ class Result:
     wall_seconds: float
     n_steps: int
     n_evals: int
+    n_instants: int
     units: str = "nondimensional"
     extra: dict = field(default_factory=dict)
 
@@ -157,6 +158,7 @@ class Result:
             "rtol": self.options.rtol,
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
+            "n_instants": int(self.n_instants),
             "wall_seconds": num(self.wall_seconds),
             "version": self.version,
         }
