@@ -165,18 +165,18 @@ def _progress_console():
     return Console(stderr=True)
 
 
-def _run_engine(params, init, options, show_progress: bool):
+def _run_engine(params, init, options, show_progress: bool, state=None):
     from .engine import simulate  # lazy: the engine (numba) is heavy to import
 
     if not show_progress:
-        return simulate(params, init, options, progress=None)
+        return simulate(params, init, options, progress=None, state=state)
 
     from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn,
                                TimeElapsedColumn)
 
     console = _progress_console()
     if not console.is_terminal:
-        return simulate(params, init, options, progress=None)
+        return simulate(params, init, options, progress=None, state=state)
     with Progress(TextColumn("simulating"), BarColumn(), TaskProgressColumn(),
                   TimeElapsedColumn(), TextColumn("{task.fields[info]}"),
                   console=console, transient=True) as bar:
@@ -198,13 +198,13 @@ def _run_engine(params, init, options, show_progress: bool):
             except Exception:
                 pass
 
-        return simulate(params, init, options, progress=progress)
+        return simulate(params, init, options, progress=progress, state=state)
 
 
 # --------------------------------------------------------------------------- commands
 @app.command()
 def simulate(
-    segments: int = typer.Option(128, "--segments", "-N", help="Number of segments N (>= 1)."),
+    segments: Optional[int] = typer.Option(None, "--segments", "-N", help="Number of segments N (>= 1; default 128, or the rows of --initial)."),
     alpha: str = typer.Option("pi/4", "--alpha", help="Critical bend angle in (0, pi]: 45deg, pi/4 or radians."),
     floor: str = typer.Option("all", "--floor", help="Floor model: all (every point is stopped by the floor) or pivot (the paper read literally)."),
     anchor_cone: bool = typer.Option(False, "--anchor-cone", help="Keep the hinge limit between a landed segment and the airborne one hinged to it (beware: a landed segment then acts as a cantilever that can hold a locked chain up)."),
@@ -223,11 +223,21 @@ def simulate(
     mass: Optional[float] = typer.Option(None, "--mass", help="Total mass of the chain in kg (SI units; needs --length)."),
     gravity: Optional[float] = typer.Option(None, "--gravity", help="Gravity in m/s^2 (SI units; default 9.81)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    initial: Optional[str] = typer.Option(None, "--initial", help="Initial state from a file instead of --ic: a text or .npy array, N x 3 (segment axes from the top, pointing up the chain) or N x 6 (axes, then angular velocities in sqrt(g/b))."),
 ) -> None:
     """Simulate one fall (defaults: the paper's case N = 128, alpha = pi/4, helix)."""
+    state = None
     try:
+        if initial is not None:
+            from .initial import load_initial_state
+
+            e0, w0 = load_initial_state(initial)
+            if segments is not None and segments != e0.shape[0]:
+                raise ParameterError(f"--segments {segments} disagrees with the {e0.shape[0]} rows of {initial!r}")
+            segments = e0.shape[0]
+            state = (e0, w0)
         params, init, options = build_inputs(
-            segments=segments, alpha=alpha, floor=floor, anchor_cone=anchor_cone, ic=ic,
+            segments=128 if segments is None else segments, alpha=alpha, floor=floor, anchor_cone=anchor_cone, ic=ic,
             eps=eps, turns=turns, phase=phase, seed=seed, rtol=rtol, until=until,
             frames_per_tff=frames_per_tff, length=length, mass=mass, gravity=gravity)
         if output is not None:
@@ -237,7 +247,9 @@ def simulate(
         raise typer.Exit(EXIT_USAGE)
 
     try:
-        result = _run_engine(params, init, options, show_progress=not quiet)
+        result = _run_engine(params, None if state else init, options, show_progress=not quiet, state=state)
+        if initial is not None:
+            result.extra["initial"] = str(initial)
     except KeyboardInterrupt:
         _error("interrupted (nothing saved)")
         raise typer.Exit(EXIT_INTERRUPTED)

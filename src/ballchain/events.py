@@ -11,9 +11,9 @@ and the handler without returning to Python.
    hinge at its limit;
 4. the acceleration-level LCP (``impacts.lock_set``): which hinges at the limit stay
    locked.  A hinge released in this instant that accelerates back to its limit and
-   would return slower than ``rules.HOLD_RATE``, or after an excursion below
-   ``rules.APEX_MIN``, is held at its limit (the limit of the converging series of
-   impacts it would start), and steps 3-4 are solved again with it held;
+   would return slower than ``hold_rate``, or after an excursion below
+   ``hold_apex``, is held at its limit (``rules.must_hold``: the limit of the
+   converging series of impacts it would start), and steps 3-4 are solved again;
 5. new locks hold the angle reached; the state is projected onto the constraints; each
    event function is armed or marked departing (``arm_functions``), and the first step
    after the instant is capped so that a departing hinge's return is resolved.
@@ -37,8 +37,6 @@ from .rules import (
     DEPARTING,
     FLOOR_PIVOT,
     GAP_TOL,
-    APEX_MIN,
-    HOLD_RATE,
     OFF,
     RATE_TOL,
     ZERO_BAND,
@@ -47,6 +45,7 @@ from .rules import (
     floor_values,
     floor_watched,
     limit_in_force,
+    must_hold,
 )
 
 # event-log kinds (result.EVENT_KINDS says what each means)
@@ -131,7 +130,7 @@ def _return_time_cap(e, w, de, dw, anchored, arm_lock, arm_land, rates, ddg, pv)
 
 
 @njit(cache=True)
-def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor, cone,
+def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, alpha, floor, cone,
                  e, w, anchored, locked, lock_cos, anchor_pos, anchor_t,
                  arms, refs, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc):
     """Apply everything that happens at the instant t (module docstring, steps 1-5).
@@ -175,7 +174,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor, cone,
         anchored[j] = 2  # anchored; its neighbours still move during the impact
         anchor_t[j] = t
     # 3-4. one impact over the new anchors and every hinge at its limit, then the lock
-    # set; repeated while the accumulation rule holds another hinge (rules.HOLD_RATE)
+    # set; repeated while the accumulation rule holds another hinge (rules.must_hold)
     hinge_gaps(e, cos_alpha, gaps)
     hinge_rates(e, w, rates)
     any_approaching = False
@@ -245,12 +244,12 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, alpha, floor, cone,
             locked[k] = active[k]
         # the accumulation limit: a hinge this instant has released (it was locked, or
         # took an impulse) that accelerates back to its limit and would return either
-        # slower than HOLD_RATE or after an excursion too small to resolve
+        # slower than hold_rate or after an excursion too small to resolve
         nhold = 0
         for k in range(nh):
             if locked[k] or forced[k] or not (was_locked[k] or new_lock[k]) or exclude[k] or gaps[k] > GAP_TOL:
                 continue
-            if ddg[k] < 0.0 and (rates[k] < HOLD_RATE or rates[k] ** 2 < -2.0 * APEX_MIN * ddg[k]):
+            if must_hold(rates[k], ddg[k], hold_rate, hold_apex):
                 forced[k] = 1
                 nhold += 1
         if nhold == 0:
@@ -307,7 +306,7 @@ def _all_anchored(anchored):
 
 @njit(cache=True)
 def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos, anchor_t,
-               arms, refs, rtol, xtol, ws, adv, frames, trace, ev, pts, pv, vel, afor,
+               arms, refs, rtol, xtol, hold_rate, hold_apex, ws, adv, frames, trace, ev, pts, pv, vel, afor,
                counters, max_steps, stats, sc, log, log_n, acc, zeno_t, zeno_n, zeno_window, max_events,
                return_every, fr_lostl, fr_lostf, fill):
     """Integrate and handle events in one compiled loop.  Returns (code, t, h): an
@@ -347,7 +346,8 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
         fill[0] = fr_count[0]
         if code != ADV_EVENT:
             return code, t, h
-        status, h_cap = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, alpha, floor, cone,
+        status, h_cap = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, hold_rate, hold_apex, alpha,
+                                     floor, cone,
                                      Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t,
                                      arms, refs, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc)
         if status < 0:

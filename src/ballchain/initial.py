@@ -84,3 +84,38 @@ def check_inside_cone(e: np.ndarray, alpha: float) -> None:
             f"not strictly inside alpha = {math.degrees(alpha):.3g} deg (reduce eps)")
     if np.any(e[:, 2] <= 0.0):
         raise ParameterError("initial state: a segment points at or below the horizontal (reduce eps)")
+
+
+def load_initial_state(path) -> tuple[np.ndarray, np.ndarray | None]:
+    """An initial state from a file: a text file (whitespace-separated, ``#`` comments)
+    or a ``.npy`` array of shape (N, 3) (the axes e_n, rows n = 1..N from the top,
+    pointing up the chain) or (N, 6) (axes, then angular velocities in sqrt(g/b)).
+    Axes need not be exactly unit length (they are normalised); the engine checks the
+    state like any input (inside the cone, above the floor).  Raises ParameterError
+    with a one-line message naming the file."""
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise ParameterError(f"initial: no such file {str(p)!r}")
+    try:
+        if p.suffix == ".npy":
+            a = np.load(p, allow_pickle=False)
+        else:
+            a = np.loadtxt(p, comments="#", ndmin=2)
+    except (OSError, ValueError) as exc:
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ParameterError(f"initial: cannot read {str(p)!r}: {msg}") from None
+    a = np.asarray(a, dtype=float)
+    if a.ndim != 2 or a.shape[1] not in (3, 6) or a.shape[0] < 1:
+        raise ParameterError(f"initial: {str(p)!r} must hold an N x 3 (axes) or N x 6 (axes, angular velocities) "
+                             f"array, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(f"initial: {str(p)!r} has non-finite entries")
+    norms = np.linalg.norm(a[:, :3], axis=1)
+    if np.any(norms < 1e-6):
+        bad = int(np.argmin(norms))
+        raise ParameterError(f"initial: {str(p)!r} row {bad + 1}: axis of (near) zero length")
+    e = a[:, :3] / norms[:, None]
+    w = a[:, 3:].copy() if a.shape[1] == 6 else None
+    return e, w

@@ -190,6 +190,14 @@ class SolverOptions:
     max_events: stop with a clear error after this many event instants (a Zeno guard;
         one instant can add many rows to the event log).
     event_xtol: tolerance of event times, in units of sqrt(b/g).
+    hold_rate: the accumulation threshold, in sqrt(g/b): a hinge released at an event
+        instant that accelerates back to its limit and would return slower than this is
+        held at its limit (the limit of the converging series of impacts it would start;
+        docs/model.md shows that results converge as it goes to zero).
+    hold_apex: the resolution limit of the same rule: a released hinge whose excursion
+        away from its limit (v^2 / 2|a|, in units of the bend function g = cos) would
+        stay below this is held too (it cannot be resolved in double precision; at
+        least 1e-12).
     """
 
     rtol: float = 1e-9
@@ -200,6 +208,8 @@ class SolverOptions:
     event_xtol: float = 1e-13
     max_steps: int = 50_000_000
     progress: bool = False
+    hold_rate: float = 1e-6
+    hold_apex: float = 1e-11
 
     def __post_init__(self) -> None:
         r = float(self.rtol)
@@ -211,6 +221,11 @@ class SolverOptions:
         object.__setattr__(self, "max_time", _finite_positive("max_time", self.max_time))
         object.__setattr__(self, "frames_per_tff", _finite_positive("frames_per_tff", self.frames_per_tff))
         object.__setattr__(self, "event_xtol", _finite_positive("event_xtol", self.event_xtol))
+        object.__setattr__(self, "hold_rate", _finite_positive("hold_rate", self.hold_rate))
+        object.__setattr__(self, "hold_apex", _finite_positive("hold_apex", self.hold_apex))
+        if self.hold_apex < 1e-12:
+            raise ParameterError(f"hold_apex must be >= 1e-12 (the round-off band of the bend function), "
+                                 f"got {self.hold_apex!r}")
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 

@@ -9,7 +9,8 @@ the masks these rules produce.  Nondimensional units (m = b = g = 1).
   ``floor_watched``, ``floor_value``, ``floor_contacts``;
 * the thresholds that say when a constraint is *at* its limit, when an approach is an
   impact rather than a touch, and when a series of impacts is taken to its limit:
-  ``GAP_TOL``, ``RATE_TOL``, ``HOLD_RATE``, ``Z_TOL``;
+  ``GAP_TOL``, ``RATE_TOL``, ``Z_TOL``, ``ZERO_BAND`` and the options
+  ``SolverOptions.hold_rate``, ``hold_apex`` (``must_hold``);
 * how an event function is watched after an event: ``arm_state``.
 
 The impact law (Moreau) is ``impacts.velocity_impact`` and the lock set (the
@@ -31,11 +32,11 @@ RATE_TOL = 1e-8  # |dg/dt| below this (sqrt(g/b)): a touch, not an impact
 Z_TOL = 1e-9  # a free point below this height (b) touches the floor
 # Accumulation (Zeno) limit: a hinge released at an instant (it was locked or took an
 # impulse) that accelerates back to its limit (d2g/dt2 = a < 0) and would return slower
-# than HOLD_RATE (sqrt(g/b)), or after an excursion v^2 / 2|a| below APEX_MIN (too small
-# to resolve: a few ZERO_BANDs), is held at its limit instead.  The series of ever
-# smaller impacts it replaces converges to that state; docs/model.md gives the
-# convergence study.
-HOLD_RATE = 1e-6
+# than the option ``hold_rate`` (sqrt(g/b)), or after an excursion v^2 / 2|a| below
+# the option ``hold_apex`` (too small to resolve: ten ZERO_BANDs by default), is held
+# at its limit instead
+# (``must_hold``).  The series of ever smaller impacts it replaces converges to that
+# state; docs/model.md gives the convergence study.
 
 # how an event function is watched (arm_state)
 ARMED = 1  # positive: fires when it reaches zero
@@ -46,7 +47,13 @@ OFF = -1  # not watched
 # it (a constraint hovering at its limit, rate and acceleration about zero) fires when
 # it sinks below -ZERO_BAND.
 ZERO_BAND = 1e-12
-APEX_MIN = 10.0 * ZERO_BAND
+
+
+@njit(cache=True)
+def must_hold(rate, accel, hold_rate, hold_apex):
+    """The accumulation rule for a hinge just released at its limit with rate dg/dt =
+    ``rate`` >= 0 and free acceleration d2g/dt2 = ``accel``: hold it at its limit?"""
+    return accel < 0.0 and (rate < hold_rate or rate * rate < -2.0 * hold_apex * accel)
 
 
 @njit(cache=True)
