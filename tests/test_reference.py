@@ -1,5 +1,5 @@
 """The O(N) production path (dynamics.py, impacts.py) against the dense reference
-(reference.py, DERIVATION.md formulation A) on random consistent states."""
+(reference.py, the dense formulation) on random consistent states."""
 
 from __future__ import annotations
 

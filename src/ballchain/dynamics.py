@@ -1,4 +1,4 @@
-"""Equations of motion: O(N) hinge forces (DERIVATION.md section B), numba kernels.
+"""Equations of motion: O(N) hinge forces (docs/model.md, section 2), numba kernels.
 
 Everything here is nondimensional: m = b = g = 1 (mass m, length b, time sqrt(b/g)).
 

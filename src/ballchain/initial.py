@@ -1,6 +1,6 @@
-"""Initial conditions (MODEL.md section 4): the chain at rest, almost vertical.
+"""Initial conditions (docs/model.md, section 5): the chain at rest, almost vertical.
 
-Arrays are indexed from the top: row ``i`` is segment ``n = i + 1`` of MODEL.md.
+Arrays are indexed from the top: row ``i`` is segment ``n = i + 1`` of docs/model.md.
 Directions ``e`` have shape (N, 3), unit vectors pointing up the chain.
 """
 
@@ -22,7 +22,7 @@ def _normalize_tilts(tilt: np.ndarray) -> np.ndarray:
 
 
 def helix_directions(segments: int, eps: float, turns: float, phase: float) -> np.ndarray:
-    """MODEL.md's helix: e_n = normalize(e_z + eps (cos phi_n, sin phi_n, 0)),
+    """The helix of docs/model.md: e_n = normalize(e_z + eps (cos phi_n, sin phi_n, 0)),
     phi_n = 2 pi q (N - n)/N + phi0, n = 1..N from the top."""
     n = np.arange(1, segments + 1)
     phi = 2.0 * math.pi * turns * (segments - n) / segments + phase

@@ -1,4 +1,4 @@
-"""The model and its parameters (MODEL.md section 1).
+"""The model and its parameters (docs/model.md, section 1).
 
 A chain of ``N`` rigid rods (mass ``m``, length ``2b``) joined by spherical hinges
 whose bend angle is limited to ``alpha``, standing on a pivot at the origin under
@@ -137,9 +137,9 @@ class ChainParams:
 
 @dataclass(frozen=True)
 class InitialCondition:
-    """Initial shape of the chain, at rest (MODEL.md section 4).
+    """Initial shape of the chain, at rest (docs/model.md, section 5).
 
-    kind: ``helix`` (exactly as MODEL.md defines it), ``planar`` (a bend in one vertical
+    kind: ``helix`` (exactly as docs/model.md defines it), ``planar`` (a bend in one vertical
         plane) or ``random`` (a few seeded random Fourier modes of the tilt).
     eps: amplitude of the tilt (dimensionless).
     turns: q, turns of the helix / wavenumber of the planar bend along the chain.

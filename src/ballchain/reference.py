@@ -1,4 +1,5 @@
-"""Dense reference equations of motion and impacts (DERIVATION.md, formulation A).
+"""Dense reference equations of motion and impacts: the 3N components of the axes as
+coordinates, a constant mass matrix, KKT solves.
 
 Slow (O(N^3)), plain numpy, written independently of ``dynamics.py`` / ``impacts.py``
 so that the O(N) production path can be tested against it.  Not for production runs.

@@ -45,7 +45,7 @@ QUANTITY = {
 
 @dataclass
 class Result:
-    """Everything MODEL.md section 6 asks for, from one run.
+    """Everything one run measures (docs/model.md, section 6).
 
     Scalars: ``z0`` (top height at t = 0), ``t_ff = sqrt(2 z0 / g)``, ``t_fall`` (top end
     first reaches z = 0; NaN if not reached), ``t_landed`` (last segment landed; NaN if

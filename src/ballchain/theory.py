@@ -1,4 +1,4 @@
-"""Closed-form and quadrature results used to check the simulator (MODEL.md section 5).
+"""Closed-form and quadrature results used to check the simulator (the paper's closed forms, derived again).
 
 Every function names its units in its signature: ``m`` (mass of a segment), ``b`` (its
 half-length; a segment is ``2b`` long), ``g`` (gravity).  With the defaults
