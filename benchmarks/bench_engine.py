@@ -48,7 +48,7 @@ def _compiled_loop():
     def loop(k, e, w, anchored, locked, ws, de, dw):
         J, kind, nrow, S, G, drop, rhs, x, gf = ws
         for _ in range(k):
-            accelerations(e, w, anchored, locked, False, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw)
+            accelerations(e, w, anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw)
 
     return loop
 
@@ -67,7 +67,7 @@ def bench_evals(sizes, repeats=7, quiet=False) -> list[tuple[int, float, float, 
         ws = Workspace(n)
         de = np.zeros((n, 3))
         dw = np.zeros((n, 3))
-        args = (e, w, anchored, locked, False, *ws.arrays(), de, dw)
+        args = (e, w, anchored, locked, *ws.arrays(), de, dw)
         accelerations(*args)  # compile / warm up
         inner = max(1, int(2e5 // n))
         times = []

@@ -54,7 +54,7 @@ class FakeEngine:
         self.calls = []
         self.behaviour = None  # None | "error" | "interrupt" | "progress"
 
-    def simulate(self, params, ic, options, *, progress=None):
+    def simulate(self, params, ic, options, *, progress=None, state=None):
         self.calls.append((params, ic, options, progress))
         if self.behaviour == "interrupt":
             raise KeyboardInterrupt
@@ -293,7 +293,7 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
                         lambda: Console(file=buf, force_terminal=True, width=100))
     seen = []
 
-    def simulate(params, ic, options, *, progress=None):
+    def simulate(params, ic, options, *, progress=None, state=None):
         seen.append(progress)
         if progress is None:
             return fake_result(params, ic, options)

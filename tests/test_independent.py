@@ -142,7 +142,7 @@ class FastPath:
         n = self.n
         e = np.ascontiguousarray(y[:3 * n].reshape(n, 3))
         w = np.ascontiguousarray(y[3 * n:].reshape(n, 3))
-        dyn.accelerations(e, w, self.anchored, self.locked, False, *self.ws.arrays(), self.de, self.dw)
+        dyn.accelerations(e, w, self.anchored, self.locked, *self.ws.arrays(), self.de, self.dw)
         return np.concatenate([self.de.reshape(-1), self.dw.reshape(-1)])
 
     def pivot_force(self, e, w):

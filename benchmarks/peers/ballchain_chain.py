@@ -44,7 +44,7 @@ def ballchain_eval(e: np.ndarray, w: np.ndarray, locked: np.ndarray | None = Non
     locked = np.ascontiguousarray(locked, dtype=np.uint8)
     de = np.zeros((n, 3))
     dw = np.zeros((n, 3))
-    args = (e, w, anchored, locked, False, *ws.arrays(), de, dw)
+    args = (e, w, anchored, locked, *ws.arrays(), de, dw)
 
     def call():
         accelerations(*args)

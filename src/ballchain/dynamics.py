@@ -99,7 +99,7 @@ def _zero_cols(J, j, r0, nr, col):
 
 
 @njit(cache=True)
-def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
+def build_rows(e, w, anchored, locked, J, kind, nrow, rhs, with_acc_rhs):
     """Fill the constraint rows of every point; if ``with_acc_rhs``, also the
     acceleration right-hand side rhs = -(J W f_gravity + velocity-product terms)."""
     n = e.shape[0]
@@ -179,7 +179,7 @@ def build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, with_acc_rhs):
 
 
 @njit(cache=True)
-def rows_rhs4(e, w, anchored, locked, cone, kind, nrow, rhs):
+def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
     """``build_rows`` without J, for the fixed-size path, in one pass that carries each
     segment's |w|^2, de = w x e and airborne flag to the next point.  Returns False if
     some point needs more than 4 rows (then the general path must be used)."""
@@ -707,19 +707,19 @@ def torques4(e, kind, nrow, x, gf):
 
 
 @njit(cache=True)
-def accelerations(e, w, anchored, locked, cone, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw):
+def accelerations(e, w, anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw):
     """Equations of motion between events: de/dt = w x e, dw/dt = 3 P (torque).
 
     Solves the hinge forces and lock multipliers (x) for the current locked set and
     anchors; returns the number of redundant rows dropped.
     """
     n = e.shape[0]
-    if rows_rhs4(e, w, anchored, locked, cone, kind, nrow, rhs):
+    if rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
         ndrop = factor4(e, anchored, kind, nrow, S, G, drop)
         solve4(nrow, S, G, rhs, x)
         torques4(e, kind, nrow, x, gf)
     else:
-        build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, True)
+        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, True)
         ndrop = factor_general(anchored, J, nrow, S, G, drop)
         solve_general(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)
@@ -878,7 +878,7 @@ def normalize_state(e, w, anchored):
 
 
 @njit(cache=True)
-def position_residuals(e, anchored, locked, cone, lock_cos, anchor_pos, kind, nrow, pts, out):
+def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, out):
     """Residual of every row at the position level: anchors (point - anchor), locks
     (e_a . e_c - lock_cos: the cosine at which the hinge locked, cos(alpha) to within the
     event tolerance), hinges 0 (positions are built from e).  Returns max |.|."""
@@ -916,14 +916,14 @@ def rotate_by(e, anchored, gf, sign):
 
 
 @njit(cache=True)
-def project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs,
+def project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs,
                   x, gf, pts, vel, tol, iters):
     """Remove constraint drift: normalise, then Gauss-Newton on anchor positions and
     locked angles (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.
     Returns the largest position residual before projection."""
     normalize_state(e, w, anchored)
-    build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, False)
-    res0 = position_residuals(e, anchored, locked, cone, lock_cos, anchor_pos, kind, nrow, pts, rhs)
+    build_rows(e, w, anchored, locked, J, kind, nrow, rhs, False)
+    res0 = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
     res = res0
     it = 0
     while res > tol and it < iters:
@@ -931,8 +931,8 @@ def project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, n
         solve(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)
         rotate_by(e, anchored, gf, -1.0)
-        build_rows(e, w, anchored, locked, cone, J, kind, nrow, rhs, False)
-        res = position_residuals(e, anchored, locked, cone, lock_cos, anchor_pos, kind, nrow, pts, rhs)
+        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, False)
+        res = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
         it += 1
     normalize_state(e, w, anchored)
     # velocities

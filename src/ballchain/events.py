@@ -201,7 +201,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
             for k in range(nh):
                 entry[k] = active[k]
             hinge_rates(e, w, rates)
-            it = velocity_impact(e, w, anchored, cand, forced, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf,
+            it = velocity_impact(e, w, anchored, cand, forced, active, J, kind, nrow, S, G, drop, rhs, x, gf,
                                  pv, vel, jv, w_plus, rates_after, impulse, stage_aimp, split)
             if it < 0:
                 return ERR_IMPACT_LCP, 0.0
@@ -237,7 +237,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
                   and exclude[k] == 0)
             cand[k] = 1 if c2 else 0
             active[k] = 1 if (locked[k] != 0 and c2) else 0
-        it = lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam)
+        it = lock_set(e, w, anchored, cand, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam)
         if it < 0:
             return ERR_LOCK_LCP, 0.0
         for k in range(nh):
@@ -284,7 +284,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
         if was_locked[k] == 0 and locked[k] != 0:
             lock_cos[k] = cos_alpha + gaps[k]
     velocities(e, w, pv, vel)
-    project_state(e, w, anchored, locked, cone, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs, x, gf,
+    project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs, x, gf,
                   pts, vel, PROJ_TOL, 5)
     hinge_gaps(e, cos_alpha, gaps)
     if floor != FLOOR_PIVOT and anchored[0] and math.isnan(acc[ACC_T_FALL]):
@@ -335,7 +335,7 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
     while True:
         if log_t.shape[0] - log_n[0] < room:
             return EV_RETURN, t, h
-        code, t, h = advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos,
+        code, t, h = advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
                              arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
                              lam, lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
                              fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel,

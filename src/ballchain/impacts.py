@@ -90,7 +90,7 @@ def _pivot_update(active, viol, use_murty):
 
 
 @njit(cache=True)
-def velocity_impact(e, w, anchored, cand, forced, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel,
+def velocity_impact(e, w, anchored, cand, forced, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel,
                     jv_minus, w_plus, rates, impulse, anchor_impulse, energy_split):
     """Moreau's inelastic impact.  ``cand[k]``: hinge k at its limit (a candidate);
     ``active`` on entry: initial guess (e.g. locked or approaching hinges), on exit: the
@@ -108,7 +108,7 @@ def velocity_impact(e, w, anchored, cand, forced, cone, active, J, kind, nrow, S
     stall = 0
     use_murty = False
     for it in range(MAX_PIVOTS):
-        build_rows(e, w, anchored, active, cone, J, kind, nrow, rhs, False)
+        build_rows(e, w, anchored, active, J, kind, nrow, rhs, False)
         constraint_velocities(e, w, J, nrow, pv, vel, jv_minus)
         for j in range(nrow.shape[0]):
             for r in range(nrow[j]):
@@ -175,7 +175,7 @@ def velocity_impact(e, w, anchored, cand, forced, cone, active, J, kind, nrow, S
 
 
 @njit(cache=True)
-def lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam):
+def lock_set(e, w, anchored, cand, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam):
     """Which hinges at their limit stay locked: the acceleration-level LCP over
     ``cand`` (hinges at the limit with dg/dt = 0).  ``active`` is the initial guess on
     entry and the locked set on exit; ``lam`` the lock multipliers.  Returns the number
@@ -187,7 +187,7 @@ def lock_set(e, w, anchored, cand, cone, active, J, kind, nrow, S, G, drop, rhs,
     stall = 0
     use_murty = False
     for it in range(MAX_PIVOTS):
-        accelerations(e, w, anchored, active, cone, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw)
+        accelerations(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw)
         hinge_accels(e, w, de, dw, ddg)
         nviol = 0
         for k in range(nh):

@@ -81,9 +81,9 @@ PROJ_TOL = 1e-12  # constraint drift tolerated before projection
 
 
 @njit(cache=True)
-def _rhs(Y, anchored, locked, cone, ws, dY):
+def _rhs(Y, anchored, locked, ws, dY):
     J, kind, nrow, S, G, drop, rhs, x, gf = ws
-    return accelerations(Y[0], Y[1], anchored, locked, cone, J, kind, nrow, S, G, drop, rhs, x, gf, dY[0], dY[1])
+    return accelerations(Y[0], Y[1], anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf, dY[0], dY[1])
 
 
 @njit(cache=True, inline="always")
@@ -123,7 +123,7 @@ def _dense_e(Y0, K, b, i, q):
 
 
 @njit(cache=True)
-def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws):
+def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws):
     """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y) given);
     Y1 = the 5th-order solution, K[6] = f(Y1)."""
     n = Y.shape[1]
@@ -140,13 +140,13 @@ def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws):
                             v += h * B[r] * K[r, a, i, q]
                     Ytmp[a, i, q] = v
         if s < 6:
-            _rhs(Ytmp, anchored, locked, cone, ws, K[s])
+            _rhs(Ytmp, anchored, locked, ws, K[s])
         else:
             for a in range(2):
                 for i in range(n):
                     for q in range(3):
                         Y1[a, i, q] = Ytmp[a, i, q]
-            _rhs(Y1, anchored, locked, cone, ws, K[6])
+            _rhs(Y1, anchored, locked, ws, K[6])
 
 
 @njit(cache=True)
@@ -189,7 +189,7 @@ def _zpoint(e, j):
 
 
 @njit(cache=True)
-def event_value(kind, idx, theta, Y0, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam):
+def event_value(kind, idx, theta, Y0, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam):
     """Value of event function (kind, idx) at t0 + theta h on the dense output."""
     b = np.empty(7)
     _dense_weights(h, theta, b)
@@ -213,14 +213,14 @@ def event_value(kind, idx, theta, Y0, K, h, cos_alpha, floor, anchored, locked, 
         return _zpoint(Yt[0], 0)
     # EV_UNLOCK: lambda_k at the interpolated state
     _dense(Y0, K, h, theta, Yt)
-    _rhs(Yt, anchored, locked, cone, ws, dYt)
+    _rhs(Yt, anchored, locked, ws, dYt)
     J, kind_, nrow, S, G, drop, rhs, x, gf = ws
     lock_multipliers(kind_, nrow, x, lam)
     return lam[idx]
 
 
 @njit(cache=True)
-def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt,
+def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt,
            lam):
     """Root of f + off on [a, b] (theta units) with fa > 0 >= fb (the values of f + off
     there) by Brent's method; returns a theta at which f + off <= 0 (the crossing, to
@@ -267,7 +267,7 @@ def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, ancho
             b += d
         else:
             b += tol1 if xm > 0 else -tol1
-        fb = event_value(kind, idx, b, Y0, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam) + off
+        fb = event_value(kind, idx, b, Y0, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam) + off
     # return the end of the bracket on the far side of the crossing
     if fb <= 0.0:
         return b
@@ -275,22 +275,22 @@ def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, ancho
 
 
 @njit(cache=True)
-def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam):
+def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam):
     """Where in the step (theta in [0, 1]) event function (kd, ix) fires, or 2.0 if it
     does not (module docstring).  ``fmid``, ``fend``: its values at the midpoint and the
     end (fmid = inf: unknown)."""
     if mode == ARMED:
-        f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam)
+        f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
         if f0 <= 0.0:
             return 0.0
         if fmid <= 0.0:
-            return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, xtol, Y, K, h, cos_alpha, floor, anchored, locked, cone,
+            return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
                           ws, Yt, dYt, lam)
         if fend <= 0.0:
             if fmid == math.inf:
                 return _brent(kd, ix, 0.0, 0.0, 1.0, f0, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
-                              cone, ws, Yt, dYt, lam)
-            return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked, cone,
+                              ws, Yt, dYt, lam)
+            return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
                           ws, Yt, dYt, lam)
         return 2.0
     # DEPARTING: it fires when it returns to zero after a sample above ZERO_BAND, or,
@@ -307,19 +307,19 @@ def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anch
         elif 2 * s == nscan and fmid != math.inf:
             f = fmid
         else:
-            f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, cone, ws, Yt, dYt, lam)
+            f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
         if f > ZERO_BAND:
             thp = th
             fp = f
         elif thp >= 0.0 and f <= 0.0:
-            return _brent(kd, ix, 0.0, thp, th, fp, f, xtol, Y, K, h, cos_alpha, floor, anchored, locked, cone, ws,
+            return _brent(kd, ix, 0.0, thp, th, fp, f, xtol, Y, K, h, cos_alpha, floor, anchored, locked, ws,
                           Yt, dYt, lam)
         elif f < ref - ZERO_BAND:
             sink = ZERO_BAND - ref
             if s == 0 or fq + sink <= 0.0:
                 return thq
             return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, xtol, Y, K, h, cos_alpha, floor, anchored,
-                          locked, cone, ws, Yt, dYt, lam)
+                          locked, ws, Yt, dYt, lam)
         thq = th
         fq = f
     return 2.0
@@ -344,7 +344,7 @@ def _step_error(Y, Y1, K, h, rtol, atol):
 
 
 @njit(cache=True)
-def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos,
+def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
             arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top,
             rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1,
             frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
@@ -366,7 +366,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
     fv_mid = np.empty(n + 1)
     fv_end = np.empty(n + 1)
     # FSAL: derivative at the current state
-    _rhs(Y, anchored, locked, cone, ws, K[0])
+    _rhs(Y, anchored, locked, ws, K[0])
     counters[1] += 1
     nfail = 0
     while True:
@@ -385,7 +385,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
         if h < 1e-14 * max(1.0, abs(t)):
             return ADV_FAIL_STEP, t, h
         # --- one Dormand-Prince step
-        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, cone, ws)
+        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws)
         counters[1] += 6
         err = _step_error(Y, Y1, K, h, rtol, atol)
         if not math.isfinite(err) or _nonfinite(Y1):
@@ -412,7 +412,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
                 ev_kind[nev] = EV_LOCK
                 ev_idx[nev] = k
                 ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
-                                        anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                                        anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         for k in range(nh):
             if arm_unlock[k] == OFF or not locked[k]:
@@ -421,7 +421,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
                 ev_kind[nev] = EV_UNLOCK
                 ev_idx[nev] = k
                 ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], math.inf, lam1[k], Y, K, h, xtol / h,
-                                        cos_alpha, floor, anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                                        cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 counters[1] += 2
                 nev += 1
         _dense(Y, K, h, 0.5, Ytmp)  # (the locating above may have used Ytmp)
@@ -436,7 +436,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
                 ev_kind[nev] = EV_LANDING
                 ev_idx[nev] = j
                 ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
-                                        anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                                        anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
                 _dense(Y, K, h, 0.5, Ytmp)
         if arm_top[0] != OFF:
@@ -446,7 +446,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
                 ev_kind[nev] = EV_TOP
                 ev_idx[nev] = 0
                 ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
-                                        anchored, locked, cone, ws, Ytmp, dYtmp, lam)
+                                        anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         theta_stop = 1.0
         for r in range(nev):
@@ -462,7 +462,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
         while frame_next[0] <= t_end + 1e-300 and fr_k < frame_cap:
             th = (frame_next[0] - t) / h
             _dense(Y, K, h, th, Ytmp)
-            _record_frame(Ytmp, anchored, locked, cone, ws, dYtmp, afor, pts, vel, fr_k, frame_next[0],
+            _record_frame(Ytmp, anchored, locked, ws, dYtmp, afor, pts, vel, fr_k, frame_next[0],
                           fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot)
             counters[1] += 1
             fr_k += 1
@@ -476,7 +476,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
                         for i in range(n):
                             for q in range(3):
                                 K2[0, a, i, q] = K[0, a, i, q]
-                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, cone, ws)
+                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, ws)
                     counters[1] += 6
                     for a in range(2):
                         for i in range(n):
@@ -503,10 +503,10 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
                 for q in range(3):
                     Y[a, i, q] = Y1[a, i, q]
         t = t_end
-        res = project_state(Y[0], Y[1], anchored, locked, cone, lock_cos, anchor_pos, J, kind_, nrow, S, G, drop,
+        res = project_state(Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, J, kind_, nrow, S, G, drop,
                             rhs, x, gf, pts, vel, PROJ_TOL, 3)
         if res > PROJ_TOL:
-            _rhs(Y, anchored, locked, cone, ws, K[0])
+            _rhs(Y, anchored, locked, ws, K[0])
             counters[1] += 1
         else:
             for a in range(2):
@@ -542,7 +542,7 @@ def advance(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anc
 
 
 @njit(cache=True)
-def _record_frame(Yt, anchored, locked, cone, ws, dYt, afor, pts, vel, k, tf,
+def _record_frame(Yt, anchored, locked, ws, dYt, afor, pts, vel, k, tf,
                   fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot):
     n = Yt.shape[1]
     fr_t[k] = tf
@@ -554,7 +554,7 @@ def _record_frame(Yt, anchored, locked, cone, ws, dYt, afor, pts, vel, k, tf,
         fr_anch[k, j] = anchored[j]
     for j in range(n - 1):
         fr_lock[k, j] = locked[j]
-    _rhs(Yt, anchored, locked, cone, ws, dYt)
+    _rhs(Yt, anchored, locked, ws, dYt)
     J, kind_, nrow, S, G, drop, rhs, x, gf = ws
     anchor_forces(kind_, nrow, x, afor)
     for q in range(3):
