@@ -71,15 +71,19 @@ def _landed_or_landing(anchored, i):
 @njit(cache=True)
 def limit_in_force(anchored, k, cone, alpha):
     """Is the bend limit of hinge k (between segments k and k+1) in force?  Never when
-    alpha = pi; between two segments that have not landed, always; between a landed
-    (or landing in the current impact) and an airborne segment only with ``cone``
-    (the ``anchor_cone`` option); between two landed segments, never."""
+    alpha = pi; between two segments that have not landed, yes, unless they span two
+    anchors (points k and k+2 anchored, point k+1 free: their angle is then fixed by the
+    distance of the anchors, |p_k - p_{k+2}| = 2 sqrt(2 + 2 e_k . e_{k+1}), so the
+    limit can neither be reached nor bear a load, and its row would only repeat the
+    anchors'); between a landed (or landing in the current impact) and an airborne
+    segment only with ``cone`` (the ``anchor_cone`` option); between two landed
+    segments, never."""
     if alpha >= math.pi:
         return False
     la = _landed_or_landing(anchored, k)
     lc = _landed_or_landing(anchored, k + 1)
     if not la and not lc:
-        return True
+        return not (anchored[k] != 0 and anchored[k + 2] != 0)
     return cone and (la != lc)
 
 
