@@ -117,6 +117,7 @@ class Run:
         self.arm_top = np.zeros(1, np.int8)
         self.arms = (self.arm_lock, self.arm_unlock, self.arm_land, self.arm_top)
         self.refs = (np.zeros(max(n - 1, 0)), np.zeros(max(n - 1, 0)), np.zeros(n + 1), np.zeros(1))
+        self.apexes = (np.full(max(n - 1, 0), np.inf), np.full(n + 1, np.inf))  # events.apex_times
         self.ws = Workspace(n)
         self.wst = self.ws.arrays()
         self.cos_alpha = math.cos(params.alpha)
@@ -286,7 +287,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
         while True:
             run.log.reserve(4 * (4 * n + 8))
             code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor, run.cone, run.anchored,
-                                    run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs, options.rtol,
+                                    run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs, run.apexes, options.rtol,
                                     xtol, options.hold_rate, options.hold_apex,
                                     ws, adv, frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
                                     run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,

@@ -15,8 +15,9 @@ and the handler without returning to Python.
    ``hold_apex``, is held at its limit (``rules.must_hold``: the limit of the
    converging series of impacts it would start), and steps 3-4 are solved again;
 5. new locks hold the angle reached; the state is projected onto the constraints; each
-   event function is armed or marked departing (``arm_functions``), and the first step
-   after the instant is capped so that a departing hinge's return is resolved.
+   event function is armed or marked departing (``arm_functions``), and the apex of
+   each departing constraint that will come back is predicted (``apex_times``), so that
+   its return is resolved even within one step.
 
 The event log is kept in preallocated arrays (``log_*``, ``log_n[0]`` rows); each row is
 one of ``result.EVENT_KINDS``.  The run's scalars are in ``acc``: [lost_locking, lost_landing,
@@ -109,33 +110,37 @@ def arm_functions(floor, alpha, cone, e, anchored, locked, gaps, lam, t_fall_kno
 
 
 @njit(cache=True)
-def _return_time_cap(e, w, de, dw, anchored, arm_lock, arm_land, rates, ddg, pv):
-    """Time to the apex of the slowest-returning departing constraint: a hinge (or a
-    free point, floor ``all``) that leaves its zero at rate v > 0 while accelerating back
-    (a < 0) returns after 2 v/|a|; a first step no longer than v/|a| ends near the apex,
-    where the function is positive, so that its return is located as a crossing.  Only
-    excursions that rise above rules.ZERO_BAND (v^2 / 2|a|) can be resolved; smaller
-    ones are hovering and are not waited for."""
-    cap = math.inf
+def apex_times(t, e, w, de, dw, arm_lock, arm_land, rates, ddg, pv, apex_lock, apex_land):
+    """Predicted apex time of every departing constraint that accelerates back: a hinge
+    (or a free point, floor ``all``) that leaves its zero at rate v > 0 while its
+    acceleration a < 0 pulls it back peaks at t + v/|a| and returns at t + 2v/|a|.  The
+    integrator samples a departing function there, so that a return within one step is
+    located as a crossing (it fires only after the function has been seen positive).
+    Only excursions that rise above rules.ZERO_BAND (v^2 / 2|a|) can be resolved; the
+    others get inf (the accumulation rule has held those that would come back)."""
     for k in range(arm_lock.shape[0]):
+        apex_lock[k] = math.inf
         if arm_lock[k] == DEPARTING and ddg[k] < 0.0 and rates[k] ** 2 > -2.0 * ZERO_BAND * ddg[k]:
-            cap = min(cap, rates[k] / -ddg[k])
+            apex_lock[k] = t + rates[k] / -ddg[k]
     n = e.shape[0]
+    apex_land[n] = math.inf
     az = 0.0  # d2z/dt2 of point j = 2 sum_{i>=j} (dw_i x e_i + w_i x de_i)_z
     for j in range(n - 1, -1, -1):
         az += 2.0 * (dw[j, 0] * e[j, 1] - dw[j, 1] * e[j, 0] + w[j, 0] * de[j, 1] - w[j, 1] * de[j, 0])
+        apex_land[j] = math.inf
         if arm_land[j] == DEPARTING and az < 0.0 and pv[j, 2] > 0.0 and pv[j, 2] ** 2 > -2.0 * ZERO_BAND * az:
-            cap = min(cap, pv[j, 2] / -az)
-    return cap
+            apex_land[j] = t + pv[j, 2] / -az
 
 
 @njit(cache=True)
 def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, alpha, floor, cone,
                  e, w, anchored, locked, lock_cos, anchor_pos, anchor_t,
-                 arms, refs, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc):
+                 arms, refs, apexes, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n,
+                 acc):
     """Apply everything that happens at the instant t (module docstring, steps 1-5).
-    ``ws``: the Workspace arrays; ``sc``: scratch (``engine.Run.scratch``).  Returns
-    (status, h_cap): EV_OK or a negative error code, and the largest first step."""
+    ``ws``: the Workspace arrays; ``sc``: scratch (``engine.Run.scratch``);
+    ``apexes`` = (apex_lock, apex_land) (``apex_times``).  Returns EV_OK or a negative
+    error code."""
     J, kind, nrow, S, G, drop, rhs, x, gf = ws
     (gaps, rates, rates_after, impulse, anchor_impulse, split, jv, w_plus, de, dw, ddg, lam,
      exclude, cand, active, was_locked, new_lock, in_force, new_anchor, pre_v,
@@ -204,7 +209,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
             it = velocity_impact(e, w, anchored, cand, forced, active, J, kind, nrow, S, G, drop, rhs, x, gf,
                                  pv, vel, jv, w_plus, rates_after, impulse, stage_aimp, split)
             if it < 0:
-                return ERR_IMPACT_LCP, 0.0
+                return ERR_IMPACT_LCP
             acc[ACC_LOST_LOCKING] += split[0]
             acc[ACC_LOST_LANDING] += split[1]
             for j in range(n + 1):  # the floor's impulse on the chain: every anchor, new or old
@@ -239,7 +244,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
             active[k] = 1 if (locked[k] != 0 and c2) else 0
         it = lock_set(e, w, anchored, cand, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw, ddg, lam)
         if it < 0:
-            return ERR_LOCK_LCP, 0.0
+            return ERR_LOCK_LCP
         for k in range(nh):
             locked[k] = active[k]
         # the accumulation limit: a hinge this instant has released (it was locked, or
@@ -261,7 +266,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
             active[k] = 1 if (locked[k] or forced[k]) else 0
     T1 = kinetic_energy(e, w, pv, vel)
     if T1 > T0 * (1 + 1e-9) + 1e-12:
-        return ERR_ENERGY, 0.0
+        return ERR_ENERGY
     # the log: one row per constraint that acted
     for k in range(nh):
         if forced[k]:
@@ -293,7 +298,8 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
                   fv)
     hinge_rates(e, w, rates)
     velocities(e, w, pv, vel)
-    return EV_OK, _return_time_cap(e, w, de, dw, anchored, arms[0], arms[2], rates, ddg, pv)
+    apex_times(t, e, w, de, dw, arms[0], arms[2], rates, ddg, pv, apexes[0], apexes[1])
+    return EV_OK
 
 
 @njit(cache=True)
@@ -306,14 +312,15 @@ def _all_anchored(anchored):
 
 @njit(cache=True)
 def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos, anchor_t,
-               arms, refs, rtol, xtol, hold_rate, hold_apex, ws, adv, frames, trace, ev, pts, pv, vel, afor,
+               arms, refs, apexes, rtol, xtol, hold_rate, hold_apex, ws, adv, frames, trace, ev, pts, pv, vel, afor,
                counters, max_steps, stats, sc, log, log_n, acc, zeno_t, zeno_n, zeno_window, max_events,
                return_every, fr_lostl, fr_lostf, fill):
     """Integrate and handle events in one compiled loop.  Returns (code, t, h): an
     integrator code (integrator.ADV_*; never ADV_EVENT), EV_LANDED, EV_RETURN (after
     ``return_every`` events, or when the log has no room for another event), or a
     negative error code (ERR_*).  ``arms`` = (arm_lock, arm_unlock, arm_land, arm_top),
-    ``refs`` their reference levels (``arm_functions``),
+    ``refs`` their reference levels (``arm_functions``), ``apexes`` = (apex_lock,
+    apex_land) (``apex_times``),
     ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1), ``frames`` = (frame_dt, frame_next,
     cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count),
     ``trace`` = (tr_t, tr_z, tr_count), ``ev`` = (ev_kind, ev_idx, ev_theta), ``log`` =
@@ -336,7 +343,8 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
         if log_t.shape[0] - log_n[0] < room:
             return EV_RETURN, t, h
         code, t, h = advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
-                             arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
+                             arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top,
+                             apexes[0], apexes[1], rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
                              lam, lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
                              fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel,
                              afor, counters, max_steps, stats)
@@ -346,14 +354,12 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
         fill[0] = fr_count[0]
         if code != ADV_EVENT:
             return code, t, h
-        status, h_cap = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, hold_rate, hold_apex, alpha,
+        status = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, hold_rate, hold_apex, alpha,
                                      floor, cone,
                                      Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t,
-                                     arms, refs, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc)
+                                     arms, refs, apexes, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc)
         if status < 0:
             return status, t, h
-        if h_cap < h:
-            h = max(h_cap, 1e-12 * max(1.0, abs(t)))
         # event accumulation: ZENO_EVENTS (= zcap - 1) events within zeno_window
         zk = zeno_n[0]
         zeno_t[zk % zcap] = t

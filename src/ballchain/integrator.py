@@ -24,11 +24,12 @@ penetration margin delays an event.  A departing function becomes armed once a s
 ends with it above ``rules.ZERO_BAND``.  One that has not yet been above it (a
 constraint hovering at its limit: rate and acceleration both about zero) fires when it
 sinks below ``-rules.ZERO_BAND``.  A step is checked at its end and its midpoint (armed
-functions), or at 16 points (departing functions that were triggered).  The sinking
-level is measured from where the function started (``ref_*``: min(f, 0) after the
-event), since an event leaves it only within round-off of its zero.  After an
-instant the event handler caps the first step so that a departing constraint that
-accelerates back is seen positive before it returns (``events._return_time_cap``).
+functions), or at 16 points and at its predicted apex (departing functions that were
+triggered; the event handler predicts where a departing constraint that accelerates
+back peaks, ``events.apex_times``, so that a return within one step is seen positive
+first and located as a crossing).  The sinking level is measured from where the
+function started (``ref_*``: min(f, 0) after the event), since an event leaves it only
+within round-off of its zero.
 
 The step error is the largest component error over the state (a max norm), so its
 meaning does not change with N.
@@ -275,10 +276,12 @@ def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, ancho
 
 
 @njit(cache=True)
-def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam):
+def _locate(kd, ix, mode, ref, tha, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anchored, locked, ws, Yt, dYt,
+            lam):
     """Where in the step (theta in [0, 1]) event function (kd, ix) fires, or 2.0 if it
     does not (module docstring).  ``fmid``, ``fend``: its values at the midpoint and the
-    end (fmid = inf: unknown)."""
+    end (fmid = inf: unknown); ``tha``: the predicted apex of a departing function, in
+    theta units (outside (0, 1): none in this step)."""
     if mode == ARMED:
         f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
         if f0 <= 0.0:
@@ -300,14 +303,22 @@ def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anch
     fp = 0.0
     thq = 0.0
     fq = 0.0
-    for s in range(nscan + 1):
+    apex_done = not (0.0 < tha < 1.0)
+    s = 0
+    while s <= nscan:
         th = s / nscan
-        if s == nscan:
-            f = fend
-        elif 2 * s == nscan and fmid != math.inf:
-            f = fmid
-        else:
+        if not apex_done and tha < th:  # the predicted apex comes first
+            th = tha
+            apex_done = True
             f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
+        else:
+            s += 1
+            if th == 1.0:
+                f = fend
+            elif th == 0.5 and fmid != math.inf:
+                f = fmid
+            else:
+                f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
         if f > ZERO_BAND:
             thp = th
             fp = f
@@ -316,7 +327,7 @@ def _locate(kd, ix, mode, ref, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anch
                           Yt, dYt, lam)
         elif f < ref - ZERO_BAND:
             sink = ZERO_BAND - ref
-            if s == 0 or fq + sink <= 0.0:
+            if th == 0.0 or fq + sink <= 0.0:
                 return thq
             return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, xtol, Y, K, h, cos_alpha, floor, anchored,
                           locked, ws, Yt, dYt, lam)
@@ -345,7 +356,7 @@ def _step_error(Y, Y1, K, h, rtol, atol):
 
 @njit(cache=True)
 def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
-            arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top,
+            arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, apex_lock, apex_land,
             rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1,
             frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
             tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, afor, counters, max_steps, stats):
@@ -411,7 +422,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_LOCK
                 ev_idx[nev] = k
-                ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
+                ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], (apex_lock[k] - t) / h, fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
                                         anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         for k in range(nh):
@@ -420,7 +431,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if lam1[k] <= 0.0:
                 ev_kind[nev] = EV_UNLOCK
                 ev_idx[nev] = k
-                ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], math.inf, lam1[k], Y, K, h, xtol / h,
+                ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], 2.0, math.inf, lam1[k], Y, K, h, xtol / h,
                                         cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 counters[1] += 2
                 nev += 1
@@ -435,7 +446,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_LANDING
                 ev_idx[nev] = j
-                ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
+                ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], (apex_land[j] - t) / h, fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
                                         anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
                 _dense(Y, K, h, 0.5, Ytmp)
@@ -445,7 +456,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_TOP
                 ev_idx[nev] = 0
-                ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
+                ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], 2.0, fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
                                         anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         theta_stop = 1.0
