@@ -141,8 +141,10 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         f"  t_fall / t_ff      {_fmt(s.get('ratio'))}",
         f"  t_landed / t_ff    {_fmt(s.get('landed_ratio'))}",
         f"  events             lock {ev.get('lock', 0)}, unlock {ev.get('unlock', 0)}, "
-        f"landing {ev.get('landing', 0)}; first lock at t/t_ff = "
-        f"{_fmt(_div(s.get('first_lock_time'), s.get('t_ff')))}",
+        f"landing {ev.get('landing', 0)}"
+        + "".join(f", {k} {v}" for k, v in ev.items() if k not in ("lock", "unlock", "landing") and v)
+        + (f" ({s['n_instants']} instants)" if s.get("n_instants") is not None else "")
+        + f"; first lock at t/t_ff = {_fmt(_div(s.get('first_lock_time'), s.get('t_ff')))}",
         f"  energy imbalance   {_fmt(imb, '.3g')} (relative to initial energy: {_fmt(rel, '.3g')})",
     ]
     if s.get("floor") == "pivot":
