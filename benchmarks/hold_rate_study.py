@@ -4,10 +4,11 @@
 
 A hinge released at an instant that accelerates back to its limit and would return
 slower than ``hold_rate``, or after an excursion smaller than ``hold_apex``, is held
-there (the limit of the converging series of impacts it would start).  The study runs well-conditioned falls (short enough that the event
-sequence does not depend on round-off) at several thresholds and tolerances and shows
-that the energy lost to locking converges as the threshold goes to zero, and that the
-threshold moves it less than the tolerance does.
+there (the limit of the converging series of impacts it would start).  The study runs
+well-conditioned falls (short enough that the event sequence does not depend on
+round-off) at several thresholds and tolerances and shows that the energy lost to
+locking converges as the thresholds go to zero, and that they move it less than the
+tolerance does.
 """
 
 from __future__ import annotations
@@ -53,7 +54,8 @@ def main(argv=None):
         for h, r in rows:
             c = r.event_counts()
             el = r.energy["lost_locking"]
-            lines.append(f"| {n} | {math.degrees(alpha):.0f} deg | {until} | {rtol:g} | {h[0]:g}, {h[1]:g} | {c['lock']} | "
+            lines.append(f"| {n} | {math.degrees(alpha):.0f} deg | {until} | {rtol:g} | {h[0]:g}, {h[1]:g} "
+                         f"| {c['lock']} | "
                          f"{c['hold']} | {r.n_instants} | {el:.10f} | {abs(el - ref) / ref:.1e} |")
         loose = run(n, alpha, until, rtol * 100, 1e-6).energy["lost_locking"]
         mid = [r for h, r in rows if h == (1e-6, 1e-11)][0].energy["lost_locking"]

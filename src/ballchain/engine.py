@@ -287,7 +287,8 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
         while True:
             run.log.reserve(4 * (4 * n + 8))
             code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor, run.cone, run.anchored,
-                                    run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs, run.apexes, options.rtol,
+                                    run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs,
+                                    run.apexes, options.rtol,
                                     xtol, options.hold_rate, options.hold_apex,
                                     ws, adv, frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
                                     run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,

@@ -357,7 +357,8 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
         status = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, hold_rate, hold_apex, alpha,
                                      floor, cone,
                                      Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t,
-                                     arms, refs, apexes, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n, acc)
+                                     arms, refs, apexes, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp,
+                                     log_energy, log_n, acc)
         if status < 0:
             return status, t, h
         # event accumulation: ZENO_EVENTS (= zcap - 1) events within zeno_window

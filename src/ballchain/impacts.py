@@ -311,6 +311,23 @@ def _dense_lcp(M, q, c, idx, active, tol, dref):
 
 
 @njit(cache=True)
+def _dense_fallback(e, w, anchored, base, idx, c, q_all, tol, J, kind, nrow, S, G, drop, rhs, x, gf, active):
+    """The LCP over the candidates idx[:c] as one dense problem (``_delassus``, then
+    ``_dense_lcp``): q = q_all[idx] (the rates or accelerations with no candidate
+    active), the locks ``base`` held throughout.  Sets active[idx]; returns Lemke's pivot
+    count (-1: failure)."""
+    n = e.shape[0]
+    q0 = np.empty(c)
+    for i in range(c):
+        q0[i] = q_all[idx[i]]
+    M = np.empty((c, c))
+    dref = np.empty(c)
+    _delassus(e, w, anchored, base, idx, c, J, kind, nrow, S, G, drop, rhs, x, gf, np.empty((n, 3)),
+              np.empty(max(n - 1, 1)), M, dref)
+    return _dense_lcp(M, q0, c, idx, active, tol, dref)
+
+
+@njit(cache=True)
 def _impact_trial(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel, jv_minus, w_plus,
                   rates):
     """Post-impact velocity w_plus and hinge rates for the lock set ``active``."""
@@ -332,10 +349,11 @@ def _impact_trial(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf,
 @njit(cache=True)
 def velocity_impact(e, w, anchored, cand, forced, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel,
                     jv_minus, w_plus, rates, impulse, anchor_impulse, energy_split):
-    """Moreau's inelastic impact.  ``cand[k]``: hinge k at its limit with its limit in force (a candidate);
-    ``forced[k]``: a candidate held at its limit whatever the sign of its impulse (the
-    accumulation rule, ``rules.must_hold``); ``active`` on entry: initial guess (e.g. locked or approaching hinges), on exit: the
-    hinges that carry an impulse or stay at the limit.  ``anchored`` includes the points
+    """Moreau's inelastic impact.  ``cand[k]``: hinge k at its limit, its limit in force
+    (a candidate); ``forced[k]``: a candidate held at its limit whatever the sign of its
+    impulse (the accumulation rule, ``rules.must_hold``); ``active`` on entry: initial
+    guess (e.g. locked or approaching hinges), on exit: the hinges that carry an
+    impulse or stay at the limit.  ``anchored`` includes the points
     that just touched the floor.  On exit ``w`` holds the post-impact angular velocities,
     ``impulse[k]`` the lock impulses, ``anchor_impulse[j]`` the floor impulses,
     ``energy_split`` = (lost to locking, lost to landing): their sum is the kinetic
@@ -410,14 +428,8 @@ def velocity_impact(e, w, anchored, cand, forced, active, J, kind, nrow, S, G, d
                 active[k] = forced[k]
             _impact_trial(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel, jv_minus, w_plus,
                           rates)
-            q0 = np.empty(c)
-            for i in range(c):
-                q0[i] = rates[idx[i]]
-            M = np.empty((c, c))
-            dref = np.empty(c)
-            _delassus(e, w, anchored, forced, idx, c, J, kind, nrow, S, G, drop, rhs, x, gf, w_plus,
-                      np.empty(max(nh, 1)), M, dref)
-            if _dense_lcp(M, q0, c, idx, active, RATE_TOL, dref) < 0:
+            if _dense_fallback(e, w, anchored, forced, idx, c, rates, RATE_TOL, J, kind, nrow, S, G, drop, rhs, x,
+                               gf, active) < 0:
                 return -1
             final = True
             continue
@@ -488,14 +500,8 @@ def lock_set(e, w, anchored, cand, active, J, kind, nrow, S, G, drop, rhs, x, gf
                 active[k] = 0
             accelerations(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw)
             hinge_accels(e, w, de, dw, ddg)
-            q0 = np.empty(c)
-            for i in range(c):
-                q0[i] = ddg[idx[i]]
-            M = np.empty((c, c))
-            dref = np.empty(c)
-            _delassus(e, w, anchored, none, idx, c, J, kind, nrow, S, G, drop, rhs, x, gf, np.empty((n, 3)),
-                      np.empty(max(nh, 1)), M, dref)
-            if _dense_lcp(M, q0, c, idx, active, atol, dref) < 0:
+            if _dense_fallback(e, w, anchored, none, idx, c, ddg, atol, J, kind, nrow, S, G, drop, rhs, x, gf,
+                               active) < 0:
                 return -1
             final = True
             continue

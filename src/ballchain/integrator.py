@@ -422,8 +422,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_LOCK
                 ev_idx[nev] = k
-                ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], (apex_lock[k] - t) / h, fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
-                                        anchored, locked, ws, Ytmp, dYtmp, lam)
+                ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], (apex_lock[k] - t) / h, fm, fe, Y, K,
+                                        h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         for k in range(nh):
             if arm_unlock[k] == OFF or not locked[k]:
@@ -431,8 +431,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if lam1[k] <= 0.0:
                 ev_kind[nev] = EV_UNLOCK
                 ev_idx[nev] = k
-                ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], 2.0, math.inf, lam1[k], Y, K, h, xtol / h,
-                                        cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
+                ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], 2.0, math.inf, lam1[k], Y, K,
+                                        h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 counters[1] += 2
                 nev += 1
         _dense(Y, K, h, 0.5, Ytmp)  # (the locating above may have used Ytmp)
@@ -446,8 +446,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_LANDING
                 ev_idx[nev] = j
-                ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], (apex_land[j] - t) / h, fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
-                                        anchored, locked, ws, Ytmp, dYtmp, lam)
+                ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], (apex_land[j] - t) / h, fm, fe, Y,
+                                        K, h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
                 _dense(Y, K, h, 0.5, Ytmp)
         if arm_top[0] != OFF:
@@ -456,8 +456,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_TOP
                 ev_idx[nev] = 0
-                ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], 2.0, fm, fe, Y, K, h, xtol / h, cos_alpha, floor,
-                                        anchored, locked, ws, Ytmp, dYtmp, lam)
+                ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], 2.0, fm, fe, Y, K, h, xtol / h, cos_alpha,
+                                        floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         theta_stop = 1.0
         for r in range(nev):
