@@ -261,7 +261,7 @@ def test_run_error_saves_partial_result_and_exits_1(engine, tmp_path):
     assert r.status == "error" and r.message == "NaN in the state at t = 3.2"
 
 
-def test_ctrl_c_exit_130_no_file(engine, tmp_path):
+def test_ctrl_c_before_the_run_starts_exit_130_no_file(engine, tmp_path):
     engine.behaviour = "interrupt"
     out = tmp_path / "run.h5"
     res = run("simulate", "--segments", "4", "--output", str(out))
@@ -362,3 +362,16 @@ def test_help_lists_the_contract_options():
                 "--phase", "--seed", "--rtol", "--until", "--output", "--force", "--json",
                 "--length", "--mass", "--gravity", "--frames-per-tff", "--quiet"):
         assert opt in res.stdout, opt
+
+
+def test_version():
+    from ballchain import __version__
+
+    res = run("--version")
+    assert res.exit_code == 0 and res.stdout.strip() == f"ballchain {__version__}"
+
+
+def test_rtol_below_double_precision_is_refused(engine):
+    res = run("simulate", "--rtol", "1e-16")
+    assert_one_line_error(res, 2, "rtol", "double precision")
+    assert engine.calls == []

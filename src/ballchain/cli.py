@@ -3,8 +3,9 @@
 Errors in the input (every invalid parameter, an unwritable or existing output file,
 a damaged result file) are reported as one line ``error: <message>`` on stderr with
 exit code 2 and no traceback.  A run that stops with ``status == "error"`` exits 1
-(after saving what was computed), Ctrl-C exits 130 and never leaves a half-written
-file.  Stdout carries only the summary (one JSON object with ``--json``); the progress
+(after saving what was computed); Ctrl-C (SIGTERM) during the run saves what was
+computed with status ``interrupted`` and exits 130 (143); an interrupt never leaves a
+half-written file.  Stdout carries only the summary (one JSON object with ``--json``); the progress
 bar goes to stderr.
 """
 
@@ -18,6 +19,7 @@ from typing import Any, Optional
 import typer
 from typer.core import TyperGroup
 
+from . import __version__
 from .files import ResultFileError, check_writable, file_info, load_result, save_result
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
@@ -29,6 +31,7 @@ except ImportError:  # pragma: no cover - older typer on top of click
 EXIT_RUN_ERROR = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # SIGTERM
 
 
 class _OneLineErrors(TyperGroup):
@@ -63,6 +66,18 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_show_locals=False,
 )
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"ballchain {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                       help="Print the version and exit.")) -> None:
+    """Event-driven 3D simulation of a falling ball chain (Itano & Sugihara-Seki model)."""
 
 
 # --------------------------------------------------------------------------- helpers
@@ -252,9 +267,9 @@ def simulate(
         result = _run_engine(params, None if state else init, options, show_progress=not quiet, state=state)
         if initial is not None:
             result.extra["initial"] = str(initial)
-    except KeyboardInterrupt:
-        _error("interrupted (nothing saved)")
-        raise typer.Exit(EXIT_INTERRUPTED)
+    except KeyboardInterrupt as exc:  # before the run started, or a second signal: stop at once
+        _error(f"interrupted ({getattr(exc, 'reason', 'SIGINT')}) before the run could save its work (nothing saved)")
+        raise typer.Exit(EXIT_TERMINATED if "SIGTERM" in str(exc) else EXIT_INTERRUPTED)
     except ParameterError as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
@@ -281,6 +296,10 @@ def simulate(
         _error(f"the run failed: {result.message or 'unknown error'}"
                + (f" (partial result saved to {saved})" if saved else ""))
         raise typer.Exit(EXIT_RUN_ERROR)
+    if result.status == "interrupted":
+        _error(f"interrupted by {result.message}"
+               + (f" (partial result saved to {saved})" if saved else " (no --output: not saved)"))
+        raise typer.Exit(EXIT_TERMINATED if "SIGTERM" in result.message else EXIT_INTERRUPTED)
     if save_failed:
         raise typer.Exit(EXIT_RUN_ERROR)
     if result.status == "max_time":

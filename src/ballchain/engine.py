@@ -12,6 +12,8 @@ more than ``ZENO_EVENTS`` event instants within ``ZENO_WINDOW`` t_ff, or more th
 from __future__ import annotations
 
 import math
+import signal
+import threading
 import time as _time
 from typing import Callable
 
@@ -53,6 +55,47 @@ class SimulationError(RuntimeError):
     """A run that cannot go on (blow-up, event accumulation, singular configuration)."""
 
 
+class Interrupted(KeyboardInterrupt):
+    """Raised by a second SIGINT or SIGTERM during a run (the first one asks the run to
+    stop at the next safe point and keep its work, see ``_StopOnSignals``)."""
+
+    def __init__(self, reason: str = "SIGTERM"):
+        super().__init__(reason)
+        self.reason = reason
+
+
+class _StopOnSignals:
+    """While a run lasts (main thread only), the first SIGINT (Ctrl-C) or SIGTERM asks
+    it to stop at the next return from compiled code, where the state and every buffer
+    are consistent; the run then ends with status ``interrupted`` and keeps its work.
+    A second signal stops at once (``Interrupted``, nothing kept)."""
+
+    NAMES = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM"}
+
+    def __init__(self):
+        self.reason: str | None = None
+        self.old: dict = {}
+
+    def _handler(self, signum, frame):
+        if self.reason is not None:
+            raise Interrupted(self.NAMES.get(signum, str(signum)))
+        self.reason = self.NAMES.get(signum, str(signum))
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.NAMES:
+                try:
+                    self.old[sig] = signal.signal(sig, self._handler)
+                except (ValueError, OSError):  # pragma: no cover - embedded interpreters
+                    pass
+        return self
+
+    def __exit__(self, *exc):
+        for sig, old in self.old.items():
+            signal.signal(sig, old)
+        return False
+
+
 class _Log:
     """The event log in growable arrays (written by the compiled handler in place)."""
 
@@ -63,11 +106,12 @@ class _Log:
     def _alloc(self, cap):
         old = getattr(self, "arrays", None)
         k = int(self.n[0])
-        self.arrays = (np.zeros(cap), np.zeros(cap, np.int64), np.zeros(cap, np.int64), np.zeros((cap, 3)),
-                       np.zeros(cap))
+        arrays = (np.zeros(cap), np.zeros(cap, np.int64), np.zeros(cap, np.int64), np.zeros((cap, 3)),
+                  np.zeros(cap))
         if old is not None:
-            for new_a, old_a in zip(self.arrays, old):
+            for new_a, old_a in zip(arrays, old):
                 new_a[:k] = old_a[:k]
+        self.arrays = arrays
 
     def reserve(self, rows: int) -> None:
         """Make room for ``rows`` more rows (capacity doubles)."""
@@ -283,36 +327,41 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     zeno_t = np.zeros(ZENO_EVENTS + 1)
     zeno_n = np.zeros(1, np.int64)
     fill = np.zeros(1, np.int64)
+    stopper = _StopOnSignals()
     try:
-        while True:
-            run.log.reserve(4 * (4 * n + 8))
-            code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor, run.cone, run.anchored,
-                                    run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs,
-                                    run.apexes, options.rtol,
-                                    xtol, options.hold_rate, options.hold_apex,
-                                    ws, adv, frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
-                                    run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,
-                                    run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
-                                    options.max_events, RETURN_EVERY, fr_lostl, fr_lostf, fill)
-            if code == ADV_BUFFER:
-                flush_trace()
-                continue
-            if code == EV_LANDED:
-                status = "landed"
-                break
-            if code == ERR_ZENO:
-                raise SimulationError(f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff "
-                                      f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
-            if code == ERR_MAX_EVENTS:
-                raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
-            if code in ERROR_MESSAGES:
-                raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}")
-            if code != EV_RETURN:
-                stop = stop_code(code)
-                if stop is not None:
-                    status, message = stop
+        with stopper:
+            while True:
+                if stopper.reason is not None:
+                    status, message = "interrupted", f"{stopper.reason} at t/t_ff = {t / t_ff:.6f}"
                     break
-            report()
+                run.log.reserve(4 * (4 * n + 8))
+                code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor, run.cone, run.anchored,
+                                        run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs,
+                                        run.apexes, options.rtol,
+                                        xtol, options.hold_rate, options.hold_apex,
+                                        ws, adv, frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
+                                        run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,
+                                        run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
+                                        options.max_events, RETURN_EVERY, fr_lostl, fr_lostf, fill)
+                if code == ADV_BUFFER:
+                    flush_trace()
+                    continue
+                if code == EV_LANDED:
+                    status = "landed"
+                    break
+                if code == ERR_ZENO:
+                    raise SimulationError(f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff "
+                                          f"before t/t_ff = {t / t_ff:.6f} (Zeno); stopping")
+                if code == ERR_MAX_EVENTS:
+                    raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
+                if code in ERROR_MESSAGES:
+                    raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}")
+                if code != EV_RETURN:
+                    stop = stop_code(code)
+                    if stop is not None:
+                        status, message = stop
+                        break
+                report()
     except SimulationError as exc:
         status, message = "error", str(exc)
     flush_trace()

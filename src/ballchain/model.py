@@ -18,6 +18,7 @@ import re
 from dataclasses import asdict, dataclass
 
 FLOOR_MODELS = ("all", "pivot")
+RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
 
 
@@ -215,6 +216,9 @@ class SolverOptions:
         r = float(self.rtol)
         if not math.isfinite(r) or not (0.0 < r < 1.0):
             raise ParameterError(f"rtol must be finite and in (0, 1), got {self.rtol!r}")
+        if r < RTOL_MIN:
+            raise ParameterError(f"rtol {self.rtol!r} is below what double precision can honour "
+                                 f"(at least {RTOL_MIN:g}: the state is O(1) and its round-off ~1e-16 per step)")
         object.__setattr__(self, "rtol", r)
         if self.until is not None:
             object.__setattr__(self, "until", _finite_positive("until", self.until))

@@ -52,7 +52,8 @@ class Result:
     not reached), ``max_depth`` (deepest airborne point below the floor; 0 if none).
     ``status``: ``landed`` (ran to the end), ``until`` (stopped at the requested time),
     ``max_time`` (hit the safety cap), ``error`` (stopped by a failure; ``message``
-    says why and the arrays hold what was computed up to then).
+    says why and the arrays hold what was computed up to then), ``interrupted``
+    (Ctrl-C or SIGTERM; the arrays hold what was computed up to the stop).
 
     Trace (every accepted step and event): ``t``, ``z_top``.
     Frames (every 1/frames_per_tff of t_ff): ``frame_t``, directions ``frame_e``
