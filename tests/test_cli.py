@@ -39,12 +39,14 @@ def fake_result(params: ChainParams, ic: InitialCondition, options: SolverOption
         frame_locked=np.zeros((frames, n - 1), bool), frame_floor_force=rng.normal(size=(frames, 3)),
         frame_kinetic=np.zeros(frames), frame_potential=np.zeros(frames),
         frame_lost_locking=np.zeros(frames), frame_lost_landing=np.zeros(frames),
+        frame_pile_pull=np.zeros((frames, 3)), frame_scale_force=np.zeros(frames),
+        frame_floor_impulse=np.zeros((frames, 3)),
         event_t=np.array([0.1, 0.2, 0.3, 0.4]), event_kind=np.array([1, 1, 2, 3], np.int8),
         event_index=np.array([0, 1, 0, n], np.int64), event_impulse=np.zeros((4, 3)),
-        event_energy=np.zeros(4), anchor_t=np.full(n + 1, np.nan), anchor_pos=np.zeros((n + 1, 3)),
+        event_energy=np.zeros(4), event_pos=np.zeros((4, 3)), anchor_t=np.full(n + 1, np.nan), anchor_pos=np.zeros((n + 1, 3)),
         energy={"initial": 1.0 * n * n, "potential": 0.0, "kinetic": 0.0, "lost_locking": 0.5 * n * n,
                 "lost_landing": 0.5 * n * n, "imbalance": 1e-13},
-        max_depth=0.0, floor_impulse=np.zeros(3), wall_seconds=0.01, n_steps=steps,
+        max_depth=0.0, floor_impulse=np.zeros(3), floor_impulse_total=np.zeros(3), wall_seconds=0.01, n_steps=steps,
         n_evals=6 * steps, n_instants=steps // 10, units=units,
     )
 
@@ -104,7 +106,8 @@ def test_json_summary(engine):
     for k in SUMMARY_KEYS:
         assert k in out, k
     assert set(out["events"]) >= {"lock", "unlock", "landing"}
-    assert out["events"] == {"lock": 2, "unlock": 1, "landing": 1, "top": 0, "impulse": 0, "release": 0, "hold": 0}
+    assert out["events"] == {"lock": 2, "unlock": 1, "landing": 1, "top": 0, "impulse": 0, "release": 0, "hold": 0,
+                             "anchor": 0}
     assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking",
                                   "lost_landing", "imbalance"}
     assert out["segments"] == 16 and out["floor"] == "all"

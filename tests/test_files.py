@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 
@@ -11,10 +12,10 @@ import numpy as np
 import pytest
 
 from ballchain import files
-from ballchain.files import (FORMAT_NAME, ResultFileError, check_writable, load_result,
+from ballchain.files import (FORMAT_NAME, FORMAT_VERSION, ResultFileError, check_writable, load_result,
                              save_result, unit_of)
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
-from ballchain.result import Result
+from ballchain.result import EVENT_KINDS, Result
 
 
 def make_result(n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="nondimensional",
@@ -43,14 +44,16 @@ def make_result(n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="no
         frame_kinetic=rng.random(frames), frame_potential=rng.random(frames),
         frame_lost_locking=np.cumsum(rng.random(frames)),
         frame_lost_landing=np.cumsum(rng.random(frames)),
+        frame_pile_pull=rng.normal(size=(frames, 3)), frame_scale_force=rng.normal(size=frames),
+        frame_floor_impulse=np.cumsum(rng.normal(size=(frames, 3)), axis=0),
         event_t=np.sort(rng.uniform(0, 3, size=events)),
-        event_kind=rng.integers(1, 5, size=events).astype(np.int8),
+        event_kind=rng.integers(1, 9, size=events).astype(np.int8),
         event_index=rng.integers(0, n + 1, size=events).astype(np.int64),
         event_impulse=rng.normal(size=(events, 3)), event_energy=rng.random(events),
-        anchor_t=anchor_t, anchor_pos=rng.normal(size=(n + 1, 3)),
+        event_pos=rng.normal(size=(events, 3)), anchor_t=anchor_t, anchor_pos=rng.normal(size=(n + 1, 3)),
         energy={"initial": 10.0, "potential": 3.0, "kinetic": 2.5, "lost_locking": 4.0,
                 "lost_landing": 0.5, "imbalance": 1.2e-15},
-        max_depth=0.0, floor_impulse=rng.normal(size=3),
+        max_depth=0.0, floor_impulse=rng.normal(size=3), floor_impulse_total=rng.normal(size=3),
         wall_seconds=1.25, n_steps=steps, n_evals=6 * steps, n_instants=steps // 10, units=units,
         extra={"note": "synthetic", "list": [1, 2.5, None], "nested": {"a": math.nan}},
     )
@@ -111,7 +114,7 @@ def test_file_is_self_describing(tmp_path):
     save_result(r, path)
     with h5py.File(path, "r") as f:
         assert f.attrs["format"] == FORMAT_NAME
-        assert int(f.attrs["format_version"]) == 1
+        assert int(f.attrs["format_version"]) == 2
         assert f.attrs["units"] == "SI"
         assert "created" in f.attrs and "package_version" in f.attrs
         assert int(f.attrs["seed"]) == 7
@@ -130,8 +133,30 @@ def test_file_is_self_describing(tmp_path):
         for g in ("trace", "frames", "events", "anchors", "summary"):
             for name, ds in f[g].items():
                 assert "units" in ds.attrs and ds.attrs["description"], name
+        assert f["frames/frame_floor_impulse"].attrs["units"] == "N s"
+        assert f["events/event_pos"].attrs["units"] == "m"
+        assert "Point N, the original pivot, is at the origin" in f["frames"].attrs["conventions"]
+        kinds = json.loads(f["events"].attrs["kinds"])
+        assert kinds == {str(c): name for c, name in EVENT_KINDS.items()}
+        assert set(json.loads(f["events"].attrs["kind_meanings"])) == set(EVENT_KINDS.values())
         big = f["frames/frame_e"]
         assert big.compression == "gzip" and big.shuffle and big.chunks is not None
+
+
+def test_version_1_file_loads_with_the_new_datasets_as_nan(tmp_path):
+    """A file written before the floor momentum record still loads; what it lacks is NaN."""
+    r = make_result(n=6, frames=7, events=5)
+    path = tmp_path / "v1.h5"
+    save_result(r, path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = np.int64(1)
+        for key in ("summary/floor_impulse_total", "frames/frame_pile_pull", "frames/frame_scale_force",
+                    "frames/frame_floor_impulse", "events/event_pos"):
+            del f[key]
+    back = load_result(path)
+    assert back.frame_pile_pull.shape == (7, 3) and np.all(np.isnan(back.frame_pile_pull))
+    assert back.event_pos.shape == (5, 3) and np.all(np.isnan(back.floor_impulse_total))
+    np.testing.assert_array_equal(back.frame_e, r.frame_e)
 
 
 def test_units_nondimensional():
@@ -258,7 +283,7 @@ def test_newer_format_version(tmp_path):
     p = tmp_path / "run.h5"
     save_result(make_result(), p)
     with h5py.File(p, "r+") as f:
-        f.attrs["format_version"] = 2
+        f.attrs["format_version"] = FORMAT_VERSION + 1
     assert "newer" in _one_line_error(p)
 
 
@@ -292,5 +317,5 @@ def test_file_info(tmp_path):
     p = tmp_path / "run.h5"
     save_result(make_result(), p)
     info = files.file_info(p)
-    assert info["format"] == FORMAT_NAME and info["format_version"] == 1
+    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 2
     assert info["units"] == "nondimensional" and info["status"] == "landed"

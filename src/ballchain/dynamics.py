@@ -766,6 +766,36 @@ def anchor_forces(kind, nrow, x, out):
                 out[j, r % 3] += x[j, r]
 
 
+@njit(cache=True)
+def anchor_force_total(kind, nrow, x, out):
+    """out = sum_j F_j, the continuous force of all anchors on the airborne chain
+    (the multipliers of the anchor rows; landed segments, at rest, are not included)."""
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if k == ROW_ANCHOR_LOWER or k == ROW_ANCHOR_UPPER:
+                out[r % 3] += x[j, r]
+
+
+@njit(cache=True)
+def pile_pull(anchored, kind, nrow, x, out):
+    """out = force of the pile on the hanging chain: the force of the first anchored
+    point from the top, j*, on segment j* - 1 above it (its ROW_ANCHOR_LOWER rows);
+    zero when the top end is anchored (no hanging part).  out[2] < 0: a pull down."""
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+    for j in range(anchored.shape[0]):
+        if anchored[j] != 0:
+            if j > 0 and nrow[j] >= 3 and kind[j, 0] == ROW_ANCHOR_LOWER:
+                for q in range(3):
+                    out[q] = x[j, q]
+            return
+
+
 # ------------------------------------------------------------ kinematics
 
 

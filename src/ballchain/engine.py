@@ -30,6 +30,7 @@ from .events import (
     EV_LANDED,
     EV_RETURN,
     arm_functions,
+    log_room,
     run_events,
 )
 from .impacts import hinge_gaps
@@ -107,7 +108,7 @@ class _Log:
         old = getattr(self, "arrays", None)
         k = int(self.n[0])
         arrays = (np.zeros(cap), np.zeros(cap, np.int64), np.zeros(cap, np.int64), np.zeros((cap, 3)),
-                  np.zeros(cap))
+                  np.zeros(cap), np.zeros((cap, 3)))
         if old is not None:
             for new_a, old_a in zip(arrays, old):
                 new_a[:k] = old_a[:k]
@@ -122,17 +123,66 @@ class _Log:
     def __len__(self) -> int:
         return int(self.n[0])
 
-    def add(self, t, kind, index, impulse=(0.0, 0.0, 0.0), energy=0.0):
-        self.reserve(1)
-        k = int(self.n[0])
-        lt, lk, li, limp, le = self.arrays
-        lt[k], lk[k], li[k], limp[k], le[k] = t, kind, index, impulse, energy
-        self.n[0] = k + 1
-
     def view(self):
-        """(t, kind, index, impulse, energy) of the rows written so far."""
+        """(t, kind, index, impulse, energy, position) of the rows written so far."""
         k = int(self.n[0])
         return tuple(a[:k] for a in self.arrays)
+
+
+FRAME_CHUNK_BYTES = 32 << 20  # frame buffers are emptied into the result this often
+
+
+class _Frames:
+    """Output frames in fixed-size buffers that the compiled loop fills (``advance``
+    returns ADV_BUFFER when they are full); ``flush`` moves them into chunks, so a run
+    holds what it has written, never what it might write."""
+
+    def __init__(self, n: int, frame_dt: float, frames_wanted: float):
+        per_frame = frame_bytes(n)
+        self.cap = int(max(16, min(frames_wanted + 2, FRAME_CHUNK_BYTES // per_frame)))
+        cap, nh = self.cap, max(n - 1, 0)
+        self.names = ("t", "e", "omega", "anchored", "locked", "floor_force", "kinetic", "potential",
+                      "pile_pull", "scale_force", "floor_impulse", "lost_locking", "lost_landing")
+        self.buf = {
+            "t": np.zeros(cap), "e": np.zeros((cap, n, 3)), "omega": np.zeros((cap, n, 3)),
+            "anchored": np.zeros((cap, n + 1), np.uint8), "locked": np.zeros((cap, nh), np.uint8),
+            "floor_force": np.zeros((cap, 3)), "kinetic": np.zeros(cap), "potential": np.zeros(cap),
+            "pile_pull": np.zeros((cap, 3)), "scale_force": np.zeros(cap), "floor_impulse": np.zeros((cap, 3)),
+            "lost_locking": np.zeros(cap), "lost_landing": np.zeros(cap),
+        }
+        self.count = np.zeros(1, np.int64)
+        self.fill = np.zeros(1, np.int64)
+        self.next = np.zeros(1)
+        self.chunks = {name: [] for name in self.names}
+        b = self.buf
+        self.compiled = (frame_dt, self.next, cap, b["t"], b["e"], b["omega"], b["anchored"], b["locked"],
+                         b["floor_force"], b["kinetic"], b["potential"], self.count, b["pile_pull"],
+                         b["scale_force"], b["floor_impulse"], b["lost_locking"], b["lost_landing"], self.fill)
+
+    def flush(self) -> None:
+        k = int(self.count[0])
+        if k:
+            parts = {name: self.buf[name][:k].copy() for name in self.names}
+            for name in self.names:
+                self.chunks[name].append(parts[name])
+        self.count[0] = 0
+        self.fill[0] = 0
+
+    def arrays(self) -> dict:
+        self.flush()
+        return {name: np.concatenate(self.chunks[name]) if self.chunks[name] else self.buf[name][:0]
+                for name in self.names}
+
+
+def frame_bytes(n: int) -> int:
+    """Bytes one output frame of an N-segment chain takes in memory."""
+    return 8 * (2 * 3 * n) + (n + 1) + max(n - 1, 0) + 8 * 14
+
+
+def run_bytes(n: int) -> int:
+    """Bytes the working arrays of an N-segment run take (measured: benchmarks; a bound
+    within 20%), not counting output."""
+    return 3200 * (n + 1)
 
 
 class Run:
@@ -181,7 +231,6 @@ class Run:
         self.pv = np.zeros((n + 1, 3))
         self.vel = np.zeros((n, 3))
         self.pts = np.zeros((n + 1, 3))
-        self.afor = np.zeros((n + 1, 3))
 
     # the run's scalars live in ``acc`` (shared with the compiled event handler)
     lost_locking = property(lambda self: self.acc[0], lambda self, v: self.acc.__setitem__(0, v))
@@ -253,21 +302,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     T0 = kinetic_energy(run.Y[0], run.Y[1], run.pv, run.vel)
     E0 = U0 + T0
     t_stop = (options.until if options.until is not None else options.max_time) * t_ff
-    # buffers
-    frame_dt = t_ff / options.frames_per_tff
-    cap = int(math.ceil(t_stop / frame_dt)) + 5
-    fr_t = np.zeros(cap)
-    fr_e = np.zeros((cap, n, 3))
-    fr_w = np.zeros((cap, n, 3))
-    fr_anch = np.zeros((cap, n + 1), np.uint8)
-    fr_lock = np.zeros((cap, max(n - 1, 0)), np.uint8)
-    fr_force = np.zeros((cap, 3))
-    fr_kin = np.zeros(cap)
-    fr_pot = np.zeros(cap)
-    fr_lostl = np.zeros(cap)
-    fr_lostf = np.zeros(cap)
-    fr_count = np.zeros(1, np.int64)
-    frame_next = np.zeros(1)
+    frames = _Frames(n, t_ff / options.frames_per_tff, t_stop * options.frames_per_tff / t_ff)
     trace_chunks_t, trace_chunks_z = [], []
     tr_t = np.zeros(65536)
     tr_z = np.zeros(65536)
@@ -284,6 +319,9 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     dYtmp = np.zeros((2, n, 3))
     lam = np.zeros(max(n - 1, 1))
     lam1 = np.zeros(max(n - 1, 1))
+    F = np.zeros((7, 3))
+    F2 = np.zeros((7, 3))
+    fint = np.zeros(3)  # the floor's continuous impulse so far (integrator.floor_impulse_step)
     xtol = options.event_xtol
     t = 0.0
     h = 1e-3
@@ -321,12 +359,10 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
 
     run.arm()
     ws = run.wst
-    adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1)
-    frames = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count)
+    adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint)
     sc = run.compiled_scratch()
     zeno_t = np.zeros(ZENO_EVENTS + 1)
     zeno_n = np.zeros(1, np.int64)
-    fill = np.zeros(1, np.int64)
     stopper = _StopOnSignals()
     try:
         with stopper:
@@ -334,17 +370,18 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                 if stopper.reason is not None:
                     status, message = "interrupted", f"{stopper.reason} at t/t_ff = {t / t_ff:.6f}"
                     break
-                run.log.reserve(4 * (4 * n + 8))
+                run.log.reserve(4 * log_room(n))
                 code, t, h = run_events(run.Y, t, h, t_stop, params.alpha, run.floor, run.cone, run.anchored,
                                         run.locked, run.lock_cos, run.anchor_pos, run.anchor_t, run.arms, run.refs,
                                         run.apexes, options.rtol,
                                         xtol, options.hold_rate, options.hold_apex,
-                                        ws, adv, frames, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta), run.pts,
-                                        run.pv, run.vel, run.afor, counters, options.max_steps, stats, sc,
+                                        ws, adv, frames.compiled, (tr_t, tr_z, tr_count), (ev_kind, ev_idx, ev_theta),
+                                        run.pts, run.pv, run.vel, counters, options.max_steps, stats, sc,
                                         run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
-                                        options.max_events, RETURN_EVERY, fr_lostl, fr_lostf, fill)
+                                        options.max_events, RETURN_EVERY)
                 if code == ADV_BUFFER:
                     flush_trace()
+                    frames.flush()
                     continue
                 if code == EV_LANDED:
                     status = "landed"
@@ -364,28 +401,29 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                 report()
     except SimulationError as exc:
         status, message = "error", str(exc)
+    except MemoryError:
+        status = "error"
+        message = (f"out of memory at t/t_ff = {t / t_ff:.6f} after {sum(map(len, frames.chunks['t']))} frames "
+                   f"(lower --frames-per-tff or --until)")
     flush_trace()
     if progress is not None:
         progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log), "landed": int(np.sum(run.landed()))})
     T_end, U_end = run.energy_now()
-    nf = int(fr_count[0])
-    return _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
-                        U_end, np.concatenate([[0.0]] + trace_chunks_t), np.concatenate([[z0]] + trace_chunks_z),
-                        fr_t[:nf], fr_e[:nf], fr_w[:nf], fr_anch[:nf], fr_lock[:nf], fr_force[:nf], fr_kin[:nf],
-                        fr_pot[:nf], fr_lostl[:nf], fr_lostf[:nf], -min(stats[0], 0.0), wall0, counters,
-                        int(zeno_n[0]))
+    floor_total = run.floor_impulse + fint
+    return _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end, U_end,
+                        np.concatenate([[0.0]] + trace_chunks_t), np.concatenate([[z0]] + trace_chunks_z),
+                        frames.arrays(), floor_total, -min(stats[0], 0.0), wall0, counters, int(zeno_n[0]))
 
 
-def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end, U_end, tr_t, tr_z, fr_t, fr_e, fr_w,
-                 fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_lostl, fr_lostf, max_depth, wall0, counters,
-                 n_instants) -> Result:
+def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end, U_end, tr_t, tr_z, fr, floor_total,
+                 max_depth, wall0, counters, n_instants) -> Result:
     """Convert the nondimensional run to the run's units and package it."""
     tu = params.time_unit
     lu = params.half_length
     fu = params.force_unit
     eu = params.energy_unit
     iu = fu * tu
-    log_t, log_kind, log_index, log_imp, log_energy = run.log.view()
+    log_t, log_kind, log_index, log_imp, log_energy, log_pos = run.log.view()
     energy = {
         "initial": E0 * eu,
         "potential": U_end * eu,
@@ -398,13 +436,17 @@ def _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end,
         params=params, ic=ic, options=options, version=__version__, status=status, message=message,
         z0=z0 * lu, t_ff=t_ff * tu, t_fall=run.t_fall * tu, t_landed=run.t_landed * tu,
         t=tr_t * tu, z_top=tr_z * lu,
-        frame_t=fr_t * tu, frame_e=fr_e.copy(), frame_omega=fr_w / tu, frame_anchored=fr_anch.astype(bool),
-        frame_locked=fr_lock.astype(bool), frame_floor_force=fr_force * fu, frame_kinetic=fr_kin * eu,
-        frame_potential=fr_pot * eu, frame_lost_locking=fr_lostl * eu, frame_lost_landing=fr_lostf * eu,
+        frame_t=fr["t"] * tu, frame_e=fr["e"], frame_omega=fr["omega"] / tu,
+        frame_anchored=fr["anchored"].astype(bool), frame_locked=fr["locked"].astype(bool),
+        frame_floor_force=fr["floor_force"] * fu, frame_kinetic=fr["kinetic"] * eu,
+        frame_potential=fr["potential"] * eu, frame_lost_locking=fr["lost_locking"] * eu,
+        frame_lost_landing=fr["lost_landing"] * eu, frame_pile_pull=fr["pile_pull"] * fu,
+        frame_scale_force=fr["scale_force"] * fu, frame_floor_impulse=fr["floor_impulse"] * iu,
         event_t=log_t * tu, event_kind=log_kind.astype(np.int8), event_index=log_index.copy(),
-        event_impulse=log_imp * iu, event_energy=log_energy * eu,
+        event_impulse=log_imp * iu, event_energy=log_energy * eu, event_pos=log_pos * lu,
         anchor_t=run.anchor_t * tu, anchor_pos=run.anchor_pos * lu,
         energy=energy, max_depth=max_depth * lu, floor_impulse=run.floor_impulse * iu,
+        floor_impulse_total=floor_total * iu,
         wall_seconds=_time.perf_counter() - wall0, n_steps=int(counters[0]), n_evals=int(counters[1]),
         n_instants=n_instants,
         units="SI" if params.is_si else "nondimensional",

@@ -53,8 +53,16 @@ from .rules import (
 LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = EVENT_CODES["lock"], EVENT_CODES["unlock"], EVENT_CODES["landing"], \
     EVENT_CODES["top"]
 LOG_IMPULSE, LOG_RELEASE, LOG_HOLD = EVENT_CODES["impulse"], EVENT_CODES["release"], EVENT_CODES["hold"]
+LOG_ANCHOR = EVENT_CODES["anchor"]
 
 ACC_LOST_LOCKING, ACC_LOST_LANDING, ACC_FLOOR_IMPULSE, ACC_T_FALL, ACC_T_LANDED = 0, 1, 2, 5, 6
+
+@njit(cache=True)
+def log_room(n):
+    """Log rows one event instant can add at most: per hinge a lock/impulse/hold row and
+    a release row, unlocks, per point a landing or an anchor-impulse row, the top."""
+    return 3 * (n - 1) + (n + 1) + 8
+
 
 # handle_event / run_events status codes (negative: the run cannot go on)
 EV_OK = 0
@@ -64,7 +72,10 @@ ERR_IMPACT_LCP, ERR_ENERGY, ERR_LOCK_LCP, ERR_ZENO, ERR_MAX_EVENTS = -1, -2, -3,
 
 
 @njit(cache=True, inline="always")
-def _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, kind, index, i0, i1, i2, energy):
+def _log(log, log_n, t, kind, index, i0, i1, i2, energy, pts, j):
+    """One row of the event log ``log`` = (t, kind, index, impulse, energy, position);
+    the position is that of point j (a hinge k: its point j = k + 1)."""
+    log_t, log_kind, log_index, log_imp, log_energy, log_pos = log
     k = log_n[0]
     log_t[k] = t
     log_kind[k] = kind
@@ -73,6 +84,8 @@ def _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, kind, index,
     log_imp[k, 1] = i1
     log_imp[k, 2] = i2
     log_energy[k] = energy
+    for q in range(3):
+        log_pos[k, q] = pts[j, q]
     log_n[0] = k + 1
 
 
@@ -135,8 +148,7 @@ def apex_times(t, e, w, de, dw, arm_lock, arm_land, rates, ddg, pv, apex_lock, a
 @njit(cache=True)
 def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, alpha, floor, cone,
                  e, w, anchored, locked, lock_cos, anchor_pos, anchor_t,
-                 arms, refs, apexes, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp, log_energy, log_n,
-                 acc):
+                 arms, refs, apexes, ws, sc, pts, pv, vel, log, log_n, acc):
     """Apply everything that happens at the instant t (module docstring, steps 1-5).
     ``ws``: the Workspace arrays; ``sc``: scratch (``engine.Run.scratch``);
     ``apexes`` = (apex_lock, apex_land) (``apex_times``).  Returns EV_OK or a negative
@@ -148,6 +160,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
     n = e.shape[0]
     nh = n - 1
     cos_alpha = math.cos(alpha)
+    point_positions(e, pts)  # (positions do not change at an instant)
     # 1. unlocks; the top end crossing the floor in the pivot model
     for k in range(nh):
         exclude[k] = 0
@@ -160,15 +173,14 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
             if locked[k]:
                 locked[k] = 0
                 exclude[k] = 1
-                _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0)
+                _log(log, log_n, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
         elif ev_kind[i] == EV_TOP:
             if math.isnan(acc[ACC_T_FALL]):
                 acc[ACC_T_FALL] = t
-                _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0)
+                _log(log, log_n, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, pts, 0)
         elif ev_kind[i] == EV_LANDING:
             any_landing = True
     # 2. floor contacts
-    point_positions(e, pts)
     velocities(e, w, pv, vel)
     na = floor_contacts(floor, e, pts, pv, anchored, any_landing, new_anchor)
     for r in range(na):
@@ -270,20 +282,24 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
     # the log: one row per constraint that acted
     for k in range(nh):
         if forced[k]:
-            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_HOLD, k, imp_sum[k], 0.0, 0.0,
-                 lost_h[k])
+            _log(log, log_n, t, LOG_HOLD, k, imp_sum[k], 0.0, 0.0, lost_h[k], pts, k + 1)
         elif imp_sum[k] != 0.0 or new_lock[k]:
-            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t,
-                 LOG_IMPULSE if was_locked[k] else LOG_LOCK, k, imp_sum[k], 0.0, 0.0, lost_h[k])
+            _log(log, log_n, t, LOG_IMPULSE if was_locked[k] else LOG_LOCK, k, imp_sum[k], 0.0, 0.0, lost_h[k],
+                 pts, k + 1)
         elif locked[k] and not was_locked[k]:  # a touch that locks
-            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_LOCK, k, 0.0, 0.0, 0.0, 0.0)
+            _log(log, log_n, t, LOG_LOCK, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
         if not locked[k] and (was_locked[k] or new_lock[k] or forced[k]):
-            _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0)
+            _log(log, log_n, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
     for r in range(na):
         j = new_anchor[r]
         i0, i1, i2 = anchor_impulse[j, 0], anchor_impulse[j, 1], anchor_impulse[j, 2]
         lost = -0.5 * (i0 * pre_v[r, 0] + i1 * pre_v[r, 1] + i2 * pre_v[r, 2])
-        _log(log_t, log_kind, log_index, log_imp, log_energy, log_n, t, LOG_LANDING, j, i0, i1, i2, lost)
+        _log(log, log_n, t, LOG_LANDING, j, i0, i1, i2, lost, pts, j)
+    for j in range(n + 1):  # impulses of the floor on points anchored before this instant
+        if anchored[j] != 0 and anchor_t[j] != t:
+            i0, i1, i2 = anchor_impulse[j, 0], anchor_impulse[j, 1], anchor_impulse[j, 2]
+            if i0 != 0.0 or i1 != 0.0 or i2 != 0.0:
+                _log(log, log_n, t, LOG_ANCHOR, j, i0, i1, i2, 0.0, pts, j)
     # 5. hold new locks at the angle reached, project, arm the event functions
     for k in range(nh):
         if was_locked[k] == 0 and locked[k] != 0:
@@ -312,31 +328,34 @@ def _all_anchored(anchored):
 
 @njit(cache=True)
 def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos, anchor_t,
-               arms, refs, apexes, rtol, xtol, hold_rate, hold_apex, ws, adv, frames, trace, ev, pts, pv, vel, afor,
+               arms, refs, apexes, rtol, xtol, hold_rate, hold_apex, ws, adv, frames, trace, ev, pts, pv, vel,
                counters, max_steps, stats, sc, log, log_n, acc, zeno_t, zeno_n, zeno_window, max_events,
-               return_every, fr_lostl, fr_lostf, fill):
+               return_every):
     """Integrate and handle events in one compiled loop.  Returns (code, t, h): an
-    integrator code (integrator.ADV_*; never ADV_EVENT), EV_LANDED, EV_RETURN (after
-    ``return_every`` events, or when the log has no room for another event), or a
-    negative error code (ERR_*).  ``arms`` = (arm_lock, arm_unlock, arm_land, arm_top),
-    ``refs`` their reference levels (``arm_functions``), ``apexes`` = (apex_lock,
-    apex_land) (``apex_times``),
-    ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1), ``frames`` = (frame_dt, frame_next,
-    cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count),
-    ``trace`` = (tr_t, tr_z, tr_count), ``ev`` = (ev_kind, ev_idx, ev_theta), ``log`` =
-    (log_t, log_kind, log_index, log_imp, log_energy).  ``zeno_t``: ring of the latest
-    event times (length ZENO_EVENTS + 1), ``zeno_n[0]`` events seen.  Frames ``fill[0]``
-    .. ``fr_count[0]`` get the cumulative losses as they stand when the integrator
-    returns (no loss happens between events)."""
-    K, K2, Y1, Ytmp, dYtmp, lam, lam1 = adv
-    frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count = frames
+    integrator code (integrator.ADV_*; never ADV_EVENT; ADV_BUFFER: the trace or frame
+    buffers are full), EV_LANDED, EV_RETURN (after ``return_every`` events, or when the
+    log has no room for another event), or a negative error code (ERR_*).  ``arms`` =
+    (arm_lock, arm_unlock, arm_land, arm_top), ``refs`` their reference levels
+    (``arm_functions``), ``apexes`` = (apex_lock, apex_land) (``apex_times``),
+    ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint) (``integrator.advance``),
+    ``frames`` = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock,
+    fr_force, fr_kin, fr_pot, fr_count, fr_pull, fr_scale, fr_fimp, fr_lostl, fr_lostf,
+    fill), ``trace`` = (tr_t, tr_z, tr_count), ``ev`` = (ev_kind, ev_idx, ev_theta),
+    ``log`` = (log_t, log_kind, log_index, log_imp, log_energy, log_pos).  ``zeno_t``:
+    ring of the latest event times (length ZENO_EVENTS + 1), ``zeno_n[0]`` events seen.
+    Frames ``fill[0]`` .. ``fr_count[0]`` get the cumulative losses and floor impulses
+    of the impacts as they stand when the integrator returns (no impact happens between
+    events)."""
+    K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint = adv
+    (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
+     fr_pull, fr_scale, fr_fimp, fr_lostl, fr_lostf, fill) = frames
     tr_t, tr_z, tr_count = trace
     ev_kind, ev_idx, ev_theta = ev
-    log_t, log_kind, log_index, log_imp, log_energy = log
+    log_t = log[0]
     arm_lock, arm_unlock, arm_land, arm_top = arms
     ref_lock, ref_unlock, ref_land, ref_top = refs
     n = Y.shape[1]
-    room = 4 * n + 8  # log rows one event can add at most
+    room = log_room(n)
     handled = 0
     zcap = zeno_t.shape[0]
     while True:
@@ -345,20 +364,20 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
         code, t, h = advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
                              arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top,
                              apexes[0], apexes[1], rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
-                             lam, lam1, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force,
-                             fr_kin, fr_pot, fr_count, tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel,
-                             afor, counters, max_steps, stats)
+                             lam, lam1, F, F2, fint, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock,
+                             fr_force, fr_kin, fr_pot, fr_count, fr_pull, fr_scale, fr_fimp, tr_t, tr_z, tr_count,
+                             ev_kind, ev_idx, ev_theta, pts, vel, counters, max_steps, stats)
         for f in range(fill[0], fr_count[0]):
             fr_lostl[f] = acc[ACC_LOST_LOCKING]
             fr_lostf[f] = acc[ACC_LOST_LANDING]
+            for q in range(3):
+                fr_fimp[f, q] += acc[ACC_FLOOR_IMPULSE + q]
         fill[0] = fr_count[0]
         if code != ADV_EVENT:
             return code, t, h
-        status = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, hold_rate, hold_apex, alpha,
-                                     floor, cone,
-                                     Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t,
-                                     arms, refs, apexes, ws, sc, pts, pv, vel, log_t, log_kind, log_index, log_imp,
-                                     log_energy, log_n, acc)
+        status = handle_event(t, ev_kind, ev_idx, ev_theta, counters[2], xtol, hold_rate, hold_apex, alpha, floor,
+                              cone, Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, anchor_t, arms, refs, apexes,
+                              ws, sc, pts, pv, vel, log, log_n, acc)
         if status < 0:
             return status, t, h
         # event accumulation: ZENO_EVENTS (= zcap - 1) events within zeno_window

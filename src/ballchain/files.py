@@ -9,12 +9,15 @@ Layout (format ``ballchain-result``, version 1)::
     /ic               attrs: one per InitialCondition field (absent if ic is None)
     /options          attrs: one per SolverOptions field (None is written as "none")
     /summary          0-d datasets z0, t_ff, t_fall, t_landed, max_depth, wall_seconds,
-                      n_steps, n_evals; floor_impulse (3,)
+                      n_steps, n_evals, n_instants; floor_impulse (3,), floor_impulse_total (3,)
     /trace            t, z_top
     /frames           frame_t, frame_e, frame_omega, frame_anchored, frame_locked,
-                      frame_floor_force, frame_kinetic, frame_potential,
+                      frame_floor_force, frame_pile_pull, frame_scale_force,
+                      frame_floor_impulse, frame_kinetic, frame_potential,
                       frame_lost_locking, frame_lost_landing
-    /events           event_t, event_kind, event_index, event_impulse, event_energy
+                      attrs: conventions (numbering, directions, positions, axes)
+    /events           event_t, event_kind, event_index, event_impulse, event_energy,
+                      event_pos; attrs: kinds (JSON code -> name), kind_meanings
     /anchors          anchor_t, anchor_pos
     /energy           attrs: the final energy budget (and ``units``)
 
@@ -42,10 +45,20 @@ import numpy as np
 
 from . import __version__
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from .result import EVENT_KINDS, QUANTITY, Result
+from .result import EVENT_KINDS, EVENT_MEANINGS, QUANTITY, Result
 
 FORMAT_NAME = "ballchain-result"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
+
+CONVENTIONS = (
+    "Segments i = 0..N-1 are numbered from the top end of the chain, points j = 0..N "
+    "from the top too: segment i joins point i (its upper end) and point i+1 (its lower "
+    "end); hinge k (0..N-2) is point k+1. frame_e[:, i] is the unit axis e_i of segment i, "
+    "pointing up the chain (from point i+1 to point i). Point N, the original pivot, is at "
+    "the origin and is anchored from t = 0; point j is at r_j = 2 b sum_{i>=j} e_i "
+    "(Result.points()). z points up, the floor is z = 0, gravity is -g e_z. b is the "
+    "half-length of a segment (params.half_length; 1 in nondimensional units), m its mass."
+)
 
 # big datasets (bytes) are chunked + compressed
 _COMPRESS_MIN_BYTES = 16 * 1024
@@ -61,14 +74,20 @@ _UNITS_ND = {
 }
 
 GROUPS = {
-    "summary": ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "floor_impulse",
+    "summary": ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "floor_impulse", "floor_impulse_total",
                 "wall_seconds", "n_steps", "n_evals", "n_instants"),
     "trace": ("t", "z_top"),
     "frames": ("frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked",
-               "frame_floor_force", "frame_kinetic", "frame_potential",
-               "frame_lost_locking", "frame_lost_landing"),
-    "events": ("event_t", "event_kind", "event_index", "event_impulse", "event_energy"),
+               "frame_floor_force", "frame_pile_pull", "frame_scale_force", "frame_floor_impulse",
+               "frame_kinetic", "frame_potential", "frame_lost_locking", "frame_lost_landing"),
+    "events": ("event_t", "event_kind", "event_index", "event_impulse", "event_energy", "event_pos"),
     "anchors": ("anchor_t", "anchor_pos"),
+}
+# datasets that version 1 files lack (read back as NaN), by their shape
+_NEW_IN_V2 = {
+    "floor_impulse_total": lambda nf, ne: (3,), "frame_pile_pull": lambda nf, ne: (nf, 3),
+    "frame_scale_force": lambda nf, ne: (nf,), "frame_floor_impulse": lambda nf, ne: (nf, 3),
+    "event_pos": lambda nf, ne: (ne, 3),
 }
 _FLOAT_SCALARS = ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "wall_seconds")
 _INT_SCALARS = ("n_steps", "n_evals", "n_instants")
@@ -80,6 +99,9 @@ DESCRIPTIONS = {
     "t_landed": "time the last segment landed (NaN: not reached)",
     "max_depth": "deepest airborne point below the floor (floor = pivot; 0 if none)",
     "floor_impulse": "sum of the floor's impulses on the chain at every impact (x, y, z), landings and anchored points",
+    "floor_impulse_total": "the floor's whole impulse on the chain from t = 0 to the end (x, y, z): impacts, "
+                           "continuous force (integrated by the integrator's quadrature) and the support of landed "
+                           "segments; = M (v_cm(end) - v_cm(0)) + M g t_end e_z",
     "wall_seconds": "wall-clock duration of the run",
     "n_steps": "accepted integrator steps",
     "n_evals": "evaluations of the equations of motion",
@@ -91,7 +113,12 @@ DESCRIPTIONS = {
     "frame_omega": "angular velocity of each segment (F, N, 3)",
     "frame_anchored": "point j anchored to the floor (F, N+1), points counted from the top",
     "frame_locked": "hinge k between segments k and k+1 locked (F, N-1)",
-    "frame_floor_force": "continuous force of all anchors on the chain (F, 3)",
+    "frame_floor_force": "continuous force of all anchors on the airborne chain (F, 3)",
+    "frame_pile_pull": "force of the pile on the hanging chain through the first anchored point from the top "
+                       "(F, 3; z < 0: a pull down; 0 when the top end is anchored)",
+    "frame_scale_force": "vertical force a scale under the floor reads: the anchors' z force plus the weight "
+                         "of the landed segments (impulses excluded)",
+    "frame_floor_impulse": "the floor's cumulative impulse on the chain from t = 0 (F, 3), impacts included",
     "frame_kinetic": "kinetic energy",
     "frame_potential": "potential energy",
     "frame_lost_locking": "cumulative kinetic energy lost in hinge locking",
@@ -99,7 +126,8 @@ DESCRIPTIONS = {
     "event_t": "event times, one row per constraint that acted",
     "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/model.md)",
     "event_index": "hinge k (0..N-2) or point j (0..N, from the top) of the event",
-    "event_impulse": "lock: (Lambda, 0, 0); landing: impulse of the floor on the chain",
+    "event_impulse": "lock, impulse, hold: (Lambda, 0, 0); landing, anchor: impulse of the floor on the chain",
+    "event_pos": "position of the hinge (point k+1) or point j of the row at the event (E, 3)",
     "event_energy": "kinetic energy dissipated by that constraint",
     "anchor_t": "time each point was anchored (NaN: never; 0: the pivot)",
     "anchor_pos": "position where each point was anchored (N+1, 3)",
@@ -238,6 +266,11 @@ def _write(f, result: Result) -> None:
         g = f.create_group(gname)
         for name in names:
             _create(g, name, getattr(result, name), units)
+        if gname == "frames":
+            g.attrs["conventions"] = CONVENTIONS
+        if gname == "events":
+            g.attrs["kinds"] = _dumps({str(c): name for c, name in EVENT_KINDS.items()})
+            g.attrs["kind_meanings"] = _dumps({name: EVENT_MEANINGS[name] for name in EVENT_KINDS.values()})
 
     g = f.create_group("energy")
     g.attrs["units"] = unit_of("frame_kinetic", units)
@@ -331,7 +364,12 @@ def _read(f, where: str) -> Result:
     kw = {}
     for gname, names in GROUPS.items():
         for name in names:
+            if name in _NEW_IN_V2 and f"{gname}/{name}" not in f:
+                continue  # a version 1 file: filled in below
             kw[name] = need(gname, name)
+    nf, ne = kw["frame_t"].shape[0], kw["event_t"].shape[0]
+    for name, shape in _NEW_IN_V2.items():
+        kw.setdefault(name, np.full(shape(nf, ne), np.nan))
     for name in _FLOAT_SCALARS:
         kw[name] = float(kw[name])
     for name in _INT_SCALARS:

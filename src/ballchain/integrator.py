@@ -44,7 +44,8 @@ from numba import njit
 
 from .dynamics import (
     accelerations,
-    anchor_forces,
+    anchor_force_total,
+    pile_pull,
     kinetic_energy,
     lock_multipliers,
     potential_energy,
@@ -124,9 +125,16 @@ def _dense_e(Y0, K, b, i, q):
 
 
 @njit(cache=True)
-def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws):
-    """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y) given);
-    Y1 = the 5th-order solution, K[6] = f(Y1)."""
+def _stage_rhs(Y, anchored, locked, ws, dY, F):
+    """dY = f(Y) and F = the anchors' total force on the chain at Y."""
+    _rhs(Y, anchored, locked, ws, dY)
+    anchor_force_total(ws[1], ws[2], ws[7], F)
+
+
+@njit(cache=True)
+def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F):
+    """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y), F[0] given);
+    Y1 = the 5th-order solution, K[6] = f(Y1); F[s] the anchors' force at stage s."""
     n = Y.shape[1]
     for s in range(1, 7):
         for a in range(2):
@@ -141,13 +149,40 @@ def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws):
                             v += h * B[r] * K[r, a, i, q]
                     Ytmp[a, i, q] = v
         if s < 6:
-            _rhs(Ytmp, anchored, locked, ws, K[s])
+            _stage_rhs(Ytmp, anchored, locked, ws, K[s], F[s])
         else:
             for a in range(2):
                 for i in range(n):
                     for q in range(3):
                         Y1[a, i, q] = Ytmp[a, i, q]
-            _rhs(Y1, anchored, locked, ws, K[6])
+            _stage_rhs(Y1, anchored, locked, ws, K[6], F[6])
+
+
+@njit(cache=True)
+def floor_impulse_step(h, F, n_landed, out):
+    """out += int_0^h (F(t) + n_landed m g e_z) dt by the step's own quadrature,
+    h sum_s b_s F_s (the weights of the 5th-order solution): the floor's continuous
+    impulse on the airborne chain plus its support of the landed segments (at rest)."""
+    for q in range(3):
+        acc = 0.0
+        for s in range(6):
+            acc += B[s] * F[s, q]
+        out[q] += h * acc
+    out[2] += h * n_landed
+
+
+@njit(cache=True)
+def floor_impulse_dense(h, theta, F, n_landed, out):
+    """out = int_0^(theta h) (F + n_landed m g e_z) dt from the continuous extension
+    (the quadrature dense output gives for an extra state dJ/dt = F)."""
+    b = np.empty(7)
+    _dense_weights(h, theta, b)
+    for q in range(3):
+        acc = 0.0
+        for s in range(7):
+            acc += b[s] * F[s, q]
+        out[q] = acc
+    out[2] += theta * h * n_landed
 
 
 @njit(cache=True)
@@ -357,9 +392,10 @@ def _step_error(Y, Y1, K, h, rtol, atol):
 @njit(cache=True)
 def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
             arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, apex_lock, apex_land,
-            rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1,
+            rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint,
             frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
-            tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, afor, counters, max_steps, stats):
+            fr_pull, fr_scale, fr_fimp,
+            tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, counters, max_steps, stats):
     """Integrate from t until t_stop or the first event.
 
     Returns (code, t, h).  On ADV_EVENT, ``Y`` holds the state at the event time t,
@@ -367,7 +403,12 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
     their located times (absolute; inf: not confirmed).  ``counters``: [0] steps,
     [1] evaluations, [2] events found.  ``stats[0]``: lowest point seen (max depth is
     -stats[0]).  ``arm_*``, ``ref_*``: how each event function is watched (module
-    docstring).
+    docstring).  ``F``, ``F2``: the anchors' force at the stages of K, K2; ``fint``
+    (4,): the floor's continuous impulse so far (x, y, z, and its z part that holds
+    up the landed segments), advanced by each step's quadrature (``floor_impulse_step``).
+    Frames fill the buffers up to ``frame_cap``; a step with more frames than fit
+    returns ADV_BUFFER before it is accepted (the caller empties the buffers and calls
+    again: the step is redone from the same state and goes on where the frames stopped).
     """
     n = Y.shape[1]
     nh = n - 1
@@ -376,8 +417,13 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
     tr_k = tr_count[0]
     fv_mid = np.empty(n + 1)
     fv_end = np.empty(n + 1)
+    fpart = np.empty(3)
+    n_landed = 0
+    for i in range(n):
+        if anchored[i] != 0 and anchored[i + 1] != 0:
+            n_landed += 1
     # FSAL: derivative at the current state
-    _rhs(Y, anchored, locked, ws, K[0])
+    _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
     counters[1] += 1
     nfail = 0
     while True:
@@ -396,7 +442,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
         if h < 1e-14 * max(1.0, abs(t)):
             return ADV_FAIL_STEP, t, h
         # --- one Dormand-Prince step
-        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws)
+        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F)
         counters[1] += 6
         err = _step_error(Y, Y1, K, h, rtol, atol)
         if not math.isfinite(err) or _nonfinite(Y1):
@@ -470,11 +516,19 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
                 fire = True
         # --- frames and trace up to the step end (or the event)
         t_end = t + theta_stop * h
-        while frame_next[0] <= t_end + 1e-300 and fr_k < frame_cap:
+        while frame_next[0] <= t_end + 1e-300:
+            if fr_k >= frame_cap:  # buffers full: redo this step once they are emptied
+                counters[0] -= 1
+                fr_count[0] = fr_k
+                tr_count[0] = tr_k
+                return ADV_BUFFER, t, h
             th = (frame_next[0] - t) / h
             _dense(Y, K, h, th, Ytmp)
-            _record_frame(Ytmp, anchored, locked, ws, dYtmp, afor, pts, vel, fr_k, frame_next[0],
-                          fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot)
+            _record_frame(Ytmp, anchored, locked, ws, dYtmp, pts, vel, fr_k, frame_next[0],
+                          fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_pull, fr_scale, n_landed)
+            floor_impulse_dense(h, th, F, n_landed, fpart)
+            for q in range(3):
+                fr_fimp[fr_k, q] = fint[q] + fpart[q]
             counters[1] += 1
             fr_k += 1
             frame_next[0] += frame_dt
@@ -487,13 +541,17 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
                         for i in range(n):
                             for q in range(3):
                                 K2[0, a, i, q] = K[0, a, i, q]
-                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, ws)
+                    for q in range(3):
+                        F2[0, q] = F[0, q]
+                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, ws, F2)
                     counters[1] += 6
+                    floor_impulse_step(theta_stop * h, F2, n_landed, fint)
                     for a in range(2):
                         for i in range(n):
                             for q in range(3):
                                 Y[a, i, q] = Y1[a, i, q]
             else:
+                floor_impulse_step(h, F, n_landed, fint)
                 for a in range(2):
                     for i in range(n):
                         for q in range(3):
@@ -509,6 +567,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             tr_count[0] = tr_k
             return ADV_EVENT, t, h
         # accept the full step
+        floor_impulse_step(h, F, n_landed, fint)
         for a in range(2):
             for i in range(n):
                 for q in range(3):
@@ -517,13 +576,15 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
         res = project_state(Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, J, kind_, nrow, S, G, drop,
                             rhs, x, gf, pts, vel, PROJ_TOL, 3)
         if res > PROJ_TOL:
-            _rhs(Y, anchored, locked, ws, K[0])
+            _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
             counters[1] += 1
         else:
             for a in range(2):
                 for i in range(n):
                     for q in range(3):
                         K[0, a, i, q] = K[6, a, i, q]
+            for q in range(3):
+                F[0, q] = F[6, q]
         # departing functions that have left their zero are armed
         for k in range(nh):
             if arm_lock[k] == DEPARTING and not locked[k] and _gap(Y[0], k, cos_alpha) > ZERO_BAND:
@@ -553,8 +614,11 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
 
 
 @njit(cache=True)
-def _record_frame(Yt, anchored, locked, ws, dYt, afor, pts, vel, k, tf,
-                  fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot):
+def _record_frame(Yt, anchored, locked, ws, dYt, pts, vel, k, tf,
+                  fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_pull, fr_scale, n_landed):
+    """Frame k at time tf from the state Yt: the state, the anchors' force on the
+    airborne chain, the pile's pull (``pile_pull``), the vertical force a scale under
+    the floor reads (anchors' z force + the weight of the landed segments), energies."""
     n = Yt.shape[1]
     fr_t[k] = tf
     for i in range(n):
@@ -567,11 +631,8 @@ def _record_frame(Yt, anchored, locked, ws, dYt, afor, pts, vel, k, tf,
         fr_lock[k, j] = locked[j]
     _rhs(Yt, anchored, locked, ws, dYt)
     J, kind_, nrow, S, G, drop, rhs, x, gf = ws
-    anchor_forces(kind_, nrow, x, afor)
-    for q in range(3):
-        acc = 0.0
-        for j in range(n + 1):
-            acc += afor[j, q]
-        fr_force[k, q] = acc
+    anchor_force_total(kind_, nrow, x, fr_force[k])
+    pile_pull(anchored, kind_, nrow, x, fr_pull[k])
+    fr_scale[k] = fr_force[k, 2] + n_landed
     fr_kin[k] = kinetic_energy(Yt[0], Yt[1], pts, vel)
     fr_pot[k] = potential_energy(Yt[0])

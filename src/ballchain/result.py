@@ -17,14 +17,17 @@ import numpy as np
 from .model import ChainParams, InitialCondition, SolverOptions
 
 # The event log's kinds (one row per constraint that acted at an event instant).
-EVENT_KINDS = {
-    1: "lock",  # a free hinge reaches its limit and locks: impulse Lambda >= 0 (0: a touch)
-    2: "unlock",  # a locked hinge's multiplier crosses zero in smooth motion; no impulse
-    3: "landing",  # a point reaches the floor and is anchored; impulse: the floor's on the chain
-    4: "top",  # floor "pivot": the top end reaches z = 0 (t_fall); no state change
-    5: "impulse",  # an impulse on a hinge that was locked and stays locked
-    6: "release",  # a hinge at its limit (locked, or locking in this instant) leaves it at an impact instant
-    7: "hold",  # a hinge held at its limit by the accumulation rule; impulse of either sign
+EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top", 5: "impulse", 6: "release", 7: "hold",
+               8: "anchor"}
+EVENT_MEANINGS = {
+    "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
+    "unlock": "a locked hinge's multiplier crosses zero in smooth motion and it unlocks; no impulse",
+    "landing": "a point reaches the floor and is anchored; impulse: the floor's on the chain at that point",
+    "top": "floor pivot only: the top end reaches z = 0 (t_fall); no change of state",
+    "impulse": "a hinge locked before the instant takes an impulse (Lambda, 0, 0) and stays locked",
+    "release": "a hinge at its limit (locked, or locking at this instant) leaves it at an impact",
+    "hold": "a hinge held at its limit by the accumulation rule; impulse (Lambda, 0, 0) of either sign",
+    "anchor": "a point anchored before the instant takes an impulse of the floor at an impact",
 }
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 
@@ -35,10 +38,11 @@ QUANTITY = {
     "frame_t": "time", "frame_e": "1", "frame_omega": "1/time", "frame_anchored": "1", "frame_locked": "1",
     "frame_floor_force": "force", "frame_kinetic": "energy", "frame_potential": "energy",
     "frame_lost_locking": "energy", "frame_lost_landing": "energy",
+    "frame_pile_pull": "force", "frame_scale_force": "force", "frame_floor_impulse": "impulse",
     "event_t": "time", "event_kind": "1", "event_index": "1", "event_impulse": "impulse",
-    "event_energy": "energy",
+    "event_energy": "energy", "event_pos": "length",
     "anchor_t": "time", "anchor_pos": "length",
-    "floor_impulse": "impulse", "max_depth": "length",
+    "floor_impulse": "impulse", "floor_impulse_total": "impulse", "max_depth": "length",
     "wall_seconds": "s", "n_steps": "1", "n_evals": "1", "n_instants": "1",
 }
 
@@ -59,18 +63,29 @@ class Result:
     Frames (every 1/frames_per_tff of t_ff): ``frame_t``, directions ``frame_e``
     (F, N, 3), ``frame_omega`` (F, N, 3), ``frame_anchored`` (F, N+1), ``frame_locked``
     (F, N-1), ``frame_floor_force`` (F, 3: continuous force of all anchors on the
-    chain), energies ``frame_kinetic``, ``frame_potential``, ``frame_lost_locking``,
-    ``frame_lost_landing`` (cumulative).
+    airborne chain), ``frame_pile_pull`` (F, 3: the force of the pile on the hanging
+    chain through the first anchored point from the top; z < 0 pulls down),
+    ``frame_scale_force`` (F,: the vertical force a scale under the floor reads, the
+    anchors' plus the weight of the landed segments; impulses excluded),
+    ``frame_floor_impulse`` (F, 3: the floor's whole impulse on the chain from t = 0,
+    impacts included), energies ``frame_kinetic``, ``frame_potential``,
+    ``frame_lost_locking``, ``frame_lost_landing`` (cumulative).  ``points()`` gives the
+    positions of the points at every frame.
     Events, one row per constraint that acted: ``event_t``, ``event_kind`` (see
     EVENT_KINDS), ``event_index`` (hinge k = 0..N-2 between segments k and k+1, or point
     j = 0..N; points counted from the top, point N the original pivot), ``event_impulse``
-    (lock: (Lambda, 0, 0); landing: impulse of the floor on the chain), ``event_energy``
-    (kinetic energy that constraint dissipated).
+    (lock, impulse, hold: (Lambda, 0, 0); landing, anchor: impulse of the floor on the
+    chain), ``event_energy`` (kinetic energy that constraint dissipated), ``event_pos``
+    (position of the hinge, i.e. point k + 1, or of the point j).
     Anchors: ``anchor_t`` (N+1,) time each point was anchored (NaN: never; 0 for the
     pivot), ``anchor_pos`` (N+1, 3).
     ``energy``: initial, potential, kinetic, lost_locking, lost_landing, imbalance
     (initial - potential - kinetic - losses), at the end of the run.
-    ``floor_impulse``: sum of the landing impulses (3,).
+    ``floor_impulse``: the floor's impulses on the chain at impacts (3,: landings and
+    anchored points); ``floor_impulse_total``: its whole impulse from t = 0 to the end
+    (3,: impacts, the continuous force integrated by the integrator's quadrature, and
+    the support of the landed segments).  Momentum balance: ``floor_impulse_total`` =
+    M (v_cm(end) - v_cm(0)) + M g t_end e_z.
     """
 
     params: ChainParams
@@ -95,16 +110,21 @@ class Result:
     frame_potential: np.ndarray
     frame_lost_locking: np.ndarray
     frame_lost_landing: np.ndarray
+    frame_pile_pull: np.ndarray
+    frame_scale_force: np.ndarray
+    frame_floor_impulse: np.ndarray
     event_t: np.ndarray
     event_kind: np.ndarray
     event_index: np.ndarray
     event_impulse: np.ndarray
     event_energy: np.ndarray
+    event_pos: np.ndarray
     anchor_t: np.ndarray
     anchor_pos: np.ndarray
     energy: dict
     max_depth: float
     floor_impulse: np.ndarray
+    floor_impulse_total: np.ndarray
     wall_seconds: float
     n_steps: int
     n_evals: int
@@ -117,6 +137,17 @@ class Result:
         """Rows of the event log by kind (EVENT_KINDS), every kind listed."""
         k = np.asarray(self.event_kind)
         return {name: int(np.sum(k == code)) for code, name in EVENT_KINDS.items()}
+
+    def points(self, frames=slice(None)) -> np.ndarray:
+        """Positions of the points j = 0..N at the frames (F, N+1, 3), in the run's
+        length unit: point N (the original pivot) at the origin, point j at
+        r_j = 2 b sum_{i >= j} e_i (e_i pointing up segment i, from point i + 1 to
+        point i), z up, the floor at z = 0."""
+        e = np.asarray(self.frame_e)[frames]
+        two_b = 2.0 * self.params.half_length
+        r = np.zeros(e.shape[:-2] + (e.shape[-2] + 1, 3))
+        r[..., :-1, :] = two_b * np.cumsum(e[..., ::-1, :], axis=-2)[..., ::-1, :]
+        return r
 
     @property
     def first_lock_time(self) -> float:
@@ -156,6 +187,7 @@ class Result:
             "energy": {k: num(v) for k, v in self.energy.items()},
             "max_depth": num(self.max_depth),
             "floor_impulse": [num(v) for v in np.asarray(self.floor_impulse)],
+            "floor_impulse_total": [num(v) for v in np.asarray(self.floor_impulse_total)],
             "rtol": self.options.rtol,
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
