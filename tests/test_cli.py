@@ -61,7 +61,8 @@ class FakeEngine:
         if self.behaviour == "interrupt":
             raise KeyboardInterrupt
         if progress is not None:
-            progress(0.5, {"t_over_tff": 0.5, "events": 3, "landed": 1})
+            progress(0.5, {"t_over_tff": 0.5, "events": {"lock": 3, "landing": 1}, "instants": 4, "landed": 1,
+                           "segments": params.segments})
         if self.behaviour == "error":
             return fake_result(params, ic, options, status="error",
                                message="NaN in the state at t = 3.2")
@@ -73,6 +74,7 @@ def engine(monkeypatch):
     fake = FakeEngine()
     mod = types.ModuleType("ballchain.engine")
     mod.simulate = fake.simulate
+    mod.kernels_cached = lambda: True
     monkeypatch.setitem(sys.modules, "ballchain.engine", mod)
     return fake
 
@@ -300,7 +302,7 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
         seen.append(progress)
         if progress is None:
             return fake_result(params, ic, options)
-        progress(0.25, {"t_over_tff": 0.25, "events": 7, "landed": 2})
+        progress(0.25, {"t_over_tff": 0.25, "events": {"lock": 7}, "instants": 3, "landed": 2, "segments": 3})
         progress(float("nan"), {})
         progress(2.0, None)
         progress(0.5, {"t_over_tff": "junk"})
@@ -308,6 +310,7 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
 
     mod = types.ModuleType("ballchain.engine")
     mod.simulate = simulate
+    mod.kernels_cached = lambda: True
     monkeypatch.setitem(sys.modules, "ballchain.engine", mod)
     p, i, o = cli.build_inputs(segments=3)
     r = cli._run_engine(p, i, o, show_progress=True)

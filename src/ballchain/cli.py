@@ -147,23 +147,41 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     init = en.get("initial")
     imb = en.get("imbalance")
     rel = _div(imb, abs(init) if init else None)
+    units = s.get("units") or "nondimensional"
+    from .files import unit_of
+
+    u_t, u_l, u_e, u_i = (unit_of(q, units) for q in ("t", "z0", "frame_kinetic", "floor_impulse"))
+
+    def with_time(ratio_key, time_key):
+        text = _fmt(s.get(ratio_key))
+        return text + (f"  ({time_key} = {_fmt(s.get(time_key))} {u_t})" if s.get(time_key) is not None else "")
+
+    fi = s.get("floor_impulse_total")
     lines = [
         f"{header}: N = {s.get('segments')}, alpha = {_fmt(alpha)} rad "
         f"({_fmt(None if alpha is None else math.degrees(alpha), '.4g')} deg), floor = {s.get('floor')}"
-        + (", anchor cone" if s.get("anchor_cone") else "") + f", units = {s.get('units')}",
+        + (", anchor cone" if s.get("anchor_cone") else "") + f", units = {units}",
         f"  initial condition  {ic_text}",
         f"  status             {s.get('status')}" + (f" ({s['message']})" if s.get("message") else ""),
-        f"  t_fall / t_ff      {_fmt(s.get('ratio'))}",
-        f"  t_landed / t_ff    {_fmt(s.get('landed_ratio'))}",
+        f"  free-fall time     t_ff = {_fmt(s.get('t_ff'))} {u_t} (top end at z0 = {_fmt(s.get('z0'))} {u_l})",
+        f"  t_fall / t_ff      {with_time('ratio', 't_fall')}",
+        f"  t_landed / t_ff    {with_time('landed_ratio', 't_landed')}",
         f"  events             lock {ev.get('lock', 0)}, unlock {ev.get('unlock', 0)}, "
         f"landing {ev.get('landing', 0)}"
         + "".join(f", {k} {v}" for k, v in ev.items() if k not in ("lock", "unlock", "landing") and v)
         + (f" ({s['n_instants']} instants)" if s.get("n_instants") is not None else "")
         + f"; first lock at t/t_ff = {_fmt(_div(s.get('first_lock_time'), s.get('t_ff')))}",
-        f"  energy imbalance   {_fmt(imb, '.3g')} (relative to initial energy: {_fmt(rel, '.3g')})",
+        f"  energy imbalance   {_fmt(imb, '.3g')} {u_e} (relative to initial energy: {_fmt(rel, '.3g')})",
     ]
+    if fi:
+        lines.append(f"  floor impulse      ({', '.join(_fmt(v, '.6g') for v in fi)}) {u_i} "
+                     f"(whole, from t = 0)")
     if s.get("floor") == "pivot":
-        lines.append(f"  max depth          {_fmt(s.get('max_depth'))}")
+        depth = s.get("max_depth")
+        lines.append(f"  max depth          {_fmt(depth)} {u_l} below the floor")
+        if depth is not None and s.get("z0") and depth > 0.05 * s["z0"]:
+            lines.append("  note               floor 'pivot' stops only the segment at the pivot: the rest of the "
+                         "chain may pass below the floor (use --floor all for a floor that stops every point)")
     lines.append(f"  wall time          {_fmt(s.get('wall_seconds'), '.3g')} s "
                  f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)")
     if output:
@@ -183,8 +201,10 @@ def _progress_console():
 
 
 def _run_engine(params, init, options, show_progress: bool, state=None):
-    from .engine import simulate  # lazy: the engine (numba) is heavy to import
+    from .engine import kernels_cached, simulate  # lazy: the engine (numba) is heavy to import
 
+    if not kernels_cached():
+        typer.echo("compiling the numba kernels (first run only; about a minute, cached afterwards)...", err=True)
     if not show_progress:
         return simulate(params, init, options, progress=None, state=state)
 
@@ -205,10 +225,13 @@ def _run_engine(params, init, options, show_progress: bool, state=None):
                 parts = []
                 if info.get("t_over_tff") is not None:
                     parts.append(f"t/t_ff {float(info['t_over_tff']):.3f}")
-                if info.get("events") is not None:
-                    parts.append(f"events {info['events']}")
+                ev = info.get("events")
+                if isinstance(ev, dict):
+                    parts.append(f"lock {ev.get('lock', 0)}")
+                if info.get("instants") is not None:
+                    parts.append(f"instants {info['instants']}")
                 if info.get("landed") is not None:
-                    parts.append(f"landed {info['landed']}")
+                    parts.append(f"landed {info['landed']}/{info.get('segments', '?')}")
                 f = float(fraction)
                 f = min(max(f, 0.0), 1.0) if math.isfinite(f) else 0.0
                 bar.update(task, completed=f, info="  ".join(parts))

@@ -12,6 +12,7 @@ more than ``ZENO_EVENTS`` event instants within ``ZENO_WINDOW`` t_ff, or more th
 from __future__ import annotations
 
 import math
+import os
 import signal
 import threading
 import time as _time
@@ -37,9 +38,10 @@ from .impacts import hinge_gaps
 from .initial import check_inside_cone, initial_directions
 from .integrator import ADV_BUFFER, ADV_FAIL_NAN, ADV_FAIL_STEP, ADV_MAX_STEPS, ADV_STOP
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from .result import Result
+from .result import EVENT_KINDS, Result
 from .rules import FLOOR_CODES
 
+LOOSE_RTOL = 1e-7  # an impact that fails above this tolerance gets a hint to tighten it
 RETURN_EVERY = 256  # events handled in compiled code between returns to Python (progress)
 ZENO_EVENTS = 20000
 ZENO_WINDOW = 1e-9  # in units of t_ff
@@ -50,6 +52,17 @@ ERROR_MESSAGES = {
     ERR_ENERGY: "an impact raised the kinetic energy",
     ERR_LOCK_LCP: "lock-set LCP did not converge",
 }
+
+
+def kernels_cached() -> bool:
+    """Are the compiled kernels in numba's on-disk cache (or compiled in this process)?
+    False means the next run compiles them first (a minute or two, once)."""
+    if run_events.signatures:
+        return True
+    try:
+        return bool(run_events._cache._cache_file._load_index())
+    except Exception:  # pragma: no cover - a numba without this (private) layout
+        return True
 
 
 class SimulationError(RuntimeError):
@@ -180,9 +193,47 @@ def frame_bytes(n: int) -> int:
 
 
 def run_bytes(n: int) -> int:
-    """Bytes the working arrays of an N-segment run take (measured: benchmarks; a bound
-    within 20%), not counting output."""
-    return 3200 * (n + 1)
+    """Bytes the working arrays of an N-segment run take, not counting output (measured
+    with tracemalloc: 5.4-6.8 kB per segment for N = 1000-16000)."""
+    return 7000 * (n + 1) + (4 << 20)
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new run (MemAvailable), None if unknown."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+MIN_RUN_TFF = 0.5  # every run that is not stopped earlier lasts at least this long (t_ff)
+
+
+def check_memory(params: ChainParams, options: SolverOptions) -> None:
+    """Refuse, before it starts, a run that cannot fit in memory: its working arrays
+    and the frames it will surely write (up to ``until`` or MIN_RUN_TFF t_ff, twice:
+    chunks and the final arrays).  One-line ParameterError naming what to change."""
+    avail = available_memory()
+    if avail is None:
+        return
+    n = params.segments
+    horizon = min(options.until, MIN_RUN_TFF) if options.until is not None else MIN_RUN_TFF
+    frames = horizon * options.frames_per_tff
+    work = run_bytes(n)
+    out = 2.0 * frames * frame_bytes(n)
+    if work + out <= avail:
+        return
+    gib = 1024.0 ** 3
+    what = ("lower --frames-per-tff (or --until)" if out > work else "lower --segments (-N)")
+    raise ParameterError(f"memory: this run needs at least {(work + out) / gib:.3g} GiB ({n} segments, "
+                         f"{frames:.3g} frames), {avail / gib:.3g} GiB are available: {what}")
 
 
 class Run:
@@ -292,6 +343,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
     overrides the initial condition family.  Returns a Result in the run's units."""
     options = options or SolverOptions()
+    check_memory(params, options)
     wall0 = _time.perf_counter()
     e0, w0 = _initial_state(params, ic, state)
     run = Run(params, e0, w0, options)
@@ -328,15 +380,28 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
     status, message = "landed", ""
     last_report = -1.0
 
-    def report():
+    counted = 0
+    counts = np.zeros(max(EVENT_KINDS) + 1, np.int64)
+
+    def progress_info() -> dict:
+        """What the progress bar shows, counted as the summary counts it: log rows by
+        kind (``Result.event_counts``), event instants, landed segments."""
+        nonlocal counted
+        k = len(run.log)
+        counts[:] += np.bincount(run.log.arrays[1][counted:k], minlength=counts.size)[:counts.size]
+        counted = k
+        return {"t_over_tff": t / t_ff, "events": {name: int(counts[c]) for c, name in EVENT_KINDS.items()},
+                "instants": int(zeno_n[0]), "landed": int(np.sum(run.landed())), "segments": n}
+
+    def report(final=False):
         nonlocal last_report
         if progress is None:
             return
         landed = int(np.sum(run.landed()))
         frac = t / t_stop if options.until is not None else 0.5 * min(1.0, t / t_ff) + 0.5 * landed / n
-        if frac - last_report >= 0.002:
+        if final or frac - last_report >= 0.002:
             last_report = frac
-            progress(min(frac, 1.0), {"t_over_tff": t / t_ff, "events": len(run.log), "landed": landed})
+            progress(1.0 if final else min(frac, 1.0), progress_info())
 
     def flush_trace():
         k = int(tr_count[0])
@@ -359,7 +424,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
 
     run.arm()
     ws = run.wst
-    adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint)
+    adv = (K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint, np.zeros(1, np.int64))
     sc = run.compiled_scratch()
     zeno_t = np.zeros(ZENO_EVENTS + 1)
     zeno_n = np.zeros(1, np.int64)
@@ -392,7 +457,9 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                 if code == ERR_MAX_EVENTS:
                     raise SimulationError(f"more than max_events = {options.max_events} events; stopping")
                 if code in ERROR_MESSAGES:
-                    raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}")
+                    hint = (f" (rtol = {options.rtol:g} is loose: the state reaching the impact is not accurate "
+                            f"enough; tighten it, e.g. --rtol 1e-9)" if options.rtol > LOOSE_RTOL else "")
+                    raise SimulationError(f"{ERROR_MESSAGES[code]} at t = {t:.17g}{hint}")
                 if code != EV_RETURN:
                     stop = stop_code(code)
                     if stop is not None:
@@ -407,7 +474,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                    f"(lower --frames-per-tff or --until)")
     flush_trace()
     if progress is not None:
-        progress(1.0, {"t_over_tff": t / t_ff, "events": len(run.log), "landed": int(np.sum(run.landed()))})
+        report(final=True)
     T_end, U_end = run.energy_now()
     floor_total = run.floor_impulse + fint
     return _make_result(params, ic, options, run, status, message, z0, t_ff, E0, T_end, U_end,

@@ -337,7 +337,7 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
     log has no room for another event), or a negative error code (ERR_*).  ``arms`` =
     (arm_lock, arm_unlock, arm_land, arm_top), ``refs`` their reference levels
     (``arm_functions``), ``apexes`` = (apex_lock, apex_land) (``apex_times``),
-    ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint) (``integrator.advance``),
+    ``adv`` = (K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint, fsal) (``integrator.advance``),
     ``frames`` = (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock,
     fr_force, fr_kin, fr_pot, fr_count, fr_pull, fr_scale, fr_fimp, fr_lostl, fr_lostf,
     fill), ``trace`` = (tr_t, tr_z, tr_count), ``ev`` = (ev_kind, ev_idx, ev_theta),
@@ -346,7 +346,7 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
     Frames ``fill[0]`` .. ``fr_count[0]`` get the cumulative losses and floor impulses
     of the impacts as they stand when the integrator returns (no impact happens between
     events)."""
-    K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint = adv
+    K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint, fsal = adv
     (frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
      fr_pull, fr_scale, fr_fimp, fr_lostl, fr_lostf, fill) = frames
     tr_t, tr_z, tr_count = trace
@@ -364,7 +364,7 @@ def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, 
         code, t, h = advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
                              arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top,
                              apexes[0], apexes[1], rtol, rtol, xtol, ws, K, K2, Y1, Ytmp, dYtmp,
-                             lam, lam1, F, F2, fint, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock,
+                             lam, lam1, F, F2, fint, fsal, frame_dt, frame_next, cap, fr_t, fr_e, fr_w, fr_anch, fr_lock,
                              fr_force, fr_kin, fr_pot, fr_count, fr_pull, fr_scale, fr_fimp, tr_t, tr_z, tr_count,
                              ev_kind, ev_idx, ev_theta, pts, vel, counters, max_steps, stats)
         for f in range(fill[0], fr_count[0]):

@@ -209,7 +209,7 @@ def check_writable(path, force: bool = False) -> Path:
         raise ResultFileError(f"output: {str(p)!r} is a directory")
     if p.exists() or p.is_symlink():
         if not force:
-            raise FileExistsError(f"output: file {str(p)!r} exists (use --force to overwrite)")
+            raise FileExistsError(f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)")
     reason = _writable_dir(p.parent if str(p.parent) else Path("."))
     if reason is not None:
         raise ResultFileError(f"output: cannot write {str(p)!r}: {reason}")
@@ -304,10 +304,10 @@ def save_result(result: Result, path, *, force: bool = False) -> Path:
             try:  # atomic no-clobber: link fails if the target appeared meanwhile
                 os.link(tmp, p)
             except FileExistsError:
-                raise FileExistsError(f"output: file {str(p)!r} exists (use --force to overwrite)") from None
+                raise FileExistsError(f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)") from None
             except OSError:  # file system without hard links
                 if p.exists():
-                    raise FileExistsError(f"output: file {str(p)!r} exists (use --force to overwrite)") from None
+                    raise FileExistsError(f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)") from None
                 os.replace(tmp, p)
     finally:
         try:

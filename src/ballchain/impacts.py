@@ -1,4 +1,4 @@
-"""Impacts and the locked set (MODEL.md sections 2-3), numba kernels, nondimensional.
+"""Impacts and the locked set (docs/model.md, section 3), numba kernels, nondimensional.
 
 Velocity level (Moreau / Gauss): the post-impact velocity is the one closest to the
 pre-impact one in the kinetic-energy metric such that every hinge stays joined, every

@@ -39,7 +39,8 @@ def planar_directions(segments: int, eps: float, turns: float, phase: float) -> 
 
 def random_directions(segments: int, eps: float, modes: int, seed: int, phase: float) -> np.ndarray:
     """A smooth random tilt: ``modes`` Fourier modes along the chain with random
-    horizontal coefficients (amplitude falling as 1/k), scaled to RMS tilt ``eps``,
+    horizontal coefficients (amplitude falling as 1/k), scaled so that the largest
+    tilt |e_n - (e_n . e_z) e_z| / (e_n . e_z) is ``eps`` (as in the other families),
     then rotated by phi0 about z.  Seeded: the same seed gives the same chain."""
     rng = np.random.default_rng(np.random.SeedSequence(seed))
     coef = rng.standard_normal((modes, 2, 2)) / np.arange(1, modes + 1)[:, None, None]
@@ -47,8 +48,8 @@ def random_directions(segments: int, eps: float, modes: int, seed: int, phase: f
     k = np.arange(1, modes + 1)[:, None]
     c, sn = np.cos(math.pi * k * s), np.sin(math.pi * k * s)  # (modes, N)
     tilt = np.einsum("kn,kd->nd", c, coef[:, 0]) + np.einsum("kn,kd->nd", sn, coef[:, 1])
-    rms = math.sqrt(float(np.mean(np.sum(tilt**2, axis=1))))
-    tilt *= eps / rms if rms > 0 else 0.0
+    largest = float(np.max(np.hypot(tilt[:, 0], tilt[:, 1])))
+    tilt *= eps / largest if largest > 0 else 0.0
     cp, sp = math.cos(phase), math.sin(phase)
     tilt = tilt @ np.array([[cp, sp], [-sp, cp]])
     return _normalize_tilts(tilt)

@@ -392,7 +392,7 @@ def _step_error(Y, Y1, K, h, rtol, atol):
 @njit(cache=True)
 def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
             arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, apex_lock, apex_land,
-            rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint,
+            rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint, fsal,
             frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
             fr_pull, fr_scale, fr_fimp,
             tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, counters, max_steps, stats):
@@ -409,6 +409,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
     Frames fill the buffers up to ``frame_cap``; a step with more frames than fit
     returns ADV_BUFFER before it is accepted (the caller empties the buffers and calls
     again: the step is redone from the same state and goes on where the frames stopped).
+    ``fsal[0]`` = 1 on an ADV_BUFFER return: K[0], F[0] still hold f(Y) of the step
+    in progress, and the next call starts from them (so buffer sizes change no number).
     """
     n = Y.shape[1]
     nh = n - 1
@@ -422,16 +424,19 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
     for i in range(n):
         if anchored[i] != 0 and anchored[i + 1] != 0:
             n_landed += 1
-    # FSAL: derivative at the current state
-    _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
-    counters[1] += 1
+    # FSAL: derivative at the current state (kept across an ADV_BUFFER return)
+    if fsal[0] == 0:
+        _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
+        counters[1] += 1
+    fsal[0] = 0
     nfail = 0
     while True:
         if counters[0] >= max_steps:
             return ADV_MAX_STEPS, t, h
-        if tr_k >= tr_t.shape[0] - 2:  # (frames: the buffer holds every frame up to t_stop)
+        if tr_k >= tr_t.shape[0] - 2:
             fr_count[0] = fr_k
             tr_count[0] = tr_k
+            fsal[0] = 1
             return ADV_BUFFER, t, h
         if t >= t_stop:
             fr_count[0] = fr_k
@@ -521,6 +526,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
                 counters[0] -= 1
                 fr_count[0] = fr_k
                 tr_count[0] = tr_k
+                fsal[0] = 1
                 return ADV_BUFFER, t, h
             th = (frame_next[0] - t) / h
             _dense(Y, K, h, th, Ytmp)
