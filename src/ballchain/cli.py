@@ -351,6 +351,35 @@ def info(
                f"written by ballchain {meta.get('package_version')} at {meta.get('created')}")
 
 
+@app.command()
+def plot(
+    file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
+    out: str = typer.Option("figures", "--out", help="Directory for the figures (created if missing)."),
+    formats: str = typer.Option("png,pdf", "--formats", help="Comma-separated file formats, e.g. png,pdf,svg."),
+) -> None:
+    """Figures of one run: z_top against free fall, energy budget, floor force and the
+    pile's pull, top view of the pile, lock map (one file per figure and format)."""
+    fmts = tuple(f.strip().lower() for f in formats.split(",") if f.strip())
+    bad = [f for f in fmts if f not in ("png", "pdf", "svg")]
+    if not fmts or bad:
+        _error(f"--formats: expected png, pdf or svg, got {formats!r}")
+        raise typer.Exit(EXIT_USAGE)
+    try:
+        result = load_result(file)
+    except ResultFileError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    from .plots import plot_run  # lazy: matplotlib is heavy to import
+
+    try:
+        paths = plot_run(result, out, fmts)
+    except OSError as e:
+        _error(f"--out: cannot write figures to {out!r} ({e.strerror or e})")
+        raise typer.Exit(EXIT_USAGE)
+    for p in paths:
+        typer.echo(str(p))
+
+
 def main() -> None:  # pragma: no cover - ``python -m ballchain.cli``
     app()
 

@@ -1,0 +1,124 @@
+"""The figures of one run, read from its Result (docs/model.md, section 6).
+
+Times are in units of t_ff, heights in units of z0, forces in units of the chain's
+weight M g (pull: of one segment's weight m g), energies in units of the initial energy:
+every figure reads the same for SI and nondimensional runs.  Each function returns a
+matplotlib Figure whose artists hold exactly the plotted data (the tests read them).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only; no screen needed
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from ..result import EVENT_CODES, Result  # noqa: E402
+
+
+def _title(r: Result) -> str:
+    p = r.params
+    return f"N = {p.segments}, alpha = {np.degrees(p.alpha):.4g} deg, floor {p.floor}"
+
+
+def fall_figure(r: Result) -> Figure:
+    """z_top(t)/z0 against a particle falling freely from z0: 1 - (t/t_ff)^2."""
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    tau = np.asarray(r.t) / r.t_ff
+    ax.plot(tau, np.asarray(r.z_top) / r.z0, label="top end of the chain", lw=1.5)
+    s = np.linspace(0.0, 1.0, 201)
+    ax.plot(s, 1.0 - s**2, "k--", label="free fall", lw=1)
+    if np.isfinite(r.t_fall):
+        ax.axvline(r.t_fall / r.t_ff, color="C3", lw=0.8, label=f"t_fall = {r.t_fall / r.t_ff:.4g} t_ff")
+    ax.set(xlabel="t / t_ff", ylabel="z_top / z0", title=_title(r))
+    ax.set_ylim(bottom=min(0.0, float(np.min(np.asarray(r.z_top) / r.z0))))
+    ax.legend()
+    return fig
+
+
+def energy_figure(r: Result) -> Figure:
+    """Kinetic, potential, lost to locking, lost to landing, over the initial energy."""
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    tau = np.asarray(r.frame_t) / r.t_ff
+    e0 = r.energy["initial"]
+    for name, label in (("frame_kinetic", "kinetic"), ("frame_potential", "potential"),
+                        ("frame_lost_locking", "lost to locking"), ("frame_lost_landing", "lost to landing")):
+        ax.plot(tau, np.asarray(getattr(r, name)) / e0, label=label)
+    ax.set(xlabel="t / t_ff", ylabel="energy / initial energy", title=_title(r))
+    ax.legend()
+    return fig
+
+
+def floor_figure(r: Result) -> Figure:
+    """Top: the scale reading over M g.  Bottom: the pile's pull on the hanging chain
+    (vertical component, over one segment's weight m g; negative: pulls down)."""
+    p = r.params
+    weight = p.segment_mass * p.gravity  # m g in the run's units (1 if nondimensional)
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(5.5, 5.5), sharex=True)
+    tau = np.asarray(r.frame_t) / r.t_ff
+    a1.plot(tau, np.asarray(r.frame_scale_force) / (p.segments * weight), label="scale reading (impulses excluded)")
+    a1.axhline(1.0, color="k", lw=0.6, ls=":")
+    a1.set(ylabel="floor force / M g", title=_title(r))
+    a1.legend()
+    a2.plot(tau, np.asarray(r.frame_pile_pull)[:, 2] / weight, color="C1", label="pile's pull, z")
+    a2.axhline(0.0, color="k", lw=0.6, ls=":")
+    a2.set(xlabel="t / t_ff", ylabel="pull / m g")
+    a2.legend()
+    return fig
+
+
+def pile_figure(r: Result) -> Figure:
+    """Top view of the pile: every landed segment (both ends anchored) drawn from its
+    upper to its lower anchor point, coloured by the time it landed."""
+    fig, ax = plt.subplots(figsize=(5, 5))
+    t_anchor = np.asarray(r.anchor_t)
+    pos = np.asarray(r.anchor_pos)
+    landed = np.flatnonzero(np.isfinite(t_anchor[:-1]) & np.isfinite(t_anchor[1:]))
+    segs = np.stack([pos[landed, :2], pos[landed + 1, :2]], axis=1) / r.params.half_length
+    when = np.maximum(t_anchor[landed], t_anchor[landed + 1]) / r.t_ff
+    lc = LineCollection(segs, array=when, cmap="viridis", linewidths=1.5)
+    ax.add_collection(lc)
+    if landed.size:
+        fig.colorbar(lc, ax=ax, label="landed at t / t_ff")
+        ax.autoscale()
+    ax.set_aspect("equal")
+    ax.set(xlabel="x / b", ylabel="y / b", title=f"pile, {landed.size} segments landed")
+    return fig
+
+
+def lock_map_figure(r: Result) -> Figure:
+    """Heights of the hinges at the instants they lock, with z_top(t) (the paper's Fig. 3)."""
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    lock = np.asarray(r.event_kind) == EVENT_CODES["lock"]
+    ax.scatter(np.asarray(r.event_t)[lock] / r.t_ff, np.asarray(r.event_pos)[lock, 2] / r.z0, s=2, c="C3",
+               label="hinge locks")
+    ax.plot(np.asarray(r.t) / r.t_ff, np.asarray(r.z_top) / r.z0, "k", lw=1, label="z_top")
+    ax.set(xlabel="t / t_ff", ylabel="height / z0", title=_title(r))
+    ax.legend(markerscale=4)
+    return fig
+
+
+FIGURES = {"fall": fall_figure, "energy": energy_figure, "floor": floor_figure, "pile": pile_figure,
+           "lock_map": lock_map_figure}
+
+
+def plot_run(r: Result, out_dir, formats=("png", "pdf")) -> list[Path]:
+    """Write every figure of FIGURES as ``out_dir/<name>.<format>``; returns the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, make in FIGURES.items():
+        fig = make(r)
+        try:
+            for fmt in formats:
+                path = out / f"{name}.{fmt}"
+                fig.savefig(path, dpi=150, bbox_inches="tight")
+                paths.append(path)
+        finally:
+            plt.close(fig)
+    return paths
