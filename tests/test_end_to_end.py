@@ -107,3 +107,17 @@ def test_a_run_that_cannot_fit_is_refused_before_it_starts(args, option):
     err = p.stderr.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: memory:") and option in err[0], p.stderr
     assert "Traceback" not in p.stderr
+
+
+def test_theory_commands():
+    from ballchain.theory import gamma_from_time_ratio, hamm_geminard_time_ratio, pivot_rod_critical_s
+
+    r = runner.invoke(app, ["theory", "hamm-geminard", "--gamma", "0", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["time_ratio"] == hamm_geminard_time_ratio(0.0)
+    r = runner.invoke(app, ["theory", "gamma", "--ratio", "0.9", "--json"])
+    assert json.loads(r.stdout)["gamma"] == gamma_from_time_ratio(0.9)
+    r = runner.invoke(app, ["theory", "pivot-rod", "--theta0", "30deg", "--s", "0.2", "--theta", "1", "--json"])
+    out = json.loads(r.stdout)
+    assert out["critical_s"] == pivot_rod_critical_s(math.pi / 6) and out["impulse"] > 0
+    bad = runner.invoke(app, ["theory", "hamm-geminard", "--gamma", "2"])
+    assert bad.exit_code == 2 and "gamma" in bad.output

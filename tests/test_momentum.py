@@ -10,7 +10,7 @@ import pytest
 
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
-from ballchain.theory import pivot_rod_vertical_force
+from ballchain.theory import pivot_rod_horizontal_force, pivot_rod_vertical_force
 
 
 def _momentum(r):
@@ -87,6 +87,9 @@ def test_pile_pull_on_a_single_rod_is_the_closed_form(floor):
     theta = _rod_angles(r)[air]
     assert theta.size > 50 and theta.max() > 1.4
     np.testing.assert_allclose(r.frame_pile_pull[air, 2], pivot_rod_vertical_force(theta, theta0), rtol=0, atol=1e-8)
+    # the rod leans towards +x: the horizontal pull is the closed form along x
+    np.testing.assert_allclose(r.frame_pile_pull[air, 0], pivot_rod_horizontal_force(theta, theta0), rtol=0,
+                               atol=1e-8)
     # the pull is the whole force of the floor on the airborne rod, and the scale reads it
     np.testing.assert_allclose(r.frame_pile_pull[air], r.frame_floor_force[air], rtol=0, atol=1e-12)
     np.testing.assert_allclose(r.frame_scale_force[air], r.frame_floor_force[air, 2], rtol=0, atol=1e-12)

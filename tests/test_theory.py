@@ -279,3 +279,67 @@ def test_pivot_impulse_sign():
     assert pivot_rod_impulse(0.0, 0.0) == math.inf
     with pytest.raises(ValueError):
         pivot_rod_impulse(0.1, -1.0)
+
+
+# ------------------------------------------------------- inverse, horizontal force, s*
+def _rod_ode(theta0, s, t_end=None):
+    """The rod by solve_ivp from Newton's law about the pivot (no closed form used):
+    thetaddot = (3 g / 4 b) sin theta, b = g = m = 1; returns the solution up to the
+    horizontal (event)."""
+    from scipy.integrate import solve_ivp
+
+    horizontal = lambda t, y: y[0] - math.pi / 2  # noqa: E731
+    horizontal.terminal = True
+    return solve_ivp(lambda t, y: [y[1], 0.75 * math.sin(y[0])], (0.0, 1e3), [theta0, math.sqrt(s)],
+                     events=horizontal, rtol=1e-12, atol=1e-13, dense_output=True)
+
+
+@pytest.mark.parametrize("gamma", [-3.0, -0.5, 0.0, 0.3, 0.8, 1.0, 1.3, 1.49])
+def test_gamma_from_time_ratio_round_trip(gamma):
+    from ballchain.theory import gamma_from_time_ratio
+
+    assert gamma_from_time_ratio(hamm_geminard_time_ratio(gamma)) == pytest.approx(gamma, abs=1e-9)
+
+
+def test_gamma_from_time_ratio_limits_and_errors():
+    from ballchain.theory import gamma_from_time_ratio
+
+    assert gamma_from_time_ratio(1.0) == pytest.approx(1.0, abs=1e-12)
+    assert gamma_from_time_ratio(hamm_geminard_time_ratio(0.0)) == pytest.approx(0.0, abs=1e-12)
+    for bad in (0.0, -0.1, math.sqrt(math.pi / 2), 2.0, math.nan):
+        with pytest.raises(ValueError):
+            gamma_from_time_ratio(bad)
+
+
+@pytest.mark.parametrize("theta0, s", [(0.3, 0.0), (0.8, 0.4), (0.05, 1.2)])
+def test_horizontal_force_is_m_times_the_centre_acceleration(theta0, s):
+    """F_x = m d2x_c/dt2 along an ODE solution, x_c = b sin theta, differentiated
+    numerically from the dense solution (independent of the closed form)."""
+    from ballchain.theory import pivot_rod_horizontal_force
+
+    sol = _rod_ode(theta0, s)
+    T = sol.t_events[0][0]
+    t = np.linspace(0.05 * T, 0.95 * T, 9)
+    h = 1e-4 * T
+    xc = lambda tt: np.sin(sol.sol(tt)[0])  # noqa: E731
+    ax = (xc(t + h) - 2 * xc(t) + xc(t - h)) / h**2
+    np.testing.assert_allclose(pivot_rod_horizontal_force(sol.sol(t)[0], theta0, s), ax, atol=1e-5)
+
+
+@pytest.mark.parametrize("theta0", [0.0, 0.2, 0.7, 1.2])
+def test_critical_s_is_where_the_momentum_balance_changes_sign(theta0):
+    """At s* the pivot's vertical impulse m (zdot_c(end) - zdot_c(0)) + m g T, from the ODE
+    alone, vanishes; below s* it is positive, above negative."""
+    from ballchain.theory import pivot_rod_critical_s
+
+    s_star = pivot_rod_critical_s(theta0)
+
+    def impulse(s):
+        sol = _rod_ode(theta0, s)
+        T = sol.t_events[0][0]
+        th, thd = sol.y_events[0][0]
+        zdot = lambda th_, thd_: -math.sin(th_) * thd_  # noqa: E731
+        return zdot(th, thd) - zdot(theta0, math.sqrt(s)) + T
+
+    assert abs(impulse(s_star)) < 1e-8
+    assert impulse(0.9 * s_star) > 0 > impulse(1.1 * s_star)

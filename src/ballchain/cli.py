@@ -380,6 +380,70 @@ def plot(
         typer.echo(str(p))
 
 
+theory_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, add_completion=False,
+                         help="Closed forms of the model's theory (ballchain.theory), nondimensional.")
+app.add_typer(theory_app, name="theory")
+
+
+def _theory_out(values: dict, json_out: bool) -> None:
+    if json_out:
+        _print_json(values)
+    else:
+        for k, v in values.items():
+            typer.echo(f"{k:<24} {v:.12g}" if isinstance(v, float) else f"{k:<24} {v}")
+
+
+def _theory_call(fn, *args):
+    try:
+        return fn(*args)
+    except ValueError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+
+
+@theory_app.command("hamm-geminard")
+def theory_hamm_geminard(gamma: float = typer.Option(..., "--gamma", help="Braking coefficient gamma < 3/2."),
+                         json_out: bool = typer.Option(False, "--json")) -> None:
+    """t_gamma / t_ff of the Hamm-Geminard model: B((2-g)/(3-2g), 1/2) / (2 sqrt(3-2g))."""
+    from .theory import hamm_geminard_time_ratio
+
+    _theory_out({"gamma": gamma, "time_ratio": _theory_call(hamm_geminard_time_ratio, gamma)}, json_out)
+
+
+@theory_app.command("gamma")
+def theory_gamma(ratio: float = typer.Option(..., "--ratio", help="t_fall / t_ff, in (0, sqrt(pi/2))."),
+                 json_out: bool = typer.Option(False, "--json")) -> None:
+    """The Hamm-Geminard gamma whose fall takes t_fall / t_ff = RATIO."""
+    from .theory import gamma_from_time_ratio
+
+    _theory_out({"time_ratio": ratio, "gamma": _theory_call(gamma_from_time_ratio, ratio)}, json_out)
+
+
+@theory_app.command("pivot-rod")
+def theory_pivot_rod(theta0: str = typer.Option(..., "--theta0", help="Start angle from the vertical (rad, or 30deg)."),
+                     s: float = typer.Option(0.0, "--s", help="Launch rate s = b thetadot0^2 / g (>= 0)."),
+                     theta: Optional[str] = typer.Option(None, "--theta", help="Angle at which to give the reaction."),
+                     json_out: bool = typer.Option(False, "--json")) -> None:
+    """A rod pivoting on the floor: the pivot's vertical impulse Delta p(theta0, s) until
+    the rod is horizontal (units m sqrt(g b)), the critical s*(theta0) beyond which it is
+    negative, and the reaction (units m g) at --theta."""
+    from .theory import pivot_rod_critical_s, pivot_rod_horizontal_force, pivot_rod_impulse, pivot_rod_vertical_force
+
+    try:
+        th0 = parse_angle(theta0)
+        th = None if theta is None else parse_angle(theta)
+    except (ParameterError, ValueError) as e:
+        _error(f"angle: {e}")
+        raise typer.Exit(EXIT_USAGE)
+    out = {"theta0": th0, "s": s, "impulse": _theory_call(pivot_rod_impulse, th0, s),
+           "critical_s": _theory_call(pivot_rod_critical_s, th0)}
+    if th is not None:
+        out["theta"] = th
+        out["force_z"] = float(pivot_rod_vertical_force(th, th0, s))
+        out["force_x"] = float(pivot_rod_horizontal_force(th, th0, s))
+    _theory_out(out, json_out)
+
+
 def main() -> None:  # pragma: no cover - ``python -m ballchain.cli``
     app()
 

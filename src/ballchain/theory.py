@@ -12,6 +12,10 @@ Contents
   at rest at ``theta0`` from the vertical, until it is horizontal.
 * :func:`hamm_geminard_time_ratio`, :func:`hamm_geminard_height_time` -- the
   Hamm-Geminard model of the paper's Discussion (Fig. 6), re-derived below.
+* :func:`gamma_from_time_ratio` -- its inverse: the gamma whose fall takes a given
+  ``t_fall / t_ff`` (ratios in (0, sqrt(pi/2))).
+* :func:`pivot_rod_horizontal_force`, :func:`pivot_rod_critical_s` -- the horizontal
+  reaction, and the launch rate beyond which the pivot's impulse is negative.
 * :func:`pivot_rod_vertical_force`, :func:`pivot_rod_impulse` -- the vertical reaction
   of the floor on a rod pivoting about its lower end (the paper's Fig. 7 discussion),
   re-derived below.  **The paper's printed formula has a sign error** in the
@@ -35,7 +39,12 @@ the rod is ``F = m d2R_c/dt2 + m g e_z``; its vertical component, with
         = (m g / 4) { 1 + 9 cos^2(theta) - 6 cos(theta0) cos(theta) - 4 s cos(theta) }
         = (m g / 4) { (1 - 3 cos theta)^2 + 6 (1 - cos theta0) cos theta - 4 s cos theta },
 
-``s = b thetadot0^2 / g``.  Checks: at release (``theta = theta0``, ``s = 0``) the
+``s = b thetadot0^2 / g``.  Horizontally (``x`` the direction the rod leans to),
+``d2x_c/dt2 = b (cos(theta) thetaddot - sin(theta) thetadot^2)``, so
+
+    F_x = m g sin(theta) { (9/4) cos(theta) - (3/2) cos(theta0) - s }.
+
+Checks: at release (``theta = theta0``, ``s = 0``) the
 rod's centre accelerates only tangentially, ``F_z = m g (1 - (3/4) sin^2 theta0)``;
 from the upright (``theta0 = 0, s = 0``) the textbook ``(m g / 4)(1 - 3 cos theta)^2``.
 
@@ -64,6 +73,7 @@ the paper's formula (confirmed).
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from scipy import integrate, special
@@ -77,6 +87,9 @@ __all__ = [
     "pivot_rod_vertical_force_as_printed",
     "pivot_rod_angular_velocity",
     "pivot_rod_impulse",
+    "pivot_rod_horizontal_force",
+    "pivot_rod_critical_s",
+    "gamma_from_time_ratio",
 ]
 
 _QUAD_EPSREL = 1e-13  # asks quad for better than the promised 1e-12
@@ -260,3 +273,62 @@ def hamm_geminard_height_time(x, gamma: float):
     if np.any((xx < 0) | (xx > 1)):
         raise ValueError("x must be in [0, 1]")
     return special.beta(a, 0.5) * (1.0 - special.betainc(a, 0.5, xx**c)) / (2.0 * math.sqrt(c))
+
+
+def pivot_rod_horizontal_force(theta, theta0: float, s: float = 0.0, m: float = 1.0, g: float = 1.0):
+    """Horizontal component of the pivot's force on the rod of
+    :func:`pivot_rod_vertical_force`, along the direction the rod leans to:
+
+        F_x = m g sin(theta) { (9/4) cos(theta) - (3/2) cos(theta0) - s }
+
+    (derived in the module docstring from ``F = m d2R_c/dt2 + m g e_z``).  Positive: the
+    pivot pushes the rod's foot towards the side it falls to.  Units of ``m g``."""
+    th = np.asarray(theta, dtype=float)
+    return m * g * np.sin(th) * (2.25 * np.cos(th) - 1.5 * math.cos(theta0) - s)
+
+
+def pivot_rod_critical_s(theta0: float) -> float:
+    """The launch rate ``s* = b thetadot0^2 / g`` at which the pivot's vertical impulse
+    on the rod, from ``theta0`` to the horizontal (:func:`pivot_rod_impulse`), is zero:
+    for ``s > s*`` the pivot pulls the rod down on balance.  Dimensionless."""
+    _check_theta0(theta0)
+
+    def f(s):
+        with warnings.catch_warnings():  # (quad's round-off notes at the far end of the bracket search)
+            warnings.simplefilter("ignore", integrate.IntegrationWarning)
+            return pivot_rod_impulse(theta0, s)
+
+    lo = 1e-12 if theta0 == 0.0 else 0.0
+    hi = 1.0
+    while f(hi) > 0.0:
+        hi *= 2.0
+        if hi > 1e6:
+            raise ValueError(f"no sign change of the impulse for s up to 1e6 at theta0 = {theta0!r}")
+    if f(lo) <= 0.0:
+        return lo
+    from scipy.optimize import brentq
+
+    return float(brentq(f, lo, hi, xtol=1e-14, rtol=1e-13))
+
+
+def gamma_from_time_ratio(ratio: float) -> float:
+    """The Hamm-Geminard gamma whose fall takes ``ratio = t_gamma / t_ff`` (the inverse of
+    :func:`hamm_geminard_time_ratio`, which increases from 0 (gamma -> -inf) through
+    0.7468 (gamma = 0) and 1 (gamma = 1) towards sqrt(pi/2) = 1.2533 (gamma -> 3/2)).
+    Dimensionless; ValueError outside (0, sqrt(pi/2))."""
+    ratio = float(ratio)
+    top = math.sqrt(math.pi / 2.0)
+    if not (math.isfinite(ratio) and 0.0 < ratio < top):
+        raise ValueError(f"ratio must be in (0, {top:.6f}), got {ratio!r}")
+    from scipy.optimize import brentq
+
+    f = lambda gam: hamm_geminard_time_ratio(gam) - ratio  # noqa: E731
+    lo = -1.0
+    while f(lo) > 0.0:
+        lo *= 2.0
+        if lo < -1e9:
+            raise ValueError(f"ratio {ratio!r} too small to invert")
+    hi = 1.5 - 1e-12
+    if f(hi) < 0.0:
+        raise ValueError(f"ratio {ratio!r} too close to its supremum {top:.6f}")
+    return float(brentq(f, lo, hi, xtol=1e-15, rtol=1e-14))
