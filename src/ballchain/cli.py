@@ -380,6 +380,41 @@ def plot(
         typer.echo(str(p))
 
 
+@app.command()
+def paper(
+    out: str = typer.Option("paper-figures", "--out", help="Directory for the figures and the run cache."),
+    segments: int = typer.Option(128, "--segments", "-N", help="N of the main chain (Figs. 2-4, 6)."),
+    alpha: str = typer.Option("pi/4", "--alpha", help="alpha of the main chain."),
+    floor: str = typer.Option("all", "--floor", help="Floor model: all or pivot."),
+    ic: str = typer.Option("helix", "--ic", help="Initial condition family: helix, planar or random."),
+    eps: float = typer.Option(0.02, "--eps", help="Largest initial tilt."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random initial condition."),
+    alpha_segments: int = typer.Option(256, "--alpha-segments", help="N of the alpha series (Fig. 5)."),
+    alphas: str = typer.Option("30deg,45deg,60deg,90deg,180deg", "--alphas", help="alpha values of Fig. 5."),
+    quick: bool = typer.Option(False, "--quick", help="Small chains (N = 12 and 16, three alphas): seconds, for tests."),
+    formats: str = typer.Option("png,pdf", "--formats", help="Comma-separated file formats."),
+) -> None:
+    """The paper's figures 2-7 from one command (runs are cached under OUT/cache)."""
+    from .paper import QUICK, PaperSetup, paper_figures
+
+    fmts = tuple(f.strip().lower() for f in formats.split(",") if f.strip())
+    if not fmts or any(f not in ("png", "pdf", "svg") for f in fmts):
+        _error(f"--formats: expected png, pdf or svg, got {formats!r}")
+        raise typer.Exit(EXIT_USAGE)
+    try:
+        kw = dict(segments=segments, alpha=parse_angle(alpha), floor=floor,
+                  ic=InitialCondition(kind=ic, eps=eps, seed=seed), alpha_segments=alpha_segments,
+                  alphas=tuple(parse_angle(a) for a in alphas.split(",") if a.strip()))
+        if quick:
+            kw.update(QUICK)
+        setup = PaperSetup(**kw)
+    except (ParameterError, ValueError) as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    for p in paper_figures(setup, out, fmts, note=lambda msg: typer.echo(msg, err=True)):
+        typer.echo(str(p))
+
+
 theory_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, add_completion=False,
                          help="Closed forms of the model's theory (ballchain.theory), nondimensional.")
 app.add_typer(theory_app, name="theory")

@@ -107,13 +107,15 @@ FIGURES = {"fall": fall_figure, "energy": energy_figure, "floor": floor_figure, 
            "lock_map": lock_map_figure}
 
 
-def plot_run(r: Result, out_dir, formats=("png", "pdf")) -> list[Path]:
-    """Write every figure of FIGURES as ``out_dir/<name>.<format>``; returns the paths."""
+def write_figures(makers: dict, out_dir, formats=("png", "pdf"), note=lambda s: None) -> list[Path]:
+    """Draw each figure of ``makers`` (name -> function of no argument) and write it as
+    ``out_dir/<name>.<format>``, closing it after; returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name, make in FIGURES.items():
-        fig = make(r)
+    for name, make in makers.items():
+        note(f"drawing {name}")
+        fig = make()
         try:
             for fmt in formats:
                 path = out / f"{name}.{fmt}"
@@ -122,3 +124,8 @@ def plot_run(r: Result, out_dir, formats=("png", "pdf")) -> list[Path]:
         finally:
             plt.close(fig)
     return paths
+
+
+def plot_run(r: Result, out_dir, formats=("png", "pdf")) -> list[Path]:
+    """Write every figure of FIGURES for ``r`` as ``out_dir/<name>.<format>``."""
+    return write_figures({name: (lambda make=make: make(r)) for name, make in FIGURES.items()}, out_dir, formats)

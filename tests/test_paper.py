@@ -1,0 +1,84 @@
+"""``ballchain paper --quick``: every figure is written, runs are cached, and the plotted
+data are the runs' and the theory's."""
+
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ballchain import theory
+from ballchain.cli import app
+from ballchain.files import load_result
+from ballchain.plots import paper as pp
+
+NAMES = ("fig2_strobe", "fig3_lock_map", "fig4_pile", "fig5_alpha", "fig6_hamm_geminard", "fig7_pivot_rod")
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    out = tmp_path_factory.mktemp("paper")
+    res = CliRunner().invoke(app, ["paper", "--quick", "--out", str(out), "--formats", "png"])
+    assert res.exit_code == 0, res.output
+    return out, res
+
+
+def test_every_figure_written_and_runs_cached(made):
+    out, res = made
+    for name in NAMES:
+        assert (out / f"{name}.png").stat().st_size > 5000, name
+    cached = sorted((out / "cache").glob("run-*.h5"))
+    assert len(cached) == 4  # the main chain and three alphas
+    again = CliRunner().invoke(app, ["paper", "--quick", "--out", str(out), "--formats", "png"])
+    assert again.exit_code == 0 and "running" not in again.output  # (stderr is mixed in by CliRunner)
+    assert sorted((out / "cache").glob("run-*.h5")) == cached
+
+
+def _runs(out):
+    return [load_result(p) for p in sorted((out / "cache").glob("run-*.h5"))]
+
+
+def test_fig5_and_fig6_plot_the_runs(made):
+    out, _ = made
+    runs = _runs(out)
+    series = [r for r in runs if r.params.segments == 16]
+    fig = pp.fig5_alpha(series)
+    lines = fig.axes[0].lines[: len(series)]
+    for line, r in zip(lines, sorted(series, key=lambda r: r.params.alpha)):
+        tau = r.t / r.t_ff
+        sel = (tau >= 0.38) & (tau <= 0.84)
+        np.testing.assert_array_equal(line.get_xdata(), tau[sel])
+        np.testing.assert_array_equal(line.get_ydata(), r.z_top[sel] / r.z0)
+    fig6 = pp.fig6_hamm_geminard(runs)
+    marks = [ln for ln in fig6.axes[0].lines if ln.get_marker() == "o"]
+    assert len(marks) == sum(1 for r in runs if 0 < r.t_fall / r.t_ff < math.sqrt(math.pi / 2))
+    for ln in marks:
+        gam, ratio = ln.get_xdata()[0], ln.get_ydata()[0]
+        assert theory.hamm_geminard_time_ratio(gam) == pytest.approx(ratio, rel=1e-9)
+
+
+def test_fig2_and_fig4_draw_the_main_run(made):
+    out, _ = made
+    main = [r for r in _runs(out) if r.params.segments == 12][0]
+    fig = pp.fig2_strobe(main)
+    n_views = len(np.arange(0.0, main.frame_t[-1] / main.t_ff + 1e-9, pp.STROBE))
+    views = fig.axes[0].lines
+    assert len(views) == n_views + 1  # and the floor line
+    f0 = pp._frame_at(main, 0.0)
+    np.testing.assert_allclose(views[0].get_ydata(), main.points()[f0, :, 2] / main.params.half_length)
+    np.testing.assert_array_equal(fig.axes[1].lines[0].get_ydata(), main.z_top / main.z0)
+    fig4 = pp.fig4_pile(main)
+    before, after = fig4.axes[0].collections
+    a = main.anchor_t
+    when = np.maximum(a[:-1], a[1:]) / main.t_ff
+    assert len(before.get_segments()) == int(np.sum(when < pp.SPLIT))
+    assert len(after.get_segments()) == int(np.sum(when >= pp.SPLIT))
+
+
+def test_fig7_is_the_theory():
+    fig = pp.fig7_pivot_rod(n=5)
+    first = fig.axes[0].lines[0]
+    np.testing.assert_allclose(first.get_ydata(), theory.pivot_rod_vertical_force(first.get_xdata(), 0.0))
+    zero = [ln for ln in fig.axes[1].lines][0]
+    for t0, s in zip(zero.get_xdata(), zero.get_ydata()):
+        assert abs(theory.pivot_rod_impulse(t0, s)) < 1e-8
