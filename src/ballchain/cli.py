@@ -1,4 +1,4 @@
-"""Command line interface: ``ballchain simulate`` and ``ballchain info``.
+"""Command line interface: ``ballchain simulate``, ``info``, ``plot``, ``animate`` and ``theory``.
 
 Errors in the input (every invalid parameter, an unwritable or existing output file,
 a damaged result file) are reported as one line ``error: <message>`` on stderr with
@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from pathlib import Path
 from typing import Any, Optional
 
 import typer
@@ -413,6 +414,64 @@ def paper(
         raise typer.Exit(EXIT_USAGE)
     for p in paper_figures(setup, out, fmts, note=lambda msg: typer.echo(msg, err=True)):
         typer.echo(str(p))
+
+
+@app.command()
+def animate(
+    file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
+    out: str = typer.Option("fall.mp4", "--out", help="The animation file: .mp4 (H.264) or .gif, by its suffix."),
+    fps: float = typer.Option(25.0, "--fps", help="Frames per second of the animation."),
+    every: Optional[int] = typer.Option(None, "--every", help="Draw every K-th frame of the run (default: every frame)."),
+    frames: Optional[int] = typer.Option(None, "--frames", help="Draw exactly N frames spread evenly over the run."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Animation of one run: 3D view with the floor, side view (x-z) and top view (x-y);
+    the chain, the pile (landed segments) and the locked hinges, time in units of t_ff."""
+    from .plots.animate import (SUFFIXES, AnimationError, check_options, frame_indices,  # lazy: matplotlib
+                                write_animation)
+
+    try:
+        if Path(out).suffix.lower() not in SUFFIXES:
+            raise AnimationError(f"--out: expected a .mp4 or .gif file name, got {out!r}")
+        check_options(fps, every, frames)
+        try:
+            check_writable(out, force)
+        except FileExistsError:
+            raise AnimationError(f"--out: file {out!r} exists (use --force to overwrite)") from None
+        except ResultFileError as e:
+            raise AnimationError(str(e).replace("output:", "--out:", 1)) from None
+        result = load_result(file)
+        n = int(result.frame_t.shape[0])
+        total = frame_indices(n, every=every, frames=frames).size
+    except (AnimationError, ResultFileError) as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+
+    def run(progress=None):
+        return write_animation(result, out, fps=fps, every=every, frames=frames, force=True, progress=progress)
+
+    try:
+        console = None if quiet else _progress_console()
+        if console is None or not console.is_terminal:
+            path = run()
+        else:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            with Progress(TextColumn("animating"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                          console=console, transient=True) as bar:
+                task = bar.add_task("animating", total=total)
+                path = run(lambda done, _total: bar.update(task, completed=done))
+    except KeyboardInterrupt:
+        _error(f"interrupted (nothing written to {out!r})")
+        raise typer.Exit(EXIT_INTERRUPTED)
+    except AnimationError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    except OSError as e:
+        _error(f"--out: cannot write {out!r} ({e.strerror or e})")
+        raise typer.Exit(EXIT_USAGE)
+    typer.echo(str(path))
 
 
 theory_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, add_completion=False,

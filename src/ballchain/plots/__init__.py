@@ -1,7 +1,10 @@
 """Figures of ballchain results (matplotlib; never imported by the engine).
 
 ``run``: the figures of any single run (``ballchain plot RESULT --out DIR``).
+``animate``: the animation of a run, .mp4 or .gif (``ballchain animate RESULT --out fall.mp4``).
 """
+
+from .animate import AnimationError, ChainAnimation, animation_figure, frame_indices, write_animation
 
 from .run import (
     FIGURES,
@@ -13,5 +16,5 @@ from .run import (
     plot_run,
 )
 
-__all__ = ["FIGURES", "energy_figure", "fall_figure", "floor_figure", "lock_map_figure", "pile_figure",
+__all__ = ["AnimationError", "ChainAnimation", "animation_figure", "frame_indices", "write_animation", "FIGURES", "energy_figure", "fall_figure", "floor_figure", "lock_map_figure", "pile_figure",
            "plot_run"]
