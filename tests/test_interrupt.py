@@ -95,3 +95,26 @@ def test_ctrl_c_in_python_returns_the_work_so_far():
     assert signal.getsignal(signal.SIGINT) is before
     _same_as_uninterrupted(r, params, t_stop)
     assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]
+
+
+def test_a_signal_before_any_work_stops_at_once(monkeypatch):
+    """A Ctrl-C that arrives before the first return from compiled code (e.g. while the
+    kernels compile on a first run) has nothing to keep: it stops at once."""
+    import os
+
+    from ballchain import engine
+
+    real = engine.run_events
+    calls = []
+
+    def signalled_first_call(*args):
+        if not calls:
+            os.kill(os.getpid(), signal.SIGINT)  # delivered before the compiled call starts
+        calls.append(1)
+        return real(*args)
+
+    monkeypatch.setattr(engine, "run_events", signalled_first_call)
+    before = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        simulate(ChainParams(segments=8), InitialCondition(), SolverOptions())
+    assert not calls and signal.getsignal(signal.SIGINT) is before  # raised before the compiled call

@@ -82,16 +82,18 @@ class _StopOnSignals:
     """While a run lasts (main thread only), the first SIGINT (Ctrl-C) or SIGTERM asks
     it to stop at the next return from compiled code, where the state and every buffer
     are consistent; the run then ends with status ``interrupted`` and keeps its work.
-    A second signal stops at once (``Interrupted``, nothing kept)."""
+    A second signal, or one that comes before any work was done (``started`` is False:
+    e.g. while the kernels compile on a first run), stops at once (``Interrupted``)."""
 
     NAMES = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM"}
 
     def __init__(self):
         self.reason: str | None = None
+        self.started = False
         self.old: dict = {}
 
     def _handler(self, signum, frame):
-        if self.reason is not None:
+        if self.reason is not None or not self.started:
             raise Interrupted(self.NAMES.get(signum, str(signum)))
         self.reason = self.NAMES.get(signum, str(signum))
 
@@ -444,6 +446,7 @@ def simulate(params: ChainParams, ic: InitialCondition | None = None, options: S
                                         run.pts, run.pv, run.vel, counters, options.max_steps, stats, sc,
                                         run.log.arrays, run.log.n, run.acc, zeno_t, zeno_n, ZENO_WINDOW * t_ff,
                                         options.max_events, RETURN_EVERY)
+                stopper.started = True
                 if code == ADV_BUFFER:
                     flush_trace()
                     frames.flush()
