@@ -1,4 +1,5 @@
-"""Command line interface: ``ballchain simulate``, ``info``, ``plot``, ``animate`` and ``theory``.
+"""Command line interface: ``ballchain simulate``, ``info``, ``plot``, ``paper``, ``animate``,
+``sweep``, ``stats`` and ``theory``.
 
 Errors in the input (every invalid parameter, an unwritable or existing output file,
 a damaged result file) are reported as one line ``error: <message>`` on stderr with
@@ -94,10 +95,22 @@ def _parse_angle(name: str, text: str) -> float:
         raise ParameterError(f"{name}: cannot parse angle {text!r} (use e.g. 45deg, pi/4 or 0.785)") from None
 
 
+def _parse_spawn_key(text: str) -> tuple[int, ...]:
+    """``""`` -> (), ``"3"`` -> (3,), ``"3,1"`` -> (3, 1)."""
+    text = str(text or "").strip()
+    if not text:
+        return ()
+    try:
+        return tuple(int(k) for k in text.split(","))
+    except ValueError:
+        raise ParameterError(f"spawn-key must be comma-separated integers >= 0 (as a sweep table's spawn_key), "
+                             f"got {text!r}") from None
+
+
 def build_inputs(
     *, segments: int = 128, alpha: str | float = "pi/4", floor: str = "all",
     anchor_cone: bool = False, ic: str = "helix", eps: float = 0.02, turns: float = 1.0,
-    phase: str | float = "0", seed: int = 0, rtol: float = 1e-9, until: float | None = None,
+    phase: str | float = "0", seed: int = 0, spawn_key: str = "", rtol: float = 1e-9, until: float | None = None,
     frames_per_tff: float = 100.0, length: float | None = None, mass: float | None = None,
     gravity: float | None = None,
 ) -> tuple[ChainParams, InitialCondition, SolverOptions]:
@@ -117,7 +130,7 @@ def build_inputs(
         params = ChainParams.from_chain(segments, length, mass,
                                         9.81 if gravity is None else gravity, **chain_kw)
     init = InitialCondition(kind=ic, eps=eps, turns=turns, phase=_parse_angle("phase", phase),
-                            seed=seed)
+                            seed=seed, spawn_key=_parse_spawn_key(spawn_key))
     options = SolverOptions(rtol=rtol, until=until, frames_per_tff=frames_per_tff)
     return params, init, options
 
@@ -254,6 +267,7 @@ def simulate(
     turns: float = typer.Option(1.0, "--turns", help="Turns q of the helix / wavenumber of the planar bend."),
     phase: str = typer.Option("0", "--phase", help="Phase phi0 (radians, or 45deg, pi/4): rotates the chain about z."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random initial condition (>= 0)."),
+    spawn_key: str = typer.Option("", "--spawn-key", help="Spawn key of the random start's SeedSequence (run k of a sweep: k)."),
     rtol: float = typer.Option(1e-9, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
     until: Optional[float] = typer.Option(None, "--until", help="Stop at this time, in units of t_ff (default: until every segment has landed)."),
     frames_per_tff: float = typer.Option(100.0, "--frames-per-tff", help="Output frames per t_ff."),
@@ -279,7 +293,7 @@ def simulate(
             state = (e0, w0)
         params, init, options = build_inputs(
             segments=128 if segments is None else segments, alpha=alpha, floor=floor, anchor_cone=anchor_cone, ic=ic,
-            eps=eps, turns=turns, phase=phase, seed=seed, rtol=rtol, until=until,
+            eps=eps, turns=turns, phase=phase, seed=seed, spawn_key=spawn_key, rtol=rtol, until=until,
             frames_per_tff=frames_per_tff, length=length, mass=mass, gravity=gravity)
         if output is not None:
             check_writable(output, force)
@@ -472,6 +486,116 @@ def animate(
         _error(f"--out: cannot write {out!r} ({e.strerror or e})")
         raise typer.Exit(EXIT_USAGE)
     typer.echo(str(path))
+
+
+@app.command()
+def sweep(
+    segments: str = typer.Option("64", "--segments", "-N", help="N values: a list (64,128) or range start:stop:step."),
+    alpha: str = typer.Option("pi/4", "--alpha", help="alpha values: a list (30deg,pi/4) or range (10deg:120deg:10deg), in (0, pi]."),
+    floor: str = typer.Option("all", "--floor", help="Floor models: all, pivot or all,pivot."),
+    ic: str = typer.Option("random", "--ic", help="Initial-condition families (random; helix and planar with --runs 1)."),
+    runs: int = typer.Option(1, "--runs", help="Initial conditions per point (independent streams of --seed)."),
+    seed: int = typer.Option(0, "--seed", help="Entropy of numpy.random.SeedSequence; run k uses its k-th spawned child."),
+    eps: float = typer.Option(0.02, "--eps", help="Largest initial tilt."),
+    rtol: float = typer.Option(1e-9, "--rtol", help="Relative tolerance of the integrator."),
+    until: Optional[float] = typer.Option(None, "--until", help="Stop each run at this time in t_ff (default: until landed)."),
+    frames_per_tff: float = typer.Option(100.0, "--frames-per-tff", help="Output frames per t_ff (as simulate; the frames set the step sequence, so a run rebuilds exactly with the same value)."),
+    out: str = typer.Option("sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786) instead of a local cluster."),
+    save_runs: Optional[str] = typer.Option(None, "--save-runs", help="Also keep each run's result file (HDF5) in this directory."),
+    retry_errors: bool = typer.Option(False, "--retry-errors", help="Run again the runs whose row says error."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object (what the sweep did) on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Run a grid of falls on dask.distributed into one Parquet table (resumable)."""
+    from .sweep import SweepSpec, parse_alphas, parse_choices, parse_segments
+    from .model import FLOOR_MODELS, IC_KINDS
+
+    try:
+        if workers is not None and workers < 1:
+            raise ParameterError(f"workers must be >= 1, got {workers}")
+        spec = SweepSpec(segments=tuple(parse_segments(segments)), alphas=tuple(parse_alphas(alpha)),
+                         floors=tuple(parse_choices(floor, FLOOR_MODELS, "floor")),
+                         ics=tuple(parse_choices(ic, IC_KINDS, "ic")), runs=runs, seed=seed, eps=eps,
+                         rtol=rtol, until=until, frames_per_tff=frames_per_tff, save_runs=save_runs)
+        from .sweep.execute import check_scheduler, run_sweep
+
+        spec.tasks()  # every run validated before anything starts
+        if scheduler is not None:
+            check_scheduler(scheduler)
+        report = run_sweep(spec, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors,
+                           progress=not quiet)
+    except ParameterError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    if json_out:
+        _print_json(report.to_dict())
+    else:
+        st = ", ".join(f"{v} {k}" for k, v in sorted(report.statuses.items()))
+        typer.echo(f"{report.table}: {report.total} runs in the grid ({st}); ran {report.ran} now "
+                   f"({report.failed} failed), {report.skipped} were already there; "
+                   f"{report.wall_seconds:.1f} s on {report.workers} workers")
+    if report.interrupted:
+        raise typer.Exit(EXIT_INTERRUPTED)
+
+
+@app.command()
+def stats(
+    table: str = typer.Argument(..., help="A table written by ballchain sweep."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
+    plot: Optional[str] = typer.Option(None, "--plot", help="Write t_fall/t_ff against alpha with 95% bands (PNG, PDF or SVG)."),
+) -> None:
+    """Means, medians and 95% intervals per point of a sweep; the optimal alpha per N."""
+    from .sweep.stats import table_stats
+
+    if not Path(table).is_file():
+        _error(f"table: no such file {table!r}")
+        raise typer.Exit(EXIT_USAGE)
+    if plot is not None and Path(plot).suffix.lower() not in (".png", ".pdf", ".svg"):
+        _error(f"--plot: expected a .png, .pdf or .svg file name, got {plot!r}")
+        raise typer.Exit(EXIT_USAGE)
+    try:
+        res = table_stats(table)
+    except ParameterError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    if plot is not None:
+        from .plots.sweep import write_alpha_figure
+
+        write_alpha_figure(res["points"], plot, res["optimal_alpha"])
+        res["plot"] = plot
+    if json_out:
+        _print_json(res)
+        return
+    typer.echo(stats_text(res))
+
+
+def stats_text(res: dict) -> str:
+    """The human-readable ``ballchain stats``."""
+
+    def f(x, spec=".4f"):
+        return "-" if x is None else format(x, spec)
+
+    lines = [f"{res['table']}: {res['rows']} rows ({', '.join(f'{v} {k}' for k, v in res['status'].items())})",
+             f"{'N':>5} {'alpha':>7} {'floor':>5} {'runs':>4} {'fell':>4} {'t_fall/t_ff: mean':>17} {'95% interval':>17} "
+             f"{'median':>7} {'t_landed/t_ff':>13} {'faster':>7} {'95% interval':>13}"]
+    for p in res["points"]:
+        r, l, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
+        lines.append(f"{p['segments']:>5} {p['alpha_deg']:>6.4g}d {p['floor']:>5} {p['n_runs']:>4} {r['n']:>4} {f(r['mean']):>17} "
+                     f"{'[' + f(r['ci_low']) + ', ' + f(r['ci_high']) + ']':>17} {f(r['median']):>7} "
+                     f"{f(l['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
+                     f"{'[' + f(fa['ci_low'], '.2f') + ', ' + f(fa['ci_high'], '.2f') + ']':>13}")
+    if any(o["n_alpha"] > 1 for o in res["optimal_alpha"]):
+        lines.append("optimal alpha (smallest mean t_fall/t_ff; paired bootstrap 95% interval):")
+        for o in res["optimal_alpha"]:
+            if o["n_alpha"] > 1 and o["alpha_deg"] is not None:
+                lines.append(f"  N = {o['segments']}, floor {o['floor']}: {o['alpha_deg']:.4g} deg "
+                             f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}], mean t_fall/t_ff {o['mean']:.4f} "
+                             f"({o['n_starts']} starts)")
+    if res.get("plot"):
+        lines.append(f"plot: {res['plot']}")
+    return "\n".join(lines)
 
 
 theory_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, add_completion=False,

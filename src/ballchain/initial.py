@@ -37,12 +37,14 @@ def planar_directions(segments: int, eps: float, turns: float, phase: float) -> 
     return _normalize_tilts(np.outer(amp, [math.cos(phase), math.sin(phase)]))
 
 
-def random_directions(segments: int, eps: float, modes: int, seed: int, phase: float) -> np.ndarray:
+def random_directions(segments: int, eps: float, modes: int, seed: int, phase: float,
+                      spawn_key: tuple[int, ...] = ()) -> np.ndarray:
     """A smooth random tilt: ``modes`` Fourier modes along the chain with random
     horizontal coefficients (amplitude falling as 1/k), scaled so that the largest
     tilt |e_n - (e_n . e_z) e_z| / (e_n . e_z) is ``eps`` (as in the other families),
-    then rotated by phi0 about z.  Seeded: the same seed gives the same chain."""
-    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    then rotated by phi0 about z.  Seeded: the same seed (and spawn key) gives the same
+    chain; ``spawn_key=(k,)`` is the k-th child of ``SeedSequence(seed).spawn``."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=tuple(spawn_key)))
     coef = rng.standard_normal((modes, 2, 2)) / np.arange(1, modes + 1)[:, None, None]
     s = (segments - np.arange(1, segments + 1) + 0.5) / segments  # 0 at bottom, 1 at top
     k = np.arange(1, modes + 1)[:, None]
@@ -63,7 +65,7 @@ def initial_directions(ic: InitialCondition, segments: int, alpha: float) -> np.
     elif ic.kind == "planar":
         e = planar_directions(segments, ic.eps, ic.turns, ic.phase)
     else:
-        e = random_directions(segments, ic.eps, ic.modes, ic.seed, ic.phase)
+        e = random_directions(segments, ic.eps, ic.modes, ic.seed, ic.phase, ic.spawn_key)
     check_inside_cone(e, alpha)
     return e
 

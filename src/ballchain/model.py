@@ -17,6 +17,8 @@ import math
 import re
 from dataclasses import asdict, dataclass
 
+import numpy as np
+
 FLOOR_MODELS = ("all", "pivot")
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
@@ -145,8 +147,10 @@ class InitialCondition:
     eps: amplitude of the tilt (dimensionless).
     turns: q, turns of the helix / wavenumber of the planar bend along the chain.
     phase: phi0 in radians (rotates the chain rigidly about z).
-    seed: seed of the ``random`` family.
+    seed: seed of the ``random`` family (the entropy of its ``numpy.random.SeedSequence``).
     modes: number of Fourier modes of the ``random`` family.
+    spawn_key: spawn key of that SeedSequence (``()``: the seed's own stream; ``(k,)``:
+        the k-th child of ``SeedSequence(seed).spawn``, as ``ballchain sweep`` draws run k).
     """
 
     kind: str = "helix"
@@ -155,6 +159,7 @@ class InitialCondition:
     phase: float = 0.0
     seed: int = 0
     modes: int = 4
+    spawn_key: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         if self.kind not in IC_KINDS:
@@ -174,6 +179,16 @@ class InitialCondition:
         if int(self.modes) < 1:
             raise ParameterError(f"modes must be >= 1, got {self.modes!r}")
         object.__setattr__(self, "modes", int(self.modes))
+        key = self.spawn_key
+        if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+            key = (key,)
+        if isinstance(key, (str, bytes)) or not hasattr(key, "__iter__"):
+            raise ParameterError(f"spawn_key must be a sequence of integers >= 0, got {self.spawn_key!r}")
+        key = tuple(key)
+        if not all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) and k >= 0 for k in key):
+            raise ParameterError(f"spawn_key must be a sequence of integers >= 0, got {self.spawn_key!r}")
+        key = tuple(int(k) for k in key)
+        object.__setattr__(self, "spawn_key", key)
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -1,0 +1,264 @@
+"""Running a sweep on dask.distributed: a LocalCluster on all cores, or an existing cluster.
+
+Each run is one task (``run_task``): it never raises, a failure is a row with status
+``error`` and its message.  The kernels are compiled once, in this process, before the
+workers start (they load numba's on-disk cache); on an existing cluster each worker
+loads or compiles them once, before the first task.  Rows go to the table as runs
+finish (``table.TableWriter``); runs already in the table are not run again.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import socket
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from .spec import SweepSpec, Task
+from .table import TableWriter, error_row, read_table, result_row
+
+
+def run_task(task: Task) -> dict:
+    """Run one task and return its table row (never raises)."""
+    t0 = time.perf_counter()
+    where = f"{socket.gethostname()}:{os.getpid()}"
+    try:
+        from ..engine import simulate
+
+        result = simulate(task.params, task.ic, task.options)
+        if task.save_path is not None:
+            from ..files import save_result
+
+            save_result(result, task.save_path, force=True)
+        return result_row(task, result, where)
+    except BaseException as exc:  # noqa: BLE001 - a run must never stop the sweep
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        return error_row(task, f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__,
+                         time.perf_counter() - t0, where)
+
+
+def warm_kernels() -> bool:
+    """Load (or, the first time, compile) the numba kernels with a tiny run.  Returns
+    whether they had to be compiled."""
+    from ..engine import kernels_cached, simulate
+
+    cold = not kernels_cached()
+    simulate(ChainParams(segments=2), InitialCondition(), SolverOptions(until=0.05))
+    return cold
+
+
+@dataclass
+class SweepReport:
+    """What a sweep did: runs in the grid, already in the table, run now, failed, where."""
+
+    table: str
+    total: int
+    skipped: int = 0
+    ran: int = 0
+    failed: int = 0
+    interrupted: bool = False
+    workers: int = 0
+    scheduler: str = ""
+    wall_seconds: float = 0.0
+    statuses: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+class _Stop(KeyboardInterrupt):
+    pass
+
+
+def _connect(scheduler: str | None, workers: int, log):
+    """A dask Client: to ``scheduler``, or to a new LocalCluster of ``workers`` processes."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="5s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise ParameterError(f"scheduler: cannot reach {scheduler!r} ({msg})") from None
+        return client, None
+    # one thread per worker process; no nested BLAS/numba threads
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                           silence_logs=logging.ERROR, host="127.0.0.1")
+    return Client(cluster), cluster
+
+
+def check_scheduler(address: str) -> None:
+    """One-line error if the scheduler cannot be reached (before anything runs)."""
+    client, _ = _connect(address, 0, None)
+    client.close()
+
+
+def run_sweep(spec: SweepSpec, out, *, workers: int | None = None, scheduler: str | None = None,
+              retry_errors: bool = False, progress: bool = True, log=None) -> SweepReport:
+    """Run every task of ``spec`` that ``out`` does not hold yet; rows go to ``out``."""
+    tasks = spec.tasks()  # validates everything first
+    if spec.save_runs is not None:
+        try:
+            Path(spec.save_runs).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ParameterError(f"save-runs: cannot create {spec.save_runs!r} ({exc.strerror})") from None
+    return run_tasks(tasks, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors,
+                     progress=progress, log=log)
+
+
+def run_tasks(tasks: list[Task], out, *, workers: int | None = None, scheduler: str | None = None,
+              retry_errors: bool = False, progress: bool = True, log=None) -> SweepReport:
+    """Run the ``tasks`` that the table ``out`` does not hold yet (see ``run_sweep``)."""
+    log = log or sys.stderr
+    t0 = time.perf_counter()
+    out = Path(out)
+    if out.is_dir():
+        raise ParameterError(f"out: {str(out)!r} is a directory; give a file name such as sweep.parquet")
+    if not out.parent.exists():
+        raise ParameterError(f"out: directory {str(out.parent)!r} does not exist")
+    writer = TableWriter(out, read_table(out) if out.exists() else [])
+    done = {t.run_id for t in tasks if t.run_id in writer
+            and not (retry_errors and writer.rows[t.run_id]["status"] == "error")}
+    todo = [t for t in tasks if t.run_id not in done]
+    workers = max(1, int(workers or os.cpu_count() or 1))
+    report = SweepReport(table=str(out), total=len(tasks), skipped=len(done), workers=workers,
+                         scheduler=scheduler or "local")
+    if not todo:
+        writer.flush()
+        report.wall_seconds = time.perf_counter() - t0
+        return _finish(report, writer, tasks)
+
+    if scheduler is None:  # compile once here; the workers load the cache
+        from ..engine import kernels_cached
+
+        if not kernels_cached():
+            print("compiling the numba kernels (first run only; a minute or two, cached afterwards)...",
+                  file=log, flush=True)
+        warm_kernels()
+    if progress:
+        print(f"sweep: {len(todo)} runs to do ({len(done)} of {len(tasks)} already in {out}), "
+              f"{'scheduler ' + scheduler if scheduler else f'{workers} local workers'}", file=log, flush=True)
+
+    old = {}
+
+    def stop(signum, frame):
+        raise _Stop(signal.Signals(signum).name)
+
+    client = cluster = None
+    bar = None
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old[sig] = signal.signal(sig, stop)
+        client, cluster = _connect(scheduler, workers, log)
+        if scheduler is not None:
+            report.workers = len(client.scheduler_info().get("workers", {}))
+        client.run(warm_kernels)
+        from distributed import as_completed
+
+        by_key = {}
+        futures = []
+        for n in sorted({t.params.segments for t in todo}, reverse=True):  # the longest runs first
+            group = [t for t in todo if t.params.segments == n]
+            fs = client.map(run_task, group, key=[f"ballchain-{t.run_id}" for t in group], pure=False,
+                            priority=n, retries=0)
+            for f, t in zip(fs, group):
+                by_key[f.key] = t
+            futures.extend(fs)
+        bar = _Bar(len(todo), progress, log)
+        for fut in as_completed(futures):
+            task = by_key[fut.key]
+            try:
+                row = fut.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the worker died in this run
+                row = error_row(task, f"worker failed: {type(exc).__name__}: {exc}".splitlines()[0])
+            writer.add(row)
+            report.ran += 1
+            report.failed += row["status"] == "error"
+            bar.advance(report.failed)
+            fut.release()
+    except _Stop as exc:
+        report.interrupted = True
+        print(f"\nsweep interrupted ({exc}): {report.ran} runs done now, {len(writer.rows)} rows in {out}; "
+              f"the same command finishes the rest", file=log, flush=True)
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+        if bar is not None:
+            bar.close()
+        writer.flush()
+        if client is not None:
+            try:
+                client.close(timeout=10)
+            except Exception:  # noqa: BLE001
+                pass
+        if cluster is not None:
+            try:
+                cluster.close(timeout=10)
+            except Exception:  # noqa: BLE001
+                pass
+    report.wall_seconds = time.perf_counter() - t0
+    return _finish(report, writer, tasks)
+
+
+def _finish(report: SweepReport, writer: TableWriter, tasks) -> SweepReport:
+    statuses: dict = {}
+    for t in tasks:
+        row = writer.rows.get(t.run_id)
+        if row is not None:
+            statuses[row["status"]] = statuses.get(row["status"], 0) + 1
+    report.statuses = statuses
+    return report
+
+
+class _Bar:
+    """Runs done / total with elapsed time and ETA: a rich bar on a terminal, else a line
+    every 30 s (or 10% of the runs)."""
+
+    def __init__(self, total: int, enabled: bool, log):
+        self.total, self.done, self.enabled, self.log = total, 0, enabled, log
+        self.t0 = self.last = time.monotonic()
+        self.rich = None
+        if enabled and getattr(log, "isatty", lambda: False)():
+            from rich.console import Console
+            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                                       TimeRemainingColumn)
+
+            self.rich = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                                 TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.fields[info]}"),
+                                 console=Console(file=log), transient=False)
+            self.task = self.rich.add_task("sweep", total=total, info="")
+            self.rich.start()
+
+    def advance(self, failed: int) -> None:
+        self.done += 1
+        if not self.enabled:
+            return
+        if self.rich is not None:
+            self.rich.update(self.task, advance=1, info=f"failed {failed}" if failed else "")
+            return
+        now = time.monotonic()
+        tenth = int(10 * self.done / self.total) > int(10 * (self.done - 1) / self.total)
+        if now - self.last >= 30.0 or self.done == self.total or tenth:
+            el = now - self.t0
+            eta = el / self.done * (self.total - self.done)
+            print(f"sweep: {self.done}/{self.total} runs, {failed} failed, elapsed {_hms(el)}, ETA {_hms(eta)}",
+                  file=self.log, flush=True)
+            self.last = now
+
+    def close(self) -> None:
+        if self.rich is not None:
+            self.rich.stop()
+
+
+def _hms(s: float) -> str:
+    s = int(round(s)) if math.isfinite(s) else 0
+    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"

@@ -1,0 +1,199 @@
+"""What a sweep runs: lists and ranges of parameters -> one task per run.
+
+A sweep is the product  N x alpha x floor x initial-condition family  with ``runs``
+initial conditions per point.  Run ``k`` of every point starts from the ``k``-th child
+stream of ``numpy.random.SeedSequence(seed).spawn``: the same starting shape for every
+N, alpha and floor (common random numbers, so that points are compared on the same
+starts), and each run rebuilt on its own from ``(seed, spawn_key)`` with
+``ballchain simulate --ic random --seed S --spawn-key k``.
+
+Everything is validated here, before anything runs: a bad specification is one
+``ParameterError`` with a one-line message.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..model import (FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions,
+                     parse_angle)
+
+MAX_RUNS = 1_000_000  # a guard against a typo in a range step
+
+
+def _grid(start: float, stop: float, step: float, what: str) -> list[float]:
+    """start, start + step, ... up to stop (stop included when it lies on the grid)."""
+    if not (math.isfinite(start) and math.isfinite(stop) and math.isfinite(step)):
+        raise ParameterError(f"{what}: range bounds must be finite")
+    if step <= 0.0:
+        raise ParameterError(f"{what}: range step must be > 0, got {step:g}")
+    if stop < start:
+        raise ParameterError(f"{what}: empty range (stop {stop:g} < start {start:g})")
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    if n > MAX_RUNS:
+        raise ParameterError(f"{what}: range has {n} values (too many; check the step)")
+    return [start + i * step for i in range(n)]
+
+
+def _items(text: str, what: str) -> list[str]:
+    items = [t.strip() for t in str(text).split(",")]
+    if not items or any(t == "" for t in items):
+        raise ParameterError(f"{what}: empty item in {text!r} (use a comma-separated list or start:stop:step)")
+    return items
+
+
+def parse_segments(text: str | int) -> list[int]:
+    """``64,128`` or ``64:256:64`` (or a mix) -> sorted distinct N >= 1."""
+    out: list[int] = []
+    for item in _items(str(text), "segments"):
+        parts = item.split(":")
+        try:
+            nums = [int(p) for p in parts]
+        except ValueError:
+            raise ParameterError(f"segments: {item!r} is not an integer or start:stop:step range") from None
+        if len(nums) == 1:
+            out.append(nums[0])
+        elif len(nums) == 3:
+            out.extend(int(round(v)) for v in _grid(*map(float, nums), what="segments"))
+        else:
+            raise ParameterError(f"segments: {item!r} is not an integer or start:stop:step range")
+    for n in out:
+        if n < 1:
+            raise ParameterError(f"segments must be >= 1, got {n}")
+    return sorted(set(out))
+
+
+def parse_alphas(text: str) -> list[float]:
+    """``pi/4,60deg`` or ``10deg:120deg:10deg`` (or a mix) -> sorted distinct radians in (0, pi]."""
+    out: list[float] = []
+    for item in _items(text, "alpha"):
+        parts = item.split(":")
+        if len(parts) == 1:
+            out.append(parse_angle(parts[0]))
+        elif len(parts) == 3:
+            if all(p.strip().lower().endswith("deg") for p in parts):  # a grid in degrees: exact degrees
+                a, b, s = (float(p.strip()[:-3]) for p in parts)
+                out.extend(math.radians(v) for v in _grid(a, b, s, "alpha"))
+            else:
+                a, b, s = (parse_angle(p) for p in parts)
+                out.extend(_grid(a, b, s, "alpha"))
+        else:
+            raise ParameterError(f"alpha: {item!r} is not an angle or start:stop:step range")
+    for a in out:
+        if not (0.0 < a <= math.pi + 1e-12):
+            raise ParameterError(f"alpha must be in (0, pi] (0 < alpha <= 180deg), got {math.degrees(a):.6g} deg")
+    # values within 1e-12 rad are one alpha (pi/4 and 45deg): the first one given is kept
+    kept: list[float] = []
+    for a in out:
+        if all(abs(a - k) > 1e-12 for k in kept):
+            kept.append(min(a, math.pi))
+    return sorted(kept)
+
+
+def parse_choices(text: str, allowed: tuple[str, ...], what: str) -> list[str]:
+    out = []
+    for item in _items(text, what):
+        if item not in allowed:
+            raise ParameterError(f"{what} must be one of {', '.join(allowed)}; got {item!r}")
+        if item not in out:
+            out.append(item)
+    return out
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run of a sweep: its identity and its validated inputs (picklable)."""
+
+    run_id: str
+    run_index: int
+    params: ChainParams
+    ic: InitialCondition
+    options: SolverOptions
+    save_path: str | None = None
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A sweep: the grid, the starts per point, and the per-run options."""
+
+    segments: tuple[int, ...]
+    alphas: tuple[float, ...]
+    floors: tuple[str, ...] = ("all",)
+    ics: tuple[str, ...] = ("random",)
+    runs: int = 1
+    seed: int = 0
+    eps: float = 0.02
+    rtol: float = 1e-9
+    until: float | None = None
+    frames_per_tff: float = 100.0
+    save_runs: str | None = None
+    options: SolverOptions = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not self.segments or not self.alphas or not self.floors or not self.ics:
+            raise ParameterError("sweep: every axis (segments, alpha, floor, ic) needs at least one value")
+        if int(self.runs) != self.runs or self.runs < 1:
+            raise ParameterError(f"runs must be an integer >= 1, got {self.runs!r}")
+        if int(self.seed) != self.seed or self.seed < 0:
+            raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
+        for kind in self.ics:
+            if kind not in IC_KINDS:
+                raise ParameterError(f"ic must be one of {', '.join(IC_KINDS)}; got {kind!r}")
+            if kind != "random" and self.runs > 1:
+                raise ParameterError(f"--runs {self.runs} needs --ic random: the {kind} start is one "
+                                     f"deterministic shape (vary --eps instead)")
+        for f in self.floors:
+            if f not in FLOOR_MODELS:
+                raise ParameterError(f"floor must be one of {', '.join(FLOOR_MODELS)}; got {f!r}")
+        object.__setattr__(self, "options", SolverOptions(rtol=self.rtol, until=self.until,
+                                                          frames_per_tff=self.frames_per_tff))
+        InitialCondition(eps=self.eps)  # validates eps
+        n = self.size
+        if n > MAX_RUNS:
+            raise ParameterError(f"sweep has {n} runs (more than {MAX_RUNS}); narrow it")
+
+    @property
+    def size(self) -> int:
+        return len(self.segments) * len(self.alphas) * len(self.floors) * len(self.ics) * self.runs
+
+    def tasks(self) -> list[Task]:
+        """Every run, validated (parameters and the initial state inside the cone)."""
+        from ..initial import initial_directions
+
+        out = []
+        checked: set = set()
+        for n in self.segments:
+            for a in self.alphas:
+                for fl in self.floors:
+                    params = ChainParams(segments=n, alpha=a, floor=fl)
+                    for kind in self.ics:
+                        for k in range(self.runs):
+                            ic = InitialCondition(kind=kind, eps=self.eps, seed=self.seed,
+                                                  spawn_key=(k,) if kind == "random" else ())
+                            key = (n, a, kind, k)
+                            if key not in checked:  # the floor does not change the start
+                                try:
+                                    initial_directions(ic, n, params.alpha)
+                                except ParameterError as exc:
+                                    raise ParameterError(f"N = {n}, alpha = {math.degrees(a):.6g} deg, "
+                                                         f"{kind} run {k}: {exc}") from None
+                                checked.add(key)
+                            rid = run_id(params, ic, self.options)
+                            path = None
+                            if self.save_runs is not None:
+                                import os
+
+                                path = os.path.join(self.save_runs, rid + ".h5")
+                            out.append(Task(rid, k, params, ic, self.options, path))
+        return out
+
+
+def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
+    """A run's key in the table: every input that changes the run, readable."""
+    until = "end" if options.until is None else f"{options.until:.12g}"
+    key = "-".join(str(k) for k in ic.spawn_key) or "none"
+    return (f"N{params.segments}_a{math.degrees(params.alpha):.10g}deg_{params.floor}"
+            f"{'_cone' if params.anchor_cone else ''}_{ic.kind}_eps{ic.eps:.12g}_q{ic.turns:.12g}"
+            f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
+            f"_fr{options.frames_per_tff:.12g}")

@@ -1,0 +1,151 @@
+"""Statistics of a sweep table: per point (N, alpha, floor, and any other input that
+varies), the mean, median and a 95% bootstrap interval of t_fall/t_ff and
+t_landed/t_ff; the fraction of runs faster than free fall with its Wilson interval;
+the optimal alpha per N with a paired bootstrap interval.
+
+Only runs that reached the quantity count for it (a run stopped by ``--until`` has no
+t_fall); ``n_runs`` and ``n_error`` say how many rows a point has and how many failed.
+Bootstrap intervals use ``scipy.stats.bootstrap`` (BCa, 9999 resamples) with a fixed
+seed, so the same table gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+CONFIDENCE = 0.95
+N_RESAMPLES = 9999
+SEED = 20261123
+GROUP_KEYS = ("segments", "alpha", "floor", "anchor_cone", "ic", "eps", "rtol", "until")
+FAST = 1.0  # "faster than free fall": t_fall / t_ff < 1
+
+
+def mean_interval(x, confidence: float = CONFIDENCE, seed: int = SEED) -> tuple[float, float]:
+    """Bootstrap (BCa) interval of the mean of ``x``; (x, x) for constant data, NaN for
+    fewer than two values."""
+    from scipy import stats
+
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return (math.nan, math.nan)
+    if np.ptp(x) == 0.0:
+        return (float(x[0]), float(x[0]))
+    rng = np.random.default_rng(seed)
+    with np.errstate(all="ignore"):
+        res = stats.bootstrap((x,), np.mean, confidence_level=confidence, n_resamples=N_RESAMPLES,
+                              method="BCa", random_state=rng)
+    lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    if not (math.isfinite(lo) and math.isfinite(hi)):  # BCa degenerate: fall back to percentiles
+        res = stats.bootstrap((x,), np.mean, confidence_level=confidence, n_resamples=N_RESAMPLES,
+                              method="percentile", random_state=np.random.default_rng(seed))
+        lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    return lo, hi
+
+
+def wilson_interval(k: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Wilson score interval of a proportion k/n:
+    (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)."""
+    from scipy.stats import norm
+
+    if n == 0:
+        return (math.nan, math.nan)
+    z = float(norm.ppf(0.5 + confidence / 2.0))
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def _present_keys(df) -> list[str]:
+    return [k for k in GROUP_KEYS if k in df.columns]
+
+
+def point_stats(df) -> list[dict]:
+    """One dict per point of the grid (see the module docstring)."""
+    keys = _present_keys(df)
+    out = []
+    for values, g in df.groupby(keys, dropna=False, sort=True):
+        row = dict(zip(keys, (v.item() if hasattr(v, "item") else v for v in values)))
+        row["alpha_deg"] = math.degrees(row["alpha"])
+        row["n_runs"] = int(len(g))
+        row["n_error"] = int((g["status"] == "error").sum())
+        for col in ("ratio", "landed_ratio"):
+            x = g[col].to_numpy(dtype=float)
+            x = x[np.isfinite(x)]
+            lo, hi = mean_interval(x)
+            row[col] = {"n": int(x.size), "mean": float(np.mean(x)) if x.size else None,
+                        "median": float(np.median(x)) if x.size else None,
+                        "std": float(np.std(x, ddof=1)) if x.size > 1 else None,
+                        "ci_low": lo if math.isfinite(lo) else None, "ci_high": hi if math.isfinite(hi) else None}
+        x = g["ratio"].to_numpy(dtype=float)
+        x = x[np.isfinite(x)]
+        k = int(np.sum(x < FAST))
+        lo, hi = wilson_interval(k, int(x.size))
+        row["faster_than_free_fall"] = {"k": k, "n": int(x.size), "fraction": k / x.size if x.size else None,
+                                        "ci_low": lo if math.isfinite(lo) else None,
+                                        "ci_high": hi if math.isfinite(hi) else None}
+        out.append(row)
+    return out
+
+
+def optimal_alpha(df, column: str = "ratio", seed: int = SEED, n_resamples: int = 2000) -> list[dict]:
+    """Per (N, floor, ...): the alpha of the smallest mean ``column`` and its bootstrap
+    interval.  Paired bootstrap: the runs are resampled by their start (run_index), the
+    same starts for every alpha, as the sweep draws them."""
+    keys = [k for k in _present_keys(df) if k != "alpha"]
+    out = []
+    rng = np.random.default_rng(seed)
+    for values, g in df.groupby(keys, dropna=False, sort=True):
+        table = g.pivot_table(index="run_index", columns="alpha", values=column, aggfunc="first")
+        alphas = table.columns.to_numpy(dtype=float)
+        m = table.to_numpy(dtype=float)  # (starts, alphas), NaN where a run has no value
+        row = dict(zip(keys, (v.item() if hasattr(v, "item") else v for v in values)))
+        row["n_alpha"] = int(alphas.size)
+        row["n_starts"] = int(m.shape[0])
+        with np.errstate(all="ignore"):
+            means = np.nanmean(m, axis=0) if m.size else np.array([])
+        if alphas.size == 0 or not np.any(np.isfinite(means)):
+            row.update(alpha=None, alpha_deg=None, mean=None, ci_low_deg=None, ci_high_deg=None)
+            out.append(row)
+            continue
+        best = int(np.nanargmin(means))
+        picks = np.empty(n_resamples)
+        for b in range(n_resamples):
+            idx = rng.integers(0, m.shape[0], m.shape[0])
+            with np.errstate(all="ignore"):
+                mb = np.nanmean(m[idx], axis=0)
+            picks[b] = alphas[np.nanargmin(mb)] if np.any(np.isfinite(mb)) else np.nan
+        picks = picks[np.isfinite(picks)]
+        lo, hi = np.quantile(picks, [(1 - CONFIDENCE) / 2, (1 + CONFIDENCE) / 2], method="inverted_cdf")
+        row.update(alpha=float(alphas[best]), alpha_deg=math.degrees(alphas[best]), mean=float(means[best]),
+                   ci_low_deg=math.degrees(lo), ci_high_deg=math.degrees(hi),
+                   share_best=float(np.mean(picks == alphas[best])))
+        out.append(row)
+    return out
+
+
+def table_stats(path) -> dict:
+    """The statistics of a sweep table (the ``ballchain stats --json`` object)."""
+    import pandas as pd
+
+    from .table import read_table
+
+    df = pd.DataFrame(read_table(path))
+    return _finite({"table": str(path), "rows": int(len(df)),
+                    "status": {str(k): int(v) for k, v in df["status"].value_counts().items()} if len(df) else {},
+                    "points": point_stats(df) if len(df) else [],
+                    "optimal_alpha": optimal_alpha(df) if len(df) else []})
+
+
+def _finite(obj):
+    """NaN and infinities -> None (JSON has no NaN; ``until`` NaN means: until landed)."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj

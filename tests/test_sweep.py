@@ -1,0 +1,266 @@
+"""ballchain sweep and stats: the grid and its streams, a real dask LocalCluster on
+loopback, the same table from 1 and 2 workers, resume after kill -9, failed runs as
+rows, one-line errors before anything runs, and the statistics against hand-computed
+values."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from ballchain.cli import app
+from ballchain.initial import initial_directions
+from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from ballchain.sweep import SweepSpec, Task, parse_alphas, parse_segments, run_id
+from ballchain.sweep.execute import run_sweep, run_tasks
+from ballchain.sweep.stats import mean_interval, optimal_alpha, point_stats, table_stats, wilson_interval
+from ballchain.sweep.table import COLUMNS, VOLATILE, read_table, write_table
+
+runner = CliRunner()
+
+
+# ------------------------------------------------------------------ the grid
+def test_lists_and_ranges():
+    assert parse_segments("64,128") == [64, 128]
+    assert parse_segments("8:32:8,64") == [8, 16, 24, 32, 64]
+    a = parse_alphas("10deg:120deg:10deg")
+    assert a == [math.radians(d) for d in range(10, 121, 10)]  # exactly the degrees, as --alpha 30deg gives
+    assert parse_alphas("pi/4,45deg,0.7853981633974483") == [pytest.approx(math.pi / 4)]  # duplicates merged
+    assert parse_alphas("pi") == [math.pi]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--alpha", "120deg:10deg:10deg"], "empty range"),
+    (["--alpha", "10deg:120deg:0deg"], "step must be > 0"),
+    (["--alpha", "0deg,30deg"], "alpha must be in (0, pi]"),
+    (["--alpha", "200deg"], "alpha must be in (0, pi]"),
+    (["--alpha", "30deg,,60deg"], "empty item"),
+    (["--floor", "all,wall"], "floor must be one of"),
+    (["--segments", "0,8"], "segments must be >= 1"),
+    (["--segments", "64:8:8"], "empty range"),
+    (["--ic", "helix", "--runs", "3"], "needs --ic random"),
+    (["--runs", "0"], "runs must be"),
+    (["--workers", "0"], "workers must be >= 1"),
+    (["--eps", "0.9", "--alpha", "10deg", "--segments", "8"], "not strictly inside"),
+    (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach"),
+])
+def test_bad_specifications_fail_in_one_line_before_anything_runs(tmp_path, args, words):
+    out = tmp_path / "t.parquet"
+    res = runner.invoke(app, ["sweep", "--segments", "4", "--out", str(out), "-q", *args])
+    assert res.exit_code == 2, res.output
+    err = res.stderr.strip()
+    assert err.startswith("error:") and len(err.splitlines()) == 1 and words in err, err
+    assert not out.exists()
+
+
+def test_run_k_starts_from_the_kth_spawned_stream():
+    spec = SweepSpec(segments=(8, 16), alphas=(math.pi / 4,), runs=3, seed=77)
+    tasks = spec.tasks()
+    assert len(tasks) == 6 and len({t.run_id for t in tasks}) == 6
+    children = np.random.SeedSequence(77).spawn(3)
+    for t in tasks:
+        ss = np.random.SeedSequence(t.ic.seed, spawn_key=t.ic.spawn_key)
+        # numpy's own spawn gives the same stream: the run is rebuilt from (seed, spawn_key)
+        assert np.array_equal(ss.generate_state(8), children[t.run_index].generate_state(8))
+    # different k: different starts; the same k at another N: the same random modes
+    e = [initial_directions(t.ic, 8, math.pi / 4) for t in tasks if t.params.segments == 8]
+    assert not np.allclose(e[0], e[1]) and not np.allclose(e[1], e[2])
+    for e_k in e:  # eps is the largest tilt of each start
+        tilt = np.hypot(e_k[:, 0], e_k[:, 1]) / e_k[:, 2]
+        assert tilt.max() == pytest.approx(0.02, rel=1e-12)
+
+
+# ------------------------------------------------------------------ execution
+SMALL = ["--segments", "6,10", "--alpha", "40deg,pi", "--floor", "all,pivot", "--runs", "2", "--seed", "5"]
+
+
+def _table(path) -> pd.DataFrame:
+    return pd.read_parquet(path)
+
+
+def test_same_table_from_one_and_two_workers_and_rows_obey_momentum_balance(tmp_path):
+    t1, t2 = tmp_path / "w1.parquet", tmp_path / "w2.parquet"
+    r1 = runner.invoke(app, ["sweep", *SMALL, "--out", str(t1), "--workers", "1", "--json", "-q"])
+    r2 = runner.invoke(app, ["sweep", *SMALL, "--out", str(t2), "--workers", "2", "--json", "-q"])
+    assert r1.exit_code == 0 and r2.exit_code == 0, r1.output + r2.output
+    rep = json.loads(r2.stdout)
+    assert rep["total"] == 16 and rep["ran"] == 16 and rep["failed"] == 0 and rep["statuses"] == {"landed": 16}
+    a, b = _table(t1), _table(t2)
+    assert list(a.columns) == list(COLUMNS) and len(a) == 16 and a["run_id"].is_unique
+    stable = [c for c in COLUMNS if c not in VOLATILE]
+    pd.testing.assert_frame_equal(a[stable], b[stable])  # same rows, same numbers, same order
+    # independent truth: the floor's whole impulse on a chain at rest at both ends is M g t_landed
+    fz = a["floor_impulse_total_z"].to_numpy()
+    mg_t = a["segments"].to_numpy() * a["landed_ratio"].to_numpy() * a["t_ff"].to_numpy()
+    np.testing.assert_allclose(fz, mg_t, rtol=1e-7)
+    # alpha = pi never locks; the starts of a point are its spawn keys 0 and 1
+    assert (a.loc[a["alpha"] == math.pi, "events_lock"] == 0).all()
+    assert sorted(a["spawn_key"].unique()) == ["0", "1"]
+
+
+def test_a_row_rebuilds_with_simulate(tmp_path):
+    out = tmp_path / "t.parquet"
+    res = runner.invoke(app, ["sweep", "--segments", "12", "--alpha", "50deg", "--runs", "2", "--seed", "9",
+                              "--out", str(out), "--workers", "1", "-q"])
+    assert res.exit_code == 0, res.output
+    row = _table(out).iloc[1]
+    assert row.alpha == math.radians(50)  # a degree is converted once, as simulate does
+    sim = runner.invoke(app, ["simulate", "-N", "12", "--alpha", repr(float(row.alpha)), "--ic", "random", "--seed", str(row.seed),
+                              "--spawn-key", row.spawn_key, "--json", "-q"])
+    s = json.loads(sim.stdout)
+    # the same run on the same machine: identical
+    assert s["ratio"] == row.ratio and s["n_evals"] == row.n_evals and s["events"]["lock"] == row.events_lock
+
+
+def test_a_run_that_fails_is_a_row_and_the_sweep_goes_on(tmp_path):
+    good = SweepSpec(segments=(6,), alphas=(math.pi / 3,), runs=2).tasks()
+    # a task built by hand around the validation: its start is outside the cone, so the
+    # engine raises inside the worker
+    p, ic, o = ChainParams(segments=8, alpha=math.radians(5)), InitialCondition(kind="random", eps=0.9), SolverOptions()
+    bad = Task(run_id(p, ic, o), 0, p, ic, o)
+    out = tmp_path / "t.parquet"
+    rep = run_tasks([*good, bad], out, workers=2, progress=False)
+    assert rep.ran == 3 and rep.failed == 1
+    df = _table(out).set_index("run_id")
+    assert df.loc[bad.run_id, "status"] == "error"
+    assert "ParameterError" in df.loc[bad.run_id, "message"] and "inside" in df.loc[bad.run_id, "message"]
+    assert (df.loc[[t.run_id for t in good], "status"] == "landed").all()
+    # the failed run is not repeated unless asked
+    assert run_tasks([*good, bad], out, workers=1, progress=False).ran == 0
+    assert run_tasks([*good, bad], out, workers=1, progress=False, retry_errors=True).ran == 1
+
+
+def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
+    out = tmp_path / "t.parquet"
+    cmd = [sys.executable, "-m", "ballchain.cli", "sweep", "--segments", "8,12,16", "--alpha",
+           "30deg,45deg,60deg,pi", "--runs", "4", "--out", str(out), "--workers", "1", "-q"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 240
+        n_before = 0
+        while time.monotonic() < deadline and proc.poll() is None:
+            if out.exists():
+                n_before = len(read_table(out))
+                if n_before >= 3:
+                    break
+            time.sleep(0.05)
+        assert proc.poll() is None, "the sweep ended before it could be killed"
+        os.killpg(proc.pid, signal.SIGKILL)  # the sweep and its workers, at once
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    before = _table(out)  # a complete table: the file is replaced atomically
+    assert 3 <= len(before) < 48 and before["run_id"].is_unique
+    res = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    rep = json.loads(res.stdout)
+    after = _table(out)
+    assert rep["skipped"] >= len(before) and rep["ran"] == 48 - rep["skipped"]
+    assert len(after) == 48 and after["run_id"].is_unique
+    kept = after.set_index("run_id").loc[before["run_id"]]
+    stable = [c for c in COLUMNS if c not in VOLATILE and c != "run_id"]
+    pd.testing.assert_frame_equal(kept[stable].reset_index(drop=True), before[stable].reset_index(drop=True))
+
+
+# ------------------------------------------------------------------ statistics
+def _synthetic(tmp_path, values: dict, n_alpha_floor="all") -> str:
+    """A table whose ratio at (alpha_deg, run_index) is given."""
+    rows = []
+    for (a_deg, k), ratio in values.items():
+        p, ic, o = ChainParams(segments=64, alpha=math.radians(a_deg)), InitialCondition(kind="random", spawn_key=(k,)), SolverOptions()
+        rows.append({"run_id": run_id(p, ic, o), "segments": 64, "alpha": p.alpha, "alpha_deg": a_deg,
+                     "floor": n_alpha_floor, "anchor_cone": False, "ic": "random", "eps": 0.02, "turns": 1.0,
+                     "phase": 0.0, "seed": 0, "spawn_key": str(k), "run_index": k, "rtol": 1e-9, "until": math.nan,
+                     "frames_per_tff": 100.0, "status": "landed", "ratio": ratio, "landed_ratio": ratio + 0.5})
+    path = tmp_path / "syn.parquet"
+    write_table(path, rows)
+    return str(path)
+
+
+def test_statistics_against_hand_computed_values(tmp_path):
+    r30 = [0.9, 1.1, 0.95, 1.2, 0.97]
+    r60 = [1.3, 1.4, 1.2, 1.5, 1.35]
+    path = _synthetic(tmp_path, {**{(30, k): v for k, v in enumerate(r30)}, **{(60, k): v for k, v in enumerate(r60)}})
+    res = table_stats(path)
+    p30 = next(p for p in res["points"] if abs(p["alpha_deg"] - 30) < 1e-9)
+    assert p30["ratio"]["mean"] == pytest.approx(sum(r30) / 5, abs=1e-15)
+    assert p30["ratio"]["median"] == 0.97
+    assert p30["landed_ratio"]["mean"] == pytest.approx(sum(r30) / 5 + 0.5)
+    # 3 of 5 faster than free fall; Wilson interval by hand, z = 1.959963984540054
+    z, n, phat = 1.959963984540054, 5, 0.6
+    centre = (phat + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(phat * (1 - phat) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    fa = p30["faster_than_free_fall"]
+    assert (fa["k"], fa["n"]) == (3, 5)
+    assert fa["ci_low"] == pytest.approx(centre - half, abs=1e-12) and fa["ci_high"] == pytest.approx(centre + half, abs=1e-12)
+    assert fa["ci_low"] == pytest.approx(0.2307, abs=1e-4) and fa["ci_high"] == pytest.approx(0.8824, abs=1e-4)
+    # every start is faster at 30 deg: the optimum is 30 deg in every paired resample
+    (opt,) = res["optimal_alpha"]
+    assert opt["alpha_deg"] == pytest.approx(30) and opt["ci_low_deg"] == pytest.approx(30)
+    assert opt["ci_high_deg"] == pytest.approx(30) and opt["share_best"] == 1.0
+    assert opt["mean"] == pytest.approx(sum(r30) / 5)
+
+
+def test_optimum_interval_spans_alphas_that_the_data_cannot_separate(tmp_path):
+    rng = np.random.default_rng(1)
+    vals = {}
+    for k in range(12):
+        common = rng.normal(1.0, 0.05)
+        vals[(40, k)] = common + rng.normal(0, 0.05)
+        vals[(50, k)] = common + rng.normal(0, 0.05)
+        vals[(90, k)] = common + 0.5
+    (opt,) = table_stats(_synthetic(tmp_path, vals))["optimal_alpha"]
+    assert opt["alpha_deg"] in (40, 50)
+    assert opt["ci_low_deg"] == pytest.approx(40) and opt["ci_high_deg"] == pytest.approx(50)
+
+
+def test_bootstrap_interval_of_the_mean_matches_the_normal_theory():
+    x = np.random.default_rng(3).normal(1.0, 0.2, 400)
+    lo, hi = mean_interval(x)
+    se = x.std(ddof=1) / math.sqrt(x.size)
+    assert lo < x.mean() < hi
+    # large n: the bootstrap interval is the CLT interval mean +- 1.96 se, to a few %
+    assert (hi - lo) == pytest.approx(2 * 1.959964 * se, rel=0.08)
+    assert (lo + hi) / 2 == pytest.approx(x.mean(), abs=0.1 * se)
+    assert mean_interval([1.0, 1.0, 1.0]) == (1.0, 1.0)
+    assert all(math.isnan(v) for v in mean_interval([1.0]))
+
+
+def test_stats_cli_json_and_plot(tmp_path):
+    path = _synthetic(tmp_path, {(a, k): 1.0 + 0.001 * a + 0.01 * k for a in (20, 45, 70) for k in range(4)})
+    png = tmp_path / "alpha.png"
+    res = runner.invoke(app, ["stats", path, "--json", "--plot", str(png)])
+    assert res.exit_code == 0, res.output
+    s = json.loads(res.stdout)
+    assert s["rows"] == 12 and len(s["points"]) == 3 and png.stat().st_size > 0
+    from ballchain.plots.sweep import alpha_figure
+
+    fig = alpha_figure(s["points"], optimal=s["optimal_alpha"])
+    (line,) = [ln for ln in fig.axes[0].get_lines() if ln.get_gid() == "N64"]
+    np.testing.assert_allclose(line.get_xdata(), [20, 45, 70])
+    np.testing.assert_allclose(line.get_ydata(), [1.0 + 0.001 * a + 0.015 for a in (20, 45, 70)])
+    text = runner.invoke(app, ["stats", path])
+    assert text.exit_code == 0 and "optimal alpha" in text.stdout and "20 deg" in text.stdout
+    bad = runner.invoke(app, ["stats", str(tmp_path / "none.parquet")])
+    assert bad.exit_code == 2 and bad.stderr.startswith("error:")
+
+
+def test_a_foreign_parquet_file_is_refused(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = tmp_path / "other.parquet"
+    pq.write_table(pa.table({"x": [1, 2]}), path)
+    with pytest.raises(ParameterError, match="not a ballchain sweep table"):
+        read_table(path)
+    res = runner.invoke(app, ["sweep", "--segments", "4", "--out", str(path), "-q"])
+    assert res.exit_code == 2 and "not a ballchain sweep table" in res.stderr
