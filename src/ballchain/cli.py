@@ -135,6 +135,27 @@ def build_inputs(
     return params, init, options
 
 
+def run_summary(result) -> dict:
+    """``Result.summary()`` and the measurements of ``analysis`` on it: ``gamma_measured``
+    (Hamm-Geminard gamma from the floor's momentum record, analysis.floor_gamma) and
+    ``gamma_inferred`` (the gamma whose fall time is t_fall/t_ff)."""
+    from .analysis import floor_gamma
+    from .theory import gamma_from_time_ratio
+
+    s = result.summary()
+    try:
+        gm = floor_gamma(result).gamma
+    except Exception:  # noqa: BLE001 - a partial or odd result: no measurement
+        gm = math.nan
+    try:
+        gi = gamma_from_time_ratio(result.t_fall / result.t_ff)
+    except (ValueError, ZeroDivisionError):
+        gi = math.nan
+    s["gamma_measured"] = gm if math.isfinite(gm) else None
+    s["gamma_inferred"] = gi if math.isfinite(gi) else None
+    return s
+
+
 def _fmt(x: Any, spec: str = ".6g") -> str:
     if x is None:
         return "n/a"
@@ -190,6 +211,9 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     if fi:
         lines.append(f"  floor impulse      ({', '.join(_fmt(v, '.6g') for v in fi)}) {u_i} "
                      f"(whole, from t = 0)")
+    if "gamma_measured" in s:
+        lines.append(f"  gamma              {_fmt(s.get('gamma_measured'), '.4g')} measured from the floor, "
+                     f"{_fmt(s.get('gamma_inferred'), '.4g')} from t_fall/t_ff (Hamm-Geminard)")
     if s.get("floor") == "pivot":
         depth = s.get("max_depth")
         lines.append(f"  max depth          {_fmt(depth)} {u_l} below the floor")
@@ -324,7 +348,7 @@ def simulate(
             _error(f"cannot save the result: {e}")
             save_failed = True
 
-    summary = result.summary()
+    summary = run_summary(result)
     if json_out:
         _print_json(summary)
     else:
@@ -357,7 +381,7 @@ def info(
     except ResultFileError as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
-    summary = result.summary()
+    summary = run_summary(result)
     if json_out:
         _print_json(summary)
         return

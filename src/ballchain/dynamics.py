@@ -719,7 +719,7 @@ def accelerations(e, w, anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf,
         solve4(nrow, S, G, rhs, x)
         torques4(e, kind, nrow, x, gf)
     else:
-        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, True)
+        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(True))
         ndrop = factor_general(anchored, J, nrow, S, G, drop)
         solve_general(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)
@@ -952,7 +952,7 @@ def project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S
     locked angles (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.
     Returns the largest position residual before projection."""
     normalize_state(e, w, anchored)
-    build_rows(e, w, anchored, locked, J, kind, nrow, rhs, False)
+    build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(False))
     res0 = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
     res = res0
     it = 0
@@ -961,7 +961,7 @@ def project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S
         solve(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)
         rotate_by(e, anchored, gf, -1.0)
-        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, False)
+        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(False))
         res = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
         it += 1
     normalize_state(e, w, anchored)

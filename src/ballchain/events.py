@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from numba import njit
 
 from .dynamics import kinetic_energy, point_positions, project_state, velocities
@@ -164,7 +166,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
     # 1. unlocks; the top end crossing the floor in the pivot model
     for k in range(nh):
         exclude[k] = 0
-    any_landing = False
+    any_landing = np.bool_(False)
     for i in range(nev):
         if ev_time[i] > t + 10.0 * xtol:
             continue
@@ -306,7 +308,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
             lock_cos[k] = cos_alpha + gaps[k]
     velocities(e, w, pv, vel)
     project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs, x, gf,
-                  pts, vel, PROJ_TOL, 5)
+                  pts, vel, PROJ_TOL, np.int64(5))
     hinge_gaps(e, cos_alpha, gaps)
     if floor != FLOOR_PIVOT and anchored[0] and math.isnan(acc[ACC_T_FALL]):
         acc[ACC_T_FALL] = t

@@ -141,7 +141,7 @@ def _delassus(e, w, anchored, base, idx, c, J, kind, nrow, S, G, drop, rhs, x, g
     factorisation, c O(N) solves; symmetrised.  dref[j] = J_L W J_L^T for row j alone
     (before the equality rows react)."""
     n = e.shape[0]
-    build_rows(e, w, anchored, base, J, kind, nrow, rhs, False)
+    build_rows(e, w, anchored, base, J, kind, nrow, rhs, np.bool_(False))
     factor(e, anchored, J, kind, nrow, S, G, drop)
     for jj in range(c):
         k = idx[jj]
@@ -285,7 +285,7 @@ def _dense_lcp(M, q, c, idx, active, tol, dref):
     (the acceptance tolerance) absorbs the round-off of q.  Returns Lemke's pivot
     count (-1: failure)."""
     keep = np.empty(c, dtype=np.int64)
-    m = 0
+    m = np.int64(0)
     dmax = 0.0
     for i in range(c):
         active[idx[i]] = 0
@@ -332,7 +332,7 @@ def _impact_trial(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf,
                   rates):
     """Post-impact velocity w_plus and hinge rates for the lock set ``active``."""
     n = e.shape[0]
-    build_rows(e, w, anchored, active, J, kind, nrow, rhs, False)
+    build_rows(e, w, anchored, active, J, kind, nrow, rhs, np.bool_(False))
     constraint_velocities(e, w, J, nrow, pv, vel, jv_minus)
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
@@ -364,7 +364,7 @@ def velocity_impact(e, w, anchored, cand, forced, active, J, kind, nrow, S, G, d
     nh = n - 1
     viol = np.zeros(max(nh, 1), dtype=np.uint8)
     hist = np.zeros(PIVOT_BUDGET + 1, dtype=np.uint64)
-    nhist = 0
+    nhist = np.int64(0)
     best = 1 << 60
     stall = 0
     use_murty = False
@@ -456,7 +456,7 @@ def lock_set(e, w, anchored, cand, active, J, kind, nrow, S, G, drop, rhs, x, gf
     nh = n - 1
     viol = np.zeros(max(nh, 1), dtype=np.uint8)
     hist = np.zeros(PIVOT_BUDGET + 1, dtype=np.uint64)
-    nhist = 0
+    nhist = np.int64(0)
     best = 1 << 60
     stall = 0
     use_murty = False

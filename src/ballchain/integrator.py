@@ -420,7 +420,11 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
     fv_mid = np.empty(n + 1)
     fv_end = np.empty(n + 1)
     fpart = np.empty(3)
-    n_landed = 0
+    # int64, not literal constants: a literal argument to a compiled callee compiles
+    # it once more for that value (the whole callee tree again)
+    kd_lock, kd_unlock, kd_landing = np.int64(EV_LOCK), np.int64(EV_UNLOCK), np.int64(EV_LANDING)
+    kd_top, ix_top = np.int64(EV_TOP), np.int64(0)
+    n_landed = np.int64(0)
     for i in range(n):
         if anchored[i] != 0 and anchored[i + 1] != 0:
             n_landed += 1
@@ -473,7 +477,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_LOCK
                 ev_idx[nev] = k
-                ev_theta[nev] = _locate(EV_LOCK, k, arm_lock[k], ref_lock[k], (apex_lock[k] - t) / h, fm, fe, Y, K,
+                ev_theta[nev] = _locate(kd_lock, k, arm_lock[k], ref_lock[k], (apex_lock[k] - t) / h, fm, fe, Y, K,
                                         h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         for k in range(nh):
@@ -482,7 +486,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if lam1[k] <= 0.0:
                 ev_kind[nev] = EV_UNLOCK
                 ev_idx[nev] = k
-                ev_theta[nev] = _locate(EV_UNLOCK, k, arm_unlock[k], ref_unlock[k], 2.0, math.inf, lam1[k], Y, K,
+                ev_theta[nev] = _locate(kd_unlock, k, arm_unlock[k], ref_unlock[k], 2.0, math.inf, lam1[k], Y, K,
                                         h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 counters[1] += 2
                 nev += 1
@@ -497,7 +501,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_LANDING
                 ev_idx[nev] = j
-                ev_theta[nev] = _locate(EV_LANDING, j, arm_land[j], ref_land[j], (apex_land[j] - t) / h, fm, fe, Y,
+                ev_theta[nev] = _locate(kd_landing, j, arm_land[j], ref_land[j], (apex_land[j] - t) / h, fm, fe, Y,
                                         K, h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
                 _dense(Y, K, h, 0.5, Ytmp)
@@ -507,8 +511,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             if fm <= 0.0 or fe <= 0.0:
                 ev_kind[nev] = EV_TOP
                 ev_idx[nev] = 0
-                ev_theta[nev] = _locate(EV_TOP, 0, arm_top[0], ref_top[0], 2.0, fm, fe, Y, K, h, xtol / h, cos_alpha,
-                                        floor, anchored, locked, ws, Ytmp, dYtmp, lam)
+                ev_theta[nev] = _locate(kd_top, ix_top, arm_top[0], ref_top[0], 2.0, fm, fe, Y, K, h, xtol / h,
+                                        cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 nev += 1
         theta_stop = 1.0
         for r in range(nev):
@@ -580,7 +584,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
                     Y[a, i, q] = Y1[a, i, q]
         t = t_end
         res = project_state(Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, J, kind_, nrow, S, G, drop,
-                            rhs, x, gf, pts, vel, PROJ_TOL, 3)
+                            rhs, x, gf, pts, vel, PROJ_TOL, np.int64(3))
         if res > PROJ_TOL:
             _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
             counters[1] += 1

@@ -191,7 +191,9 @@ class InitialCondition:
         object.__setattr__(self, "spawn_key", key)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        d["spawn_key"] = list(self.spawn_key)  # as JSON writes it
+        return d
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from .. import theory  # noqa: E402
+from .. import theory
+from ..analysis import floor_gamma  # noqa: E402
 from ..result import Result  # noqa: E402
 from .run import lock_map_figure  # noqa: E402
 
@@ -88,7 +89,9 @@ def fig5_alpha(runs: list[Result], window=(0.38, 0.84)) -> Figure:
 
 def fig6_hamm_geminard(runs: list[Result]) -> Figure:
     """t_gamma / t_ff of the Hamm-Geminard model against gamma, with each run placed on
-    the curve at the gamma its t_fall / t_ff implies (theory.gamma_from_time_ratio)."""
+    the curve at the gamma its t_fall / t_ff implies (theory.gamma_from_time_ratio,
+    filled circles) and at the gamma measured from its floor record (open squares,
+    analysis.floor_gamma)."""
     fig, ax = plt.subplots(figsize=(5.5, 4))
     g = np.linspace(-1.0, 1.45, 300)
     ax.plot(g, [theory.hamm_geminard_time_ratio(x) for x in g], "k", lw=1, label="Hamm-Geminard")
@@ -98,8 +101,12 @@ def fig6_hamm_geminard(runs: list[Result]) -> Figure:
             gam = theory.gamma_from_time_ratio(ratio)
         except ValueError:
             continue
-        ax.plot([gam], [ratio], "o", ms=5,
-                label=f"N = {r.params.segments}, alpha = {math.degrees(r.params.alpha):.0f} deg")
+        (mark,) = ax.plot([gam], [ratio], "o", ms=5,
+                          label=f"N = {r.params.segments}, alpha = {math.degrees(r.params.alpha):.0f} deg")
+        measured = floor_gamma(r).gamma  # gamma measured from the floor's momentum record
+        if math.isfinite(measured):
+            ax.plot([measured], [ratio], "s", ms=5, mfc="none", color=mark.get_color(), gid="measured")
+            ax.plot([gam, measured], [ratio, ratio], ":", lw=0.8, color=mark.get_color())
     ax.axhline(1.0, color="k", lw=0.5, ls=":")
     ax.set(xlabel="gamma", ylabel="t_fall / t_ff")
     ax.legend(fontsize=7)

@@ -103,8 +103,35 @@ def lock_map_figure(r: Result) -> Figure:
     return fig
 
 
+def gamma_figure(r: Result) -> Figure:
+    """gamma measured from the floor (analysis.floor_gamma) per window of t/t_ff, its
+    value over the fall, and the gamma that t_fall/t_ff implies (Hamm-Geminard)."""
+    from ..analysis import floor_gamma
+    from ..theory import gamma_from_time_ratio
+
+    fg = floor_gamma(r)
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    if fg.window_gamma.size:
+        mid = 0.5 * (fg.window_edges[:-1] + fg.window_edges[1:])
+        ax.step(fg.window_edges, np.append(fg.window_gamma, fg.window_gamma[-1]), where="post", color="C0",
+                label="measured, per window", gid="windows")
+        ax.plot(mid, fg.window_gamma, "o", color="C0", ms=3)
+    if np.isfinite(fg.gamma):
+        ax.axhline(fg.gamma, color="C0", ls="--", lw=1, label=f"measured over the fall: {fg.gamma:.3f}", gid="whole")
+    try:
+        gi = gamma_from_time_ratio(r.t_fall / r.t_ff)
+        ax.axhline(gi, color="C3", ls=":", lw=1.2, label=f"from t_fall/t_ff (Hamm-Geminard): {gi:.3f}", gid="inferred")
+    except ValueError:
+        pass
+    ax.axhline(1.0, color="k", lw=0.5)
+    ax.set(xlabel="t / t_ff", ylabel="gamma = removed / carried momentum",
+           title=_title(r) + f"\n{fg.landed} landings before t_fall")
+    ax.legend(fontsize=7)
+    return fig
+
+
 FIGURES = {"fall": fall_figure, "energy": energy_figure, "floor": floor_figure, "pile": pile_figure,
-           "lock_map": lock_map_figure}
+           "lock_map": lock_map_figure, "gamma": gamma_figure}
 
 
 def write_figures(makers: dict, out_dir, formats=("png", "pdf"), note=lambda s: None) -> list[Path]:

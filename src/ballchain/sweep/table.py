@@ -64,6 +64,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "floor_impulse_total_z": ("float64", "floor's whole impulse from t = 0, z (at rest: M g t_landed)"),
     "max_depth": ("float64", "deepest airborne point below the floor, b"),
     "gamma_inferred": ("float64", "Hamm-Geminard gamma whose fall time equals t_fall (NaN outside its range)"),
+    "gamma_measured": ("float64", "gamma from the floor's momentum record: removed / carried momentum, "
+                                  "landings before t_fall (analysis.floor_gamma)"),
     "wall_seconds": ("float64", "wall time of the run, s"),
     "n_steps": ("int64", "accepted integrator steps"),
     "n_evals": ("int64", "right-hand-side evaluations"),
@@ -107,6 +109,15 @@ def _gamma(ratio: float) -> float:
         return math.nan
 
 
+def _measured_gamma(result) -> float:
+    from ..analysis import floor_gamma
+
+    try:
+        return float(floor_gamma(result).gamma)
+    except Exception:  # noqa: BLE001 - a partial result: no measurement
+        return math.nan
+
+
 def input_row(task) -> dict:
     """The columns a run's inputs fill (also for a run that never started)."""
     p, ic, o = task.params, task.ic, task.options
@@ -137,6 +148,7 @@ def result_row(task, result, worker: str = "") -> dict:
         "floor_impulse_x": fi[0], "floor_impulse_y": fi[1], "floor_impulse_z": fi[2],
         "floor_impulse_total_x": ft[0], "floor_impulse_total_y": ft[1], "floor_impulse_total_z": ft[2],
         "max_depth": _num(result.max_depth), "gamma_inferred": _gamma(ratio) if math.isfinite(ratio) else math.nan,
+        "gamma_measured": _measured_gamma(result),
         "wall_seconds": _num(result.wall_seconds), "n_steps": int(result.n_steps), "n_evals": int(result.n_evals),
         "worker": worker,
     })

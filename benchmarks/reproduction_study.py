@@ -1,0 +1,103 @@
+"""Measures of the paper's qualitative claims on the saved runs of a sweep.
+
+    python benchmarks/reproduction_study.py TABLE.parquet RUNS_DIR [--json]
+
+For every run of the table whose result file is in RUNS_DIR (``ballchain sweep
+--save-runs RUNS_DIR``) and that landed:
+
+* ``departure``: the first t/t_ff at which the top end is 0.01 z0 away from a particle
+  falling freely from z0 (|z_top/z0 - (1 - (t/t_ff)^2)| > 0.01);
+* ``lock_z95``: the 95th percentile of the heights (in z0) of the hinges at the instants
+  they lock, over locks after 0.1 t_ff; ``lock_below_0.1``: the fraction of those below
+  0.1 z0;
+* ``pull_down``: over the frames with 0.5 <= t/t_ff <= t_fall/t_ff, the fraction in
+  which the pile pulls the hanging chain down (vertical pull < 0), and ``pull_mean``,
+  its mean vertical component in units of one segment's weight m g;
+* ``depth``: the deepest airborne point below the floor (``max_depth``), in units of
+  the chain's length 2 N b.
+
+Prints, per (N, alpha, floor), the mean and the range of each measure over the runs, as
+a Markdown table (or one JSON object).  Reads the files' datasets directly (their layout
+is documented in docs/model.md, section 6).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+
+import h5py
+import numpy as np
+import pandas as pd
+
+THRESH = 0.01
+
+
+def measures(path: str) -> dict:
+    with h5py.File(path, "r") as f:
+        s = f["summary"]
+        t_ff, z0, t_fall = float(s["t_ff"][()]), float(s["z0"][()]), float(s["t_fall"][()])
+        max_depth = float(s["max_depth"][()])
+        n = int(json.loads(f.attrs["params_json"])["segments"])
+        b = float(json.loads(f.attrs["params_json"])["half_length"])
+        tau = f["trace/t"][()] / t_ff
+        z = f["trace/z_top"][()] / z0
+        kind = f["events/event_kind"][()]
+        lock = np.flatnonzero(kind == 1)
+        lt = f["events/event_t"][()][lock] / t_ff
+        lz = f["events/event_pos"][()][lock, 2] / z0
+        ft = f["frames/frame_t"][()] / t_ff
+        pull = f["frames/frame_pile_pull"][()][:, 2]
+    off = np.flatnonzero(np.abs(z - (1.0 - tau**2)) > THRESH)
+    late = lt > 0.1
+    win = (ft >= 0.5) & (ft <= t_fall / t_ff)
+    p = pull[win]
+    p = p[np.isfinite(p)]
+    return {
+        "departure": float(tau[off[0]]) if off.size else math.nan,
+        "lock_z95": float(np.quantile(lz[late], 0.95)) if np.any(late) else math.nan,
+        "lock_below_0.1": float(np.mean(lz[late] < 0.1)) if np.any(late) else math.nan,
+        "pull_down": float(np.mean(p < 0.0)) if p.size else math.nan,
+        "pull_mean": float(np.mean(p)) if p.size else math.nan,  # run's force unit: m g
+        "depth": max_depth / (2 * n * b),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("table")
+    ap.add_argument("runs")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    df = pd.read_parquet(args.table)
+    df = df[df["status"] == "landed"]
+    rows = []
+    for _, r in df.iterrows():
+        path = os.path.join(args.runs, r["run_id"] + ".h5")
+        if os.path.exists(path):
+            rows.append({"segments": r["segments"], "alpha_deg": round(r["alpha_deg"], 6), "floor": r["floor"],
+                         "ratio": r["ratio"], **measures(path)})
+    if not rows:
+        sys.exit("no saved runs of the table found in " + args.runs)
+    m = pd.DataFrame(rows)
+    cols = ["ratio", "departure", "lock_z95", "lock_below_0.1", "pull_down", "pull_mean", "depth"]
+    out = []
+    for key, g in m.groupby(["segments", "alpha_deg", "floor"]):
+        out.append({"segments": int(key[0]), "alpha_deg": key[1], "floor": key[2], "runs": int(len(g)),
+                    **{c: {"mean": float(g[c].mean()), "min": float(g[c].min()), "max": float(g[c].max())}
+                       for c in cols}})
+    if args.json:
+        print(json.dumps(out))
+        return
+    print("| N | alpha | floor | runs | " + " | ".join(cols) + " |")
+    print("|---|---|---|---|" + "---|" * len(cols))
+    for o in out:
+        cells = [f"{o[c]['mean']:.3g} ({o[c]['min']:.3g}..{o[c]['max']:.3g})" for c in cols]
+        print(f"| {o['segments']} | {o['alpha_deg']:g} | {o['floor']} | {o['runs']} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()

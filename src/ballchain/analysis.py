@@ -1,0 +1,116 @@
+"""Measurements made on a Result after the run (result -> analysis -> figures).
+
+``floor_gamma``: the Hamm-Geminard coefficient gamma measured from the floor's momentum
+record.  In their model the airborne chain (mass per length mu, height z) obeys
+d/dt(mu z zdot) = -mu g z + gamma mu zdot^2: the floor takes from the airborne chain
+gamma times the momentum that the landing chain carries into it (mu zdot^2 per unit
+time).  gamma = 1: the airborne part falls freely; gamma < 1: the pile pulls it down.
+Measured on a run:
+
+    removed(t) = J_z(t) - m g sum_i max(0, t - t_i)     the floor's impulse on the chain
+                 minus the static support of the segments landed (both ends) at t_i
+    carried(t) = sum_{s_i <= t} m |v_i(s_i-)|             the vertical momentum each segment
+                 had when it first touched the floor (one end anchored at s_i)
+    gamma      = removed / carried   over the fall, or per time window.
+
+Counted: the segments that first touch the floor before the top end first reaches it
+(t_fall, the fall time that gamma explains; the whole run if it never does).  A
+segment's velocity is read at the last frame before it touches (so to
+1/frames_per_tff), the floor's record J_z interpolated between frames.  Checked
+against the Hamm-Geminard chain itself (tests/test_analysis.py): the estimate
+converges to its gamma as the chain is cut finer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def segment_velocities(r) -> np.ndarray:
+    """Velocity of each segment's centre at every frame (F, N, 3), from the frames' axes
+    and angular velocities: v_i = v_point(i+1) + b w_i x e_i, point N fixed."""
+    b = r.params.half_length
+    e, w = np.asarray(r.frame_e), np.asarray(r.frame_omega)
+    de = b * np.cross(w, e)
+    upper = 2.0 * np.cumsum(de[:, ::-1], axis=1)[:, ::-1]  # velocity of point i
+    lower = np.concatenate([upper[:, 1:], np.zeros_like(upper[:, :1])], axis=1)
+    return lower + de
+
+
+def momentum(r) -> np.ndarray:
+    """Momentum M v_cm of the chain at every frame (F, 3)."""
+    return r.params.segment_mass * np.sum(segment_velocities(r), axis=1)
+
+
+def touch_times(r) -> np.ndarray:
+    """Time each segment first touched the floor (one end anchored), (N,); NaN: never."""
+    a = np.asarray(r.anchor_t, dtype=float)
+    return np.fmin(a[:-1], a[1:])
+
+
+def landing_times(r) -> np.ndarray:
+    """Time each segment finished landing (both ends anchored), (N,); NaN: never."""
+    a = np.asarray(r.anchor_t, dtype=float)
+    return np.maximum(a[:-1], a[1:])  # NaN if either end never anchored
+
+
+@dataclass(frozen=True)
+class FloorGamma:
+    """gamma measured from the floor: whole fall and per window of t/t_ff."""
+
+    gamma: float                 # removed / carried over the segments landed before t_fall
+    removed: float               # the floor's impulse beyond the landed segments' support (run units)
+    carried: float               # the momentum the landing segments carried in (run units)
+    landed: int                  # segments counted
+    window_edges: np.ndarray     # (W+1,) t/t_ff
+    window_gamma: np.ndarray     # (W,) NaN where nothing landed
+
+
+def floor_gamma(r, windows: int = 8, velocities: np.ndarray | None = None) -> FloorGamma:
+    """See the module docstring.  ``windows``: equal windows of t/t_ff from the first to
+    the last touch counted.  ``velocities`` (F, N, 3): the segments' velocities at the
+    frames (default: from the frames' state, ``segment_velocities``)."""
+    p = r.params
+    m, g = p.segment_mass, p.gravity
+    ft = np.asarray(r.frame_t, dtype=float)
+    J = np.asarray(r.frame_floor_impulse, dtype=float)[:, 2]
+    nan = FloorGamma(math.nan, math.nan, math.nan, 0, np.array([]), np.array([]))
+    if ft.size < 2 or not np.all(np.isfinite(J)):
+        return nan
+    v = segment_velocities(r) if velocities is None else np.asarray(velocities, dtype=float)
+    # the record at the frames, and at the end of the run (the summary's total impulse)
+    t_run = float(np.asarray(r.t)[-1]) if getattr(r, "t", None) is not None and len(r.t) else float(ft[-1])
+    fj_t, fj = ft, J
+    if t_run > ft[-1] and np.all(np.isfinite(getattr(r, "floor_impulse_total", [np.nan] * 3))):
+        fj_t, fj = np.append(ft, t_run), np.append(J, float(np.asarray(r.floor_impulse_total)[2]))
+    landed = landing_times(r)
+    landed = landed[np.isfinite(landed)]
+    touch = touch_times(r)
+    t_fall = float(getattr(r, "t_fall", math.nan))
+    stop = t_fall if math.isfinite(t_fall) else float(fj_t[-1])
+    idx = np.flatnonzero(np.isfinite(touch) & (touch > ft[0]) & (touch < stop))
+    if idx.size == 0:
+        return nan
+    s_i = touch[idx]
+    before = np.searchsorted(ft, s_i, side="left") - 1  # the last frame before the touch
+    carried_each = m * np.abs(v[before, idx, 2])
+
+    def removed_at(t):
+        return float(np.interp(t, fj_t, fj)) - m * g * float(np.sum(np.maximum(0.0, t - landed)))
+
+    order = np.argsort(s_i)
+    s_i, carried_each = s_i[order], carried_each[order]
+    removed = removed_at(stop)
+    carried = float(np.sum(carried_each))
+    edges = np.linspace(s_i[0], s_i[-1], windows + 1) if s_i.size > 1 else np.array([s_i[0], stop])
+    wg = np.full(len(edges) - 1, math.nan)
+    for k in range(len(edges) - 1):
+        sel = (s_i > edges[k]) & (s_i <= edges[k + 1])
+        c = float(np.sum(carried_each[sel]))
+        if c > 0.0:
+            wg[k] = (removed_at(edges[k + 1]) - removed_at(edges[k])) / c
+    return FloorGamma(gamma=removed / carried if carried > 0 else math.nan, removed=removed,
+                      carried=carried, landed=int(s_i.size), window_edges=edges / r.t_ff, window_gamma=wg)
