@@ -5,8 +5,9 @@
 For every run of the table whose result file is in RUNS_DIR (``ballchain sweep
 --save-runs RUNS_DIR``) and that landed:
 
-* ``departure``: the first t/t_ff at which the top end is 0.01 z0 away from a particle
-  falling freely from z0 (|z_top/z0 - (1 - (t/t_ff)^2)| > 0.01);
+* ``departure``, ``departure5``: the first t/t_ff at which the top end is 0.01 z0
+  (0.05 z0) away from a particle falling freely from z0 (|z_top/z0 - (1 - (t/t_ff)^2)|);
+  ``lag06``: z_top/z0 - (1 - 0.36) at t = 0.6 t_ff (> 0: behind free fall);
 * ``lock_z95``: the 95th percentile of the heights (in z0) of the hinges at the instants
   they lock, over locks after 0.1 t_ff; ``lock_below_0.1``: the fraction of those below
   0.1 z0;
@@ -51,13 +52,17 @@ def measures(path: str) -> dict:
         lz = f["events/event_pos"][()][lock, 2] / z0
         ft = f["frames/frame_t"][()] / t_ff
         pull = f["frames/frame_pile_pull"][()][:, 2]
-    off = np.flatnonzero(np.abs(z - (1.0 - tau**2)) > THRESH)
+    dev = z - (1.0 - tau**2)
+    off = np.flatnonzero(np.abs(dev) > THRESH)
+    off5 = np.flatnonzero(np.abs(dev) > 0.05)
     late = lt > 0.1
     win = (ft >= 0.5) & (ft <= t_fall / t_ff)
     p = pull[win]
     p = p[np.isfinite(p)]
     return {
         "departure": float(tau[off[0]]) if off.size else math.nan,
+        "departure5": float(tau[off5[0]]) if off5.size else math.nan,
+        "lag06": float(np.interp(0.6, tau, dev)),
         "lock_z95": float(np.quantile(lz[late], 0.95)) if np.any(late) else math.nan,
         "lock_below_0.1": float(np.mean(lz[late] < 0.1)) if np.any(late) else math.nan,
         "pull_down": float(np.mean(p < 0.0)) if p.size else math.nan,
@@ -83,7 +88,7 @@ def main() -> None:
     if not rows:
         sys.exit("no saved runs of the table found in " + args.runs)
     m = pd.DataFrame(rows)
-    cols = ["ratio", "departure", "lock_z95", "lock_below_0.1", "pull_down", "pull_mean", "depth"]
+    cols = ["ratio", "departure", "departure5", "lag06", "lock_z95", "lock_below_0.1", "pull_down", "pull_mean", "depth"]
     out = []
     for key, g in m.groupby(["segments", "alpha_deg", "floor"]):
         out.append({"segments": int(key[0]), "alpha_deg": key[1], "floor": key[2], "runs": int(len(g)),

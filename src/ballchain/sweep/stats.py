@@ -12,6 +12,7 @@ seed, so the same table gives the same numbers.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -93,13 +94,16 @@ def point_stats(df) -> list[dict]:
 
 def optimal_alpha(df, column: str = "ratio", seed: int = SEED, n_resamples: int = 2000) -> list[dict]:
     """Per (N, floor, ...): the alpha of the smallest mean ``column`` and its bootstrap
-    interval.  Paired bootstrap: the runs are resampled by their start (run_index), the
+    interval, over the alphas with at least half as many runs as the best-filled one.  Paired bootstrap: the runs are resampled by their start (run_index), the
     same starts for every alpha, as the sweep draws them."""
     keys = [k for k in _present_keys(df) if k != "alpha"]
     out = []
     rng = np.random.default_rng(seed)
     for values, g in df.groupby(keys, dropna=False, sort=True):
         table = g.pivot_table(index="run_index", columns="alpha", values=column, aggfunc="first")
+        counts = table.notna().sum(axis=0)
+        # an alpha with too few runs (a point still running) would decide by noise: left out
+        table = table.loc[:, counts >= max(2, 0.5 * counts.max())] if len(counts) else table
         alphas = table.columns.to_numpy(dtype=float)
         m = table.to_numpy(dtype=float)  # (starts, alphas), NaN where a run has no value
         row = dict(zip(keys, (v.item() if hasattr(v, "item") else v for v in values)))
@@ -115,7 +119,8 @@ def optimal_alpha(df, column: str = "ratio", seed: int = SEED, n_resamples: int 
         picks = np.empty(n_resamples)
         for b in range(n_resamples):
             idx = rng.integers(0, m.shape[0], m.shape[0])
-            with np.errstate(all="ignore"):
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # an alpha with no value in a resample
                 mb = np.nanmean(m[idx], axis=0)
             picks[b] = alphas[np.nanargmin(mb)] if np.any(np.isfinite(mb)) else np.nan
         picks = picks[np.isfinite(picks)]
