@@ -140,7 +140,7 @@ def test_a_run_that_fails_is_a_row_and_the_sweep_goes_on(tmp_path):
 
 def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
     out = tmp_path / "t.parquet"
-    cmd = [sys.executable, "-m", "ballchain.cli", "sweep", "--segments", "8,12,16", "--alpha",
+    cmd = [sys.executable, "-m", "ballchain.cli", "sweep", "--segments", "8,12,16,24", "--alpha",
            "30deg,45deg,60deg,pi", "--runs", "4", "--out", str(out), "--workers", "1", "-q"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
@@ -159,13 +159,13 @@ def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     before = _table(out)  # a complete table: the file is replaced atomically
-    assert 3 <= len(before) < 48 and before["run_id"].is_unique
+    assert 3 <= len(before) < 64 and before["run_id"].is_unique
     res = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     rep = json.loads(res.stdout)
     after = _table(out)
-    assert rep["skipped"] >= len(before) and rep["ran"] == 48 - rep["skipped"]
-    assert len(after) == 48 and after["run_id"].is_unique
+    assert rep["skipped"] >= len(before) and rep["ran"] == 64 - rep["skipped"]
+    assert len(after) == 64 and after["run_id"].is_unique
     kept = after.set_index("run_id").loc[before["run_id"]]
     stable = [c for c in COLUMNS if c not in VOLATILE and c != "run_id"]
     pd.testing.assert_frame_equal(kept[stable].reset_index(drop=True), before[stable].reset_index(drop=True))
