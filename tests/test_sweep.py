@@ -248,6 +248,14 @@ def test_stats_cli_json_and_plot(tmp_path):
     (line,) = [ln for ln in fig.axes[0].get_lines() if ln.get_gid() == "N64"]
     np.testing.assert_allclose(line.get_xdata(), [20, 45, 70])
     np.testing.assert_allclose(line.get_ydata(), [1.0 + 0.001 * a + 0.015 for a in (20, 45, 70)])
+    # against N: two sizes of one alpha
+    from ballchain.plots.sweep import segments_figure
+
+    pts = [dict(p, segments=n) for p in s["points"][:1] for n in (64, 128)]
+    pts[1]["ratio"] = dict(pts[1]["ratio"], mean=0.95)
+    (ln,) = [x for x in segments_figure(pts).axes[0].get_lines() if x.get_gid() == "a20-all"]
+    np.testing.assert_allclose(ln.get_xdata(), [64, 128])
+    np.testing.assert_allclose(ln.get_ydata(), [s["points"][0]["ratio"]["mean"], 0.95])
     text = runner.invoke(app, ["stats", path])
     assert text.exit_code == 0 and "optimal alpha" in text.stdout and "20 deg" in text.stdout
     bad = runner.invoke(app, ["stats", str(tmp_path / "none.parquet")])

@@ -569,6 +569,7 @@ def stats(
     table: str = typer.Argument(..., help="A table written by ballchain sweep."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
     plot: Optional[str] = typer.Option(None, "--plot", help="Write t_fall/t_ff against alpha with 95% bands (PNG, PDF or SVG)."),
+    plot_n: Optional[str] = typer.Option(None, "--plot-n", help="Write t_fall/t_ff against N with 95% bands, per alpha and floor."),
 ) -> None:
     """Means, medians and 95% intervals per point of a sweep; the optimal alpha per N."""
     from .sweep.stats import table_stats
@@ -576,9 +577,10 @@ def stats(
     if not Path(table).is_file():
         _error(f"table: no such file {table!r}")
         raise typer.Exit(EXIT_USAGE)
-    if plot is not None and Path(plot).suffix.lower() not in (".png", ".pdf", ".svg"):
-        _error(f"--plot: expected a .png, .pdf or .svg file name, got {plot!r}")
-        raise typer.Exit(EXIT_USAGE)
+    for name, value in (("--plot", plot), ("--plot-n", plot_n)):
+        if value is not None and Path(value).suffix.lower() not in (".png", ".pdf", ".svg"):
+            _error(f"{name}: expected a .png, .pdf or .svg file name, got {value!r}")
+            raise typer.Exit(EXIT_USAGE)
     try:
         res = table_stats(table)
     except ParameterError as e:
@@ -589,6 +591,11 @@ def stats(
 
         write_alpha_figure(res["points"], plot, res["optimal_alpha"])
         res["plot"] = plot
+    if plot_n is not None:
+        from .plots.sweep import write_segments_figure
+
+        write_segments_figure(res["points"], plot_n)
+        res["plot_n"] = plot_n
     if json_out:
         _print_json(res)
         return
@@ -617,8 +624,9 @@ def stats_text(res: dict) -> str:
                 lines.append(f"  N = {o['segments']}, floor {o['floor']}: {o['alpha_deg']:.4g} deg "
                              f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}], mean t_fall/t_ff {o['mean']:.4f} "
                              f"({o['n_starts']} starts)")
-    if res.get("plot"):
-        lines.append(f"plot: {res['plot']}")
+    for key in ("plot", "plot_n"):
+        if res.get(key):
+            lines.append(f"{key.replace('_', ' ')}: {res[key]}")
     return "\n".join(lines)
 
 

@@ -37,7 +37,7 @@ def alpha_figure(points: list[dict], column: str = "ratio", optimal: list[dict] 
             ax.fill_between(a, lo, hi, color=f"C{i}", alpha=0.25, lw=0, gid=f"band-N{n}")
             for o in optimal or []:
                 if o.get("floor") == fl and o.get("segments") == n and o.get("alpha_deg") is not None \
-                        and column == "ratio":
+                        and column == "ratio" and o.get("n_alpha", 0) > 1:
                     ax.errorbar([o["alpha_deg"]], [o["mean"]],
                                 xerr=[[o["alpha_deg"] - o["ci_low_deg"]], [o["ci_high_deg"] - o["alpha_deg"]]],
                                 fmt="*", color=f"C{i}", ms=10, capsize=3, gid=f"optimum-N{n}")
@@ -49,6 +49,40 @@ def alpha_figure(points: list[dict], column: str = "ratio", optimal: list[dict] 
     axes[0][0].set_ylabel(f"{label} (mean, 95% interval)")
     fig.tight_layout()
     return fig
+
+
+def segments_figure(points: list[dict], column: str = "ratio") -> Figure:
+    """Per (alpha, floor) with at least two N: the mean of ``column`` against N with its
+    95% band, free fall (1) marked: where the chain starts to beat free fall."""
+    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    keys = sorted({(p["alpha_deg"], p["floor"]) for p in points})
+    i = 0
+    for a, fl in keys:
+        rows = sorted((p for p in points if p["alpha_deg"] == a and p["floor"] == fl
+                       and p[column]["mean"] is not None), key=lambda p: p["segments"])
+        if len(rows) < 2:
+            continue
+        n = np.array([p["segments"] for p in rows])
+        m = np.array([p[column]["mean"] for p in rows])
+        lo = np.array([np.nan if p[column]["ci_low"] is None else p[column]["ci_low"] for p in rows])
+        hi = np.array([np.nan if p[column]["ci_high"] is None else p[column]["ci_high"] for p in rows])
+        ax.plot(n, m, "o-", color=f"C{i}", ms=3, label=f"alpha = {a:.4g} deg, floor {fl}", gid=f"a{a:g}-{fl}")
+        ax.fill_between(n, lo, hi, color=f"C{i}", alpha=0.25, lw=0)
+        i += 1
+    ax.axhline(1.0, color="k", ls="--", lw=0.8, label="free fall")
+    ax.set_xscale("log", base=2)
+    ax.set(xlabel="N (segments)", ylabel="t_fall / t_ff (mean, 95% interval)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def write_segments_figure(points, path, column: str = "ratio") -> None:
+    fig = segments_figure(points, column)
+    try:
+        fig.savefig(path, dpi=150, bbox_inches="tight")
+    finally:
+        plt.close(fig)
 
 
 def write_alpha_figure(points, path, optimal=None, column: str = "ratio") -> None:
