@@ -272,3 +272,19 @@ def test_a_foreign_parquet_file_is_refused(tmp_path):
         read_table(path)
     res = runner.invoke(app, ["sweep", "--segments", "4", "--out", str(path), "-q"])
     assert res.exit_code == 2 and "not a ballchain sweep table" in res.stderr
+
+
+def test_an_existing_cluster_by_its_address(tmp_path):
+    """--scheduler ADDRESS: the same code on a cluster the sweep did not start; the rows
+    equal those of the sweep's own local cluster."""
+    from distributed import LocalCluster
+
+    spec = SweepSpec(segments=(6,), alphas=(math.pi / 4, math.pi), runs=2, seed=3)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      host="127.0.0.1") as cluster:
+        rep = run_sweep(spec, tmp_path / "remote.parquet", scheduler=cluster.scheduler_address, progress=False)
+    assert rep.ran == 4 and rep.failed == 0 and rep.workers == 1 and rep.scheduler.startswith("tcp://127.0.0.1")
+    local = run_sweep(spec, tmp_path / "local.parquet", workers=1, progress=False)
+    assert local.ran == 4
+    stable = [c for c in COLUMNS if c not in VOLATILE]
+    pd.testing.assert_frame_equal(_table(tmp_path / "remote.parquet")[stable], _table(tmp_path / "local.parquet")[stable])
