@@ -15,7 +15,14 @@ For every run of the table whose result file is in RUNS_DIR (``ballchain sweep
   which the pile pulls the hanging chain down (vertical pull < 0), and ``pull_mean``,
   its mean vertical component in units of one segment's weight m g;
 * ``depth``: the deepest airborne point below the floor (``max_depth``), in units of
-  the chain's length 2 N b.
+  the chain's length 2 N b; ``depth_fall``: the depth at the last frame before t_fall,
+  same unit (floor ``all`` keeps every point at z >= 0);
+* ``coil_before``, ``coil_after``: how much the pile coils, as turns per 10 landed
+  segments: |sum of the signed turning angles between successive landed segments in
+  the horizontal plane| / 2 pi, for the segments landed before and after 0.55 t_ff.
+
+With ``--paired``, also the same starts on both floors: the mean difference of t_fall/t_ff
+(pivot - all) per (N, alpha), with its standard error.
 
 Prints, per (N, alpha, floor), the mean and the range of each measure over the runs, as
 a Markdown table (or one JSON object).  Reads the files' datasets directly (their layout
@@ -52,6 +59,26 @@ def measures(path: str) -> dict:
         lz = f["events/event_pos"][()][lock, 2] / z0
         ft = f["frames/frame_t"][()] / t_ff
         pull = f["frames/frame_pile_pull"][()][:, 2]
+        fe = f["frames/frame_e"][()]
+        at = f["anchors/anchor_t"][()] / t_ff
+        apos = f["anchors/anchor_pos"][()]
+    # depth: the lowest point of the chain at the last frame before t_fall (z of point j:
+    # 2 b sum_{i >= j} e_i,z, point n at 0)
+    k = max(0, int(np.searchsorted(ft, t_fall / t_ff)) - 1)
+    zpts = 2.0 * b * np.cumsum(fe[k, ::-1, 2])[::-1]
+    depth_fall = max(0.0, -float(np.min(zpts))) / (2 * n * b)
+    # coiling: signed turning between successive landed segments, in order of landing
+    landed = np.maximum(at[:-1], at[1:])
+    ok = np.isfinite(landed)
+    idx = np.flatnonzero(ok)
+    idx = idx[np.argsort(landed[idx])]
+    d = apos[idx, :2] - apos[idx + 1, :2]
+    ang = np.arctan2(d[:, 1], d[:, 0])
+    turn = np.angle(np.exp(1j * np.diff(ang)))
+    late_seg = landed[idx][1:] >= 0.55
+
+    def coil(sel):
+        return abs(float(np.sum(turn[sel]))) / (2 * math.pi) * 10.0 / max(1, int(np.sum(sel)))
     dev = z - (1.0 - tau**2)
     off = np.flatnonzero(np.abs(dev) > THRESH)
     off5 = np.flatnonzero(np.abs(dev) > 0.05)
@@ -68,6 +95,9 @@ def measures(path: str) -> dict:
         "pull_down": float(np.mean(p < 0.0)) if p.size else math.nan,
         "pull_mean": float(np.mean(p)) if p.size else math.nan,  # run's force unit: m g
         "depth": max_depth / (2 * n * b),
+        "depth_fall": depth_fall,
+        "coil_before": coil(~late_seg),
+        "coil_after": coil(late_seg),
     }
 
 
@@ -76,6 +106,7 @@ def main() -> None:
     ap.add_argument("table")
     ap.add_argument("runs")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--paired", action="store_true", help="also the same starts on both floors")
     args = ap.parse_args()
     df = pd.read_parquet(args.table)
     df = df[df["status"] == "landed"]
@@ -84,24 +115,38 @@ def main() -> None:
         path = os.path.join(args.runs, r["run_id"] + ".h5")
         if os.path.exists(path):
             rows.append({"segments": r["segments"], "alpha_deg": round(r["alpha_deg"], 6), "floor": r["floor"],
-                         "ratio": r["ratio"], **measures(path)})
+                         "run_index": r["run_index"], "ratio": r["ratio"], **measures(path)})
     if not rows:
         sys.exit("no saved runs of the table found in " + args.runs)
     m = pd.DataFrame(rows)
-    cols = ["ratio", "departure", "departure5", "lag06", "lock_z95", "lock_below_0.1", "pull_down", "pull_mean", "depth"]
+    cols = ["ratio", "departure", "departure5", "lag06", "lock_z95", "lock_below_0.1", "pull_down", "pull_mean",
+            "depth", "depth_fall", "coil_before", "coil_after"]
     out = []
     for key, g in m.groupby(["segments", "alpha_deg", "floor"]):
         out.append({"segments": int(key[0]), "alpha_deg": key[1], "floor": key[2], "runs": int(len(g)),
                     **{c: {"mean": float(g[c].mean()), "min": float(g[c].min()), "max": float(g[c].max())}
                        for c in cols}})
+    paired = []
+    if args.paired:
+        for (n, a), g in df.groupby(["segments", "alpha_deg"]):
+            p = g.pivot_table(index="run_index", columns="floor", values="ratio", aggfunc="first")
+            if {"all", "pivot"} <= set(p.columns):
+                dlt = (p["pivot"] - p["all"]).dropna()
+                if len(dlt) > 1:
+                    paired.append({"segments": int(n), "alpha_deg": round(float(a), 6), "pairs": int(len(dlt)),
+                                   "mean_diff": float(dlt.mean()), "se": float(dlt.std(ddof=1) / math.sqrt(len(dlt)))})
     if args.json:
-        print(json.dumps(out))
+        print(json.dumps({"groups": out, "paired": paired}))
         return
     print("| N | alpha | floor | runs | " + " | ".join(cols) + " |")
     print("|---|---|---|---|" + "---|" * len(cols))
     for o in out:
         cells = [f"{o[c]['mean']:.3g} ({o[c]['min']:.3g}..{o[c]['max']:.3g})" for c in cols]
         print(f"| {o['segments']} | {o['alpha_deg']:g} | {o['floor']} | {o['runs']} | " + " | ".join(cells) + " |")
+    if paired:
+        print("\n| N | alpha | pairs | t_fall/t_ff, pivot - all (mean +- s.e.) |\n|---|---|---|---|")
+        for p in paired:
+            print(f"| {p['segments']} | {p['alpha_deg']:g} | {p['pairs']} | {p['mean_diff']:+.4f} +- {p['se']:.4f} |")
 
 
 if __name__ == "__main__":

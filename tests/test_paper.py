@@ -50,11 +50,18 @@ def test_fig5_and_fig6_plot_the_runs(made):
         np.testing.assert_array_equal(line.get_xdata(), tau[sel])
         np.testing.assert_array_equal(line.get_ydata(), r.z_top[sel] / r.z0)
     fig6 = pp.fig6_hamm_geminard(runs)
-    marks = [ln for ln in fig6.axes[0].lines if ln.get_marker() == "o"]
-    assert len(marks) == sum(1 for r in runs if 0 < r.t_fall / r.t_ff < math.sqrt(math.pi / 2))
+    marks = [ln for ln in fig6.axes[0].lines if ln.get_marker() == "o" and len(ln.get_xdata())]
+    placed = [r for r in runs if 0 < r.t_fall / r.t_ff < math.sqrt(math.pi / 2)]
+    assert len(marks) == len(placed)
     for ln in marks:
         gam, ratio = ln.get_xdata()[0], ln.get_ydata()[0]
         assert theory.hamm_geminard_time_ratio(gam) == pytest.approx(ratio, rel=1e-9)
+    # the measured gammas: one open square per run, at that run's floor_gamma
+    from ballchain.analysis import floor_gamma
+
+    squares = [ln for ln in fig6.axes[0].lines if ln.get_gid() == "measured"]
+    expected = sorted((floor_gamma(r).gamma, r.t_fall / r.t_ff) for r in placed if math.isfinite(floor_gamma(r).gamma))
+    assert sorted((ln.get_xdata()[0], ln.get_ydata()[0]) for ln in squares) == expected
 
 
 def test_fig2_and_fig4_draw_the_main_run(made):

@@ -107,6 +107,8 @@ def fig6_hamm_geminard(runs: list[Result]) -> Figure:
         if math.isfinite(measured):
             ax.plot([measured], [ratio], "s", ms=5, mfc="none", color=mark.get_color(), gid="measured")
             ax.plot([gam, measured], [ratio, ratio], ":", lw=0.8, color=mark.get_color())
+    ax.plot([], [], "o", color="0.4", label="gamma from t_fall / t_ff")
+    ax.plot([], [], "s", mfc="none", color="0.4", label="gamma measured from the floor")
     ax.axhline(1.0, color="k", lw=0.5, ls=":")
     ax.set(xlabel="gamma", ylabel="t_fall / t_ff")
     ax.legend(fontsize=7)
