@@ -51,16 +51,17 @@ def alpha_figure(points: list[dict], column: str = "ratio", optimal: list[dict] 
     return fig
 
 
-def segments_figure(points: list[dict], column: str = "ratio") -> Figure:
-    """Per (alpha, floor) with at least two N: the mean of ``column`` against N with its
-    95% band, free fall (1) marked: where the chain starts to beat free fall."""
+def segments_figure(points: list[dict], column: str = "ratio", min_sizes: int = 2) -> Figure:
+    """Per (alpha, floor) measured at ``min_sizes`` N or more: the mean of ``column``
+    against N with its 95% band, free fall (1) marked: where the chain starts to beat
+    free fall."""
     fig, ax = plt.subplots(figsize=(5.5, 4.2))
     keys = sorted({(p["alpha_deg"], p["floor"]) for p in points})
     i = 0
     for a, fl in keys:
         rows = sorted((p for p in points if p["alpha_deg"] == a and p["floor"] == fl
                        and p[column]["mean"] is not None), key=lambda p: p["segments"])
-        if len(rows) < 2:
+        if len(rows) < max(2, min_sizes):
             continue
         n = np.array([p["segments"] for p in rows])
         m = np.array([p[column]["mean"] for p in rows])
@@ -78,7 +79,11 @@ def segments_figure(points: list[dict], column: str = "ratio") -> Figure:
 
 
 def write_segments_figure(points, path, column: str = "ratio") -> None:
-    fig = segments_figure(points, column)
+    sizes = {}
+    for p in points:
+        sizes.setdefault((p["alpha_deg"], p["floor"]), set()).add(p["segments"])
+    # the series measured at three sizes or more when there are any (fewer lines, clearer)
+    fig = segments_figure(points, column, 3 if any(len(v) >= 3 for v in sizes.values()) else 2)
     try:
         fig.savefig(path, dpi=150, bbox_inches="tight")
     finally:
