@@ -397,7 +397,7 @@ def plot(
     formats: str = typer.Option("png,pdf", "--formats", help="Comma-separated file formats, e.g. png,pdf,svg."),
 ) -> None:
     """Figures of one run: z_top against free fall, energy budget, floor force and the
-    pile's pull, top view of the pile, lock map (one file per figure and format)."""
+    pile's pull, top view of the pile, lock map, gamma measured from the floor (one file per figure and format)."""
     fmts = tuple(f.strip().lower() for f in formats.split(",") if f.strip())
     bad = [f for f in fmts if f not in ("png", "pdf", "svg")]
     if not fmts or bad:

@@ -2,6 +2,8 @@
 
 ``run``: the figures of any single run (``ballchain plot RESULT --out DIR``).
 ``animate``: the animation of a run, .mp4 or .gif (``ballchain animate RESULT --out fall.mp4``).
+``paper``: the paper's figures (``ballchain paper``).
+``sweep``: a sweep table's statistics against alpha and N (``ballchain stats --plot``).
 """
 
 from .animate import AnimationError, ChainAnimation, animation_figure, frame_indices, write_animation
@@ -11,10 +13,11 @@ from .run import (
     energy_figure,
     fall_figure,
     floor_figure,
+    gamma_figure,
     lock_map_figure,
     pile_figure,
     plot_run,
 )
 
-__all__ = ["AnimationError", "ChainAnimation", "animation_figure", "frame_indices", "write_animation", "FIGURES", "energy_figure", "fall_figure", "floor_figure", "lock_map_figure", "pile_figure",
+__all__ = ["AnimationError", "ChainAnimation", "animation_figure", "frame_indices", "write_animation", "FIGURES", "energy_figure", "fall_figure", "floor_figure", "gamma_figure", "lock_map_figure", "pile_figure",
            "plot_run"]
