@@ -253,7 +253,8 @@ def test_output_round_trip(engine, tmp_path):
     r = load_result(out)
     s = json.loads(res.stdout)
     # the summary of the file read back, plus the measurements the CLI adds to it
-    assert {k: v for k, v in s.items() if k not in ("gamma_measured", "gamma_inferred")} == r.summary()
+    added = ("gamma_measured", "gamma_inferred", "wall_includes_compile")
+    assert {k: v for k, v in s.items() if k not in added} == r.summary()
     assert "gamma_measured" in s and "gamma_inferred" in s
     assert [p.name for p in tmp_path.iterdir()] == ["run.h5"]
 
@@ -384,3 +385,15 @@ def test_rtol_below_double_precision_is_refused(engine):
     res = run("simulate", "--rtol", "1e-16")
     assert_one_line_error(res, 2, "rtol", "double precision")
     assert engine.calls == []
+
+
+def test_a_first_run_says_its_wall_time_includes_the_compile(engine, monkeypatch):
+    monkeypatch.setattr(sys.modules["ballchain.engine"], "kernels_cached", lambda: False)
+    res = run("simulate", "--segments", "4", "--json", "-q")
+    assert res.exit_code == 0 and json.loads(res.stdout)["wall_includes_compile"] is True
+    assert "compiling the numba kernels" in res.stderr
+    res = run("simulate", "--segments", "4", "-q")
+    assert "includes compiling the kernels (first run only)" in res.stdout
+    monkeypatch.setattr(sys.modules["ballchain.engine"], "kernels_cached", lambda: True)
+    res = run("simulate", "--segments", "4", "--json", "-q")
+    assert json.loads(res.stdout)["wall_includes_compile"] is False

@@ -138,7 +138,8 @@ def build_inputs(
 def run_summary(result) -> dict:
     """``Result.summary()`` and the measurements of ``analysis`` on it: ``gamma_measured``
     (Hamm-Geminard gamma from the floor's momentum record, analysis.floor_gamma) and
-    ``gamma_inferred`` (the gamma whose fall time is t_fall/t_ff)."""
+    ``gamma_inferred`` (the gamma whose fall time is t_fall/t_ff); and
+    ``wall_includes_compile`` (the run compiled the kernels first: its wall time has it)."""
     from .analysis import floor_gamma
     from .theory import gamma_from_time_ratio
 
@@ -153,6 +154,7 @@ def run_summary(result) -> dict:
         gi = math.nan
     s["gamma_measured"] = gm if math.isfinite(gm) else None
     s["gamma_inferred"] = gi if math.isfinite(gi) else None
+    s["wall_includes_compile"] = bool(getattr(result, "extra", {}).get("compiled_kernels", False))
     return s
 
 
@@ -221,7 +223,8 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
             lines.append("  note               floor 'pivot' stops only the segment at the pivot: the rest of the "
                          "chain may pass below the floor (use --floor all for a floor that stops every point)")
     lines.append(f"  wall time          {_fmt(s.get('wall_seconds'), '.3g')} s "
-                 f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)")
+                 f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)"
+                 + ("; includes compiling the kernels (first run only)" if s.get("wall_includes_compile") else ""))
     if output:
         lines.append(f"  output             {output}")
     return "\n".join(lines)
@@ -241,8 +244,16 @@ def _progress_console():
 def _run_engine(params, init, options, show_progress: bool, state=None):
     from .engine import kernels_cached, simulate  # lazy: the engine (numba) is heavy to import
 
-    if not kernels_cached():
+    cold = not kernels_cached()
+    if cold:
         typer.echo("compiling the numba kernels (first run only; about a minute, cached afterwards)...", err=True)
+    result = _simulate_with_progress(simulate, params, init, options, show_progress, state)
+    if cold:  # the run's wall time includes the compile
+        result.extra["compiled_kernels"] = True
+    return result
+
+
+def _simulate_with_progress(simulate, params, init, options, show_progress: bool, state):
     if not show_progress:
         return simulate(params, init, options, progress=None, state=state)
 
