@@ -27,7 +27,7 @@ v_i - e_i x w_i.  The multipliers of the system (J W J^T) x = rhs are the forces
 (kind 0-2: force on segment a from below, equal to minus the force on c from above) and
 the lock multipliers lambda (couple lambda e_a x e_c on a).  J W J^T is block
 tridiagonal (blocks of the points, coupled through the shared segment) and symmetric
-positive (semi)definite: one block Cholesky (block Thomas) sweep costs O(N).
+positive (semi)definite: one block factorisation (block Thomas) sweep costs O(N).
 """
 
 from __future__ import annotations
@@ -387,9 +387,14 @@ def solve_general(nrow, S, G, drop, rhs, x):
 # inconsistent or indefinite and the right-hand side discontinuous)
 #   end . lock  = ww B L (e x n)_q          lock . lock = ww L1 L2 n1 . n2
 # Hinge row: a (1, 1), c (-1, 1); anchor, lower: a (1, 1); anchor, upper: c (1, -1);
-# lock row: a L = 1, c L = -1.  The factor is L L^T with F_j = L_j^{-1} E_j:
-#   L_j L_j^T = D_j - F_{j-1}^T F_{j-1},   y_j = L_j^{-1} (b_j - F_{j-1}^T y_{j-1}),
-#   x_j = L_j^{-T} (y_j - F_j x_{j+1});  S holds L_j and 1/L_kk on its diagonal.
+# lock row: a L = 1, c L = -1.  The factor is the block L P L^T (L_j unit lower,
+# P_j diagonal: no square roots), with F_j = L_j^{-1} E_j and H_j = P_j^{-1} F_j:
+#   L_j P_j L_j^T = D_j - F_{j-1}^T H_{j-1},   u_j = L_j^{-1} (b_j - H_{j-1}^T u_{j-1}),
+#   x_j = L_j^{-T} (P_j^{-1} u_j - H_j x_{j+1});
+# S holds L_j below its diagonal and 1/p_k on it (0 for a dropped or padding row: its
+# column of L and its row of H are then 0, so its unknown comes out 0), G holds H_j.
+# A point without rows (landed segments on both sides, or a free end) has E = 0 on
+# both sides: its unknowns are 0 and it is skipped.
 
 
 @njit(cache=True, inline="always")
@@ -429,20 +434,26 @@ def _fits4(nrow):
 
 @njit(cache=True)
 def factor4(e, anchored, kind, nrow, S, G, drop):
-    """L L^T factor of J W J^T in 4 x 4 blocks formed in closed form (see above), every
-    block held in scalars (generated code: one line per entry).  Returns the number of
-    redundant rows dropped."""
+    """L P L^T factor of J W J^T in 4 x 4 blocks formed in closed form (see above), every
+    block held in scalars (one line per entry).  Returns the number of redundant rows
+    dropped."""
     npts = nrow.shape[0]
     n = npts - 1
     ndrop = 0
-    f00 = 0.0; f01 = 0.0; f02 = 0.0; f03 = 0.0
-    f10 = 0.0; f11 = 0.0; f12 = 0.0; f13 = 0.0
-    f20 = 0.0; f21 = 0.0; f22 = 0.0; f23 = 0.0
-    f30 = 0.0; f31 = 0.0; f32 = 0.0; f33 = 0.0
+    # u = F_{j-1}^T H_{j-1}, the previous point's part of the Schur complement
+    u00 = u10 = u11 = u20 = u21 = u22 = u30 = u31 = u32 = u33 = 0.0
     nr = nrow[0]
     Aa, Ba, Ac, Bc = _end_coeffs(kind[0, 0], nr)
     nx, ny, nz = _lock_vector(e, 0, nr)
     for j in range(npts):
+        if nr == 0:  # no rows: E_{j-1} = E_j = 0
+            u00 = u10 = u11 = u20 = u21 = u22 = u30 = u31 = u32 = u33 = 0.0
+            if j == n:
+                break
+            nr = nrow[j + 1]
+            Aa, Ba, Ac, Bc = _end_coeffs(kind[j + 1, 0], nr)
+            nx, ny, nz = _lock_vector(e, j + 1, nr)
+            continue
         av, aw = _weights(anchored, j - 1, n)
         cv, cw = _weights(anchored, j, n)
         ea0 = ea1 = ea2 = ec0 = ec1 = ec2 = 0.0
@@ -461,8 +472,6 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         d20 = - qa * ea2 * ea0 - qc * ec2 * ec0
         d21 = - qa * ea2 * ea1 - qc * ec2 * ec1
         d22 = base - qa * ea2 * ea2 - qc * ec2 * ec2
-        if nr == 0:
-            d00 = d11 = d22 = 1.0
         if nr == 4:
             la = aw * Ba
             lc = cw * Bc
@@ -473,76 +482,74 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         else:
             d30 = d31 = d32 = 0.0
             d33 = 1.0
-        # Schur complement D_j - F_{j-1}^T F_{j-1}
-        d00 -= f00 * f00 + f10 * f10 + f20 * f20 + f30 * f30
-        d10 -= f01 * f00 + f11 * f10 + f21 * f20 + f31 * f30
-        d11 -= f01 * f01 + f11 * f11 + f21 * f21 + f31 * f31
-        d20 -= f02 * f00 + f12 * f10 + f22 * f20 + f32 * f30
-        d21 -= f02 * f01 + f12 * f11 + f22 * f21 + f32 * f31
-        d22 -= f02 * f02 + f12 * f12 + f22 * f22 + f32 * f32
-        d30 -= f03 * f00 + f13 * f10 + f23 * f20 + f33 * f30
-        d31 -= f03 * f01 + f13 * f11 + f23 * f21 + f33 * f31
-        d32 -= f03 * f02 + f13 * f12 + f23 * f22 + f33 * f32
-        d33 -= f03 * f03 + f13 * f13 + f23 * f23 + f33 * f33
-        # Cholesky, dropping redundant rows (and padding rows k >= nr); l_kk holds 1/L_kk
-        t = d00
-        if t <= DROP_RTOL * max(abs(d00), 1e-300) or 0 >= nr:
+        # Schur complement D_j - F_{j-1}^T H_{j-1}
+        s00 = d00 - u00
+        s10 = d10 - u10
+        s11 = d11 - u11
+        s20 = d20 - u20
+        s21 = d21 - u21
+        s22 = d22 - u22
+        s30 = d30 - u30
+        s31 = d31 - u31
+        s32 = d32 - u32
+        s33 = d33 - u33
+        # L P L^T of the block, dropping redundant rows (and padding rows k >= nr):
+        # i_k = 1/p_k, or 0 for a dropped row; w_ik = L_ik p_k
+        p = s00
+        if p <= DROP_RTOL * max(abs(d00), 1e-300) or 0 >= nr:
             if 0 < nr:
                 drop[j, 0] = 1
                 ndrop += 1
-            l00 = 0.0
-            l10 = 0.0
-            l20 = 0.0
-            l30 = 0.0
+            i0 = 0.0
         else:
             drop[j, 0] = 0
-            l00 = 1.0 / math.sqrt(t)
-            l10 = (d10) * l00
-            l20 = (d20) * l00
-            l30 = (d30) * l00
-        t = d11 - l10 * l10
-        if t <= DROP_RTOL * max(abs(d11), 1e-300) or 1 >= nr:
+            i0 = 1.0 / p
+        l10 = s10 * i0
+        l20 = s20 * i0
+        l30 = s30 * i0
+        p = s11 - l10 * s10
+        w21 = s21 - l20 * s10
+        w31 = s31 - l30 * s10
+        if p <= DROP_RTOL * max(abs(d11), 1e-300) or 1 >= nr:
             if 1 < nr:
                 drop[j, 1] = 1
                 ndrop += 1
-            l11 = 0.0
-            l21 = 0.0
-            l31 = 0.0
+            i1 = 0.0
         else:
             drop[j, 1] = 0
-            l11 = 1.0 / math.sqrt(t)
-            l21 = (d21 - l20 * l10) * l11
-            l31 = (d31 - l30 * l10) * l11
-        t = d22 - l20 * l20 - l21 * l21
-        if t <= DROP_RTOL * max(abs(d22), 1e-300) or 2 >= nr:
+            i1 = 1.0 / p
+        l21 = w21 * i1
+        l31 = w31 * i1
+        p = s22 - l20 * s20 - l21 * w21
+        w32 = s32 - l30 * s20 - l31 * w21
+        if p <= DROP_RTOL * max(abs(d22), 1e-300) or 2 >= nr:
             if 2 < nr:
                 drop[j, 2] = 1
                 ndrop += 1
-            l22 = 0.0
-            l32 = 0.0
+            i2 = 0.0
         else:
             drop[j, 2] = 0
-            l22 = 1.0 / math.sqrt(t)
-            l32 = (d32 - l30 * l20 - l31 * l21) * l22
-        t = d33 - l30 * l30 - l31 * l31 - l32 * l32
-        if t <= DROP_RTOL * max(abs(d33), 1e-300) or 3 >= nr:
+            i2 = 1.0 / p
+        l32 = w32 * i2
+        p = s33 - l30 * s30 - l31 * w31 - l32 * w32
+        if p <= DROP_RTOL * max(abs(d33), 1e-300) or 3 >= nr:
             if 3 < nr:
                 drop[j, 3] = 1
                 ndrop += 1
-            l33 = 0.0
+            i3 = 0.0
         else:
             drop[j, 3] = 0
-            l33 = 1.0 / math.sqrt(t)
-        S[j, 0, 0] = l00
+            i3 = 1.0 / p
+        S[j, 0, 0] = i0
         S[j, 1, 0] = l10
-        S[j, 1, 1] = l11
+        S[j, 1, 1] = i1
         S[j, 2, 0] = l20
         S[j, 2, 1] = l21
-        S[j, 2, 2] = l22
+        S[j, 2, 2] = i2
         S[j, 3, 0] = l30
         S[j, 3, 1] = l31
         S[j, 3, 2] = l32
-        S[j, 3, 3] = l33
+        S[j, 3, 3] = i3
         if j == n:
             break
         # E_j: rows of point j (side c, segment j) x rows of point j+1 (side a, segment j)
@@ -570,27 +577,41 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         g31 = la * (ec2 * nx - ec0 * nz)
         g32 = la * (ec0 * ny - ec1 * nx)
         g33 = -cw * (nx * mx + ny * my + nz * mz)
-        # F_j = L_j^{-1} E_j
-        f00 = (g00) * l00
-        f10 = (g10 - l10 * f00) * l11
-        f20 = (g20 - l20 * f00 - l21 * f10) * l22
-        f30 = (g30 - l30 * f00 - l31 * f10 - l32 * f20) * l33
-        f01 = (g01) * l00
-        f11 = (g11 - l10 * f01) * l11
-        f21 = (g21 - l20 * f01 - l21 * f11) * l22
-        f31 = (g31 - l30 * f01 - l31 * f11 - l32 * f21) * l33
-        f02 = (g02) * l00
-        f12 = (g12 - l10 * f02) * l11
-        f22 = (g22 - l20 * f02 - l21 * f12) * l22
-        f32 = (g32 - l30 * f02 - l31 * f12 - l32 * f22) * l33
-        f03 = (g03) * l00
-        f13 = (g13 - l10 * f03) * l11
-        f23 = (g23 - l20 * f03 - l21 * f13) * l22
-        f33 = (g33 - l30 * f03 - l31 * f13 - l32 * f23) * l33
-        G[j, 0, 0] = f00; G[j, 0, 1] = f01; G[j, 0, 2] = f02; G[j, 0, 3] = f03
-        G[j, 1, 0] = f10; G[j, 1, 1] = f11; G[j, 1, 2] = f12; G[j, 1, 3] = f13
-        G[j, 2, 0] = f20; G[j, 2, 1] = f21; G[j, 2, 2] = f22; G[j, 2, 3] = f23
-        G[j, 3, 0] = f30; G[j, 3, 1] = f31; G[j, 3, 2] = f32; G[j, 3, 3] = f33
+        # F_j = L_j^{-1} E_j (L_j unit lower), H_j = P_j^{-1} F_j
+        f00 = g00
+        f10 = g10 - l10 * f00
+        f20 = g20 - l20 * f00 - l21 * f10
+        f30 = g30 - l30 * f00 - l31 * f10 - l32 * f20
+        f01 = g01
+        f11 = g11 - l10 * f01
+        f21 = g21 - l20 * f01 - l21 * f11
+        f31 = g31 - l30 * f01 - l31 * f11 - l32 * f21
+        f02 = g02
+        f12 = g12 - l10 * f02
+        f22 = g22 - l20 * f02 - l21 * f12
+        f32 = g32 - l30 * f02 - l31 * f12 - l32 * f22
+        f03 = g03
+        f13 = g13 - l10 * f03
+        f23 = g23 - l20 * f03 - l21 * f13
+        f33 = g33 - l30 * f03 - l31 * f13 - l32 * f23
+        h00 = f00 * i0; h01 = f01 * i0; h02 = f02 * i0; h03 = f03 * i0
+        h10 = f10 * i1; h11 = f11 * i1; h12 = f12 * i1; h13 = f13 * i1
+        h20 = f20 * i2; h21 = f21 * i2; h22 = f22 * i2; h23 = f23 * i2
+        h30 = f30 * i3; h31 = f31 * i3; h32 = f32 * i3; h33 = f33 * i3
+        G[j, 0, 0] = h00; G[j, 0, 1] = h01; G[j, 0, 2] = h02; G[j, 0, 3] = h03
+        G[j, 1, 0] = h10; G[j, 1, 1] = h11; G[j, 1, 2] = h12; G[j, 1, 3] = h13
+        G[j, 2, 0] = h20; G[j, 2, 1] = h21; G[j, 2, 2] = h22; G[j, 2, 3] = h23
+        G[j, 3, 0] = h30; G[j, 3, 1] = h31; G[j, 3, 2] = h32; G[j, 3, 3] = h33
+        u00 = f00 * h00 + f10 * h10 + f20 * h20 + f30 * h30
+        u10 = f01 * h00 + f11 * h10 + f21 * h20 + f31 * h30
+        u11 = f01 * h01 + f11 * h11 + f21 * h21 + f31 * h31
+        u20 = f02 * h00 + f12 * h10 + f22 * h20 + f32 * h30
+        u21 = f02 * h01 + f12 * h11 + f22 * h21 + f32 * h31
+        u22 = f02 * h02 + f12 * h12 + f22 * h22 + f32 * h32
+        u30 = f03 * h00 + f13 * h10 + f23 * h20 + f33 * h30
+        u31 = f03 * h01 + f13 * h11 + f23 * h21 + f33 * h31
+        u32 = f03 * h02 + f13 * h12 + f23 * h22 + f33 * h32
+        u33 = f03 * h03 + f13 * h13 + f23 * h23 + f33 * h33
         nr = nr1
         Aa, Ba, Ac, Bc = Aa1, Ba1, Ac1, Bc1
         nx, ny, nz = mx, my, mz
@@ -599,43 +620,47 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
 
 @njit(cache=True)
 def solve4(nrow, S, G, rhs, x):
-    """Solve (J W J^T) x = rhs with the factors from ``factor4`` (y, x carried in scalars)."""
+    """Solve (J W J^T) x = rhs with the factors from ``factor4`` (u, x carried in
+    scalars; a point without rows is skipped: its unknowns are 0)."""
     npts = nrow.shape[0]
-    y0 = y1 = y2 = y3 = 0.0
+    u0 = u1 = u2 = u3 = 0.0
     for j in range(npts):
         nr = nrow[j]
-        b0 = b1 = b2 = b3 = 0.0
-        if nr >= 3:
-            b0, b1, b2 = rhs[j, 0], rhs[j, 1], rhs[j, 2]
-        if nr == 4:
-            b3 = rhs[j, 3]
-        if j >= 1:
-            b0 -= G[j - 1, 0, 0] * y0 + G[j - 1, 1, 0] * y1 + G[j - 1, 2, 0] * y2 + G[j - 1, 3, 0] * y3
-            b1 -= G[j - 1, 0, 1] * y0 + G[j - 1, 1, 1] * y1 + G[j - 1, 2, 1] * y2 + G[j - 1, 3, 1] * y3
-            b2 -= G[j - 1, 0, 2] * y0 + G[j - 1, 1, 2] * y1 + G[j - 1, 2, 2] * y2 + G[j - 1, 3, 2] * y3
-            b3 -= G[j - 1, 0, 3] * y0 + G[j - 1, 1, 3] * y1 + G[j - 1, 2, 3] * y2 + G[j - 1, 3, 3] * y3
-        y0 = (b0) * S[j, 0, 0]
-        y1 = (b1 - S[j, 1, 0] * y0) * S[j, 1, 1]
-        y2 = (b2 - S[j, 2, 0] * y0 - S[j, 2, 1] * y1) * S[j, 2, 2]
-        y3 = (b3 - S[j, 3, 0] * y0 - S[j, 3, 1] * y1 - S[j, 3, 2] * y2) * S[j, 3, 3]
-        x[j, 0] = y0; x[j, 1] = y1; x[j, 2] = y2; x[j, 3] = y3
+        if nr == 0:
+            u0 = u1 = u2 = u3 = 0.0
+            x[j, 0] = 0.0; x[j, 1] = 0.0; x[j, 2] = 0.0; x[j, 3] = 0.0
+            continue
+        b0, b1, b2 = rhs[j, 0], rhs[j, 1], rhs[j, 2]
+        b3 = rhs[j, 3] if nr == 4 else 0.0
+        if j >= 1 and nrow[j - 1] != 0:
+            b0 -= G[j - 1, 0, 0] * u0 + G[j - 1, 1, 0] * u1 + G[j - 1, 2, 0] * u2 + G[j - 1, 3, 0] * u3
+            b1 -= G[j - 1, 0, 1] * u0 + G[j - 1, 1, 1] * u1 + G[j - 1, 2, 1] * u2 + G[j - 1, 3, 1] * u3
+            b2 -= G[j - 1, 0, 2] * u0 + G[j - 1, 1, 2] * u1 + G[j - 1, 2, 2] * u2 + G[j - 1, 3, 2] * u3
+            b3 -= G[j - 1, 0, 3] * u0 + G[j - 1, 1, 3] * u1 + G[j - 1, 2, 3] * u2 + G[j - 1, 3, 3] * u3
+        u0 = b0
+        u1 = b1 - S[j, 1, 0] * u0
+        u2 = b2 - S[j, 2, 0] * u0 - S[j, 2, 1] * u1
+        u3 = b3 - S[j, 3, 0] * u0 - S[j, 3, 1] * u1 - S[j, 3, 2] * u2
+        x[j, 0] = u0; x[j, 1] = u1; x[j, 2] = u2; x[j, 3] = u3
     z0 = z1 = z2 = z3 = 0.0
     for j in range(npts - 1, -1, -1):
-        b0 = x[j, 0]
-        b1 = x[j, 1]
-        b2 = x[j, 2]
-        b3 = x[j, 3]
+        if nrow[j] == 0:
+            z0 = z1 = z2 = z3 = 0.0
+            continue
+        b0 = x[j, 0] * S[j, 0, 0]
+        b1 = x[j, 1] * S[j, 1, 1]
+        b2 = x[j, 2] * S[j, 2, 2]
+        b3 = x[j, 3] * S[j, 3, 3]
         if j < npts - 1:
             b0 -= G[j, 0, 0] * z0 + G[j, 0, 1] * z1 + G[j, 0, 2] * z2 + G[j, 0, 3] * z3
             b1 -= G[j, 1, 0] * z0 + G[j, 1, 1] * z1 + G[j, 1, 2] * z2 + G[j, 1, 3] * z3
             b2 -= G[j, 2, 0] * z0 + G[j, 2, 1] * z1 + G[j, 2, 2] * z2 + G[j, 2, 3] * z3
             b3 -= G[j, 3, 0] * z0 + G[j, 3, 1] * z1 + G[j, 3, 2] * z2 + G[j, 3, 3] * z3
-        z3 = (b3) * S[j, 3, 3]
-        z2 = (b2 - S[j, 3, 2] * z3) * S[j, 2, 2]
-        z1 = (b1 - S[j, 2, 1] * z2 - S[j, 3, 1] * z3) * S[j, 1, 1]
-        z0 = (b0 - S[j, 1, 0] * z1 - S[j, 2, 0] * z2 - S[j, 3, 0] * z3) * S[j, 0, 0]
+        z3 = b3
+        z2 = b2 - S[j, 3, 2] * z3
+        z1 = b1 - S[j, 2, 1] * z2 - S[j, 3, 1] * z3
+        z0 = b0 - S[j, 1, 0] * z1 - S[j, 2, 0] * z2 - S[j, 3, 0] * z3
         x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2; x[j, 3] = z3
-
 
 
 @njit(cache=True)
