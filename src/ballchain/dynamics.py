@@ -900,6 +900,53 @@ def constraint_velocities(e, w, J, nrow, pv, vel, out):
 def apply_impulses(e, w, anchored, J, nrow, x, gf, sign):
     """w_i += sign * 3 P_i (torque of J^T x on segment i): a velocity jump."""
     generalized_forces(anchored, J, nrow, x, gf)
+    torque_jump(e, w, anchored, gf, sign)
+
+
+@njit(cache=True)
+def constraint_rates4(e, w, anchored, kind, nrow, pv, vel, out):
+    """``constraint_velocities`` for the fixed-size layout, without J: hinge rows
+    (lower end of a) - (upper end of c), anchor rows the velocity of the anchored end,
+    lock row n . (w_a - w_c) with n = e_a x e_c (the terms of airborne segments only)."""
+    velocities(e, w, pv, vel)
+    n = e.shape[0]
+    for j in range(nrow.shape[0]):
+        nr = nrow[j]
+        if nr == 0:
+            continue
+        a = j - 1
+        c = j
+        k0 = kind[j, 0]
+        for q in range(3):
+            out[j, q] = 0.0
+        if k0 == ROW_HINGE or k0 == ROW_ANCHOR_LOWER:  # lower end of a: v_a + e_a x w_a
+            out[j, 0] += vel[a, 0] + e[a, 1] * w[a, 2] - e[a, 2] * w[a, 1]
+            out[j, 1] += vel[a, 1] + e[a, 2] * w[a, 0] - e[a, 0] * w[a, 2]
+            out[j, 2] += vel[a, 2] + e[a, 0] * w[a, 1] - e[a, 1] * w[a, 0]
+        if k0 == ROW_HINGE:  # minus the upper end of c: -v_c + e_c x w_c
+            out[j, 0] += -vel[c, 0] + e[c, 1] * w[c, 2] - e[c, 2] * w[c, 1]
+            out[j, 1] += -vel[c, 1] + e[c, 2] * w[c, 0] - e[c, 0] * w[c, 2]
+            out[j, 2] += -vel[c, 2] + e[c, 0] * w[c, 1] - e[c, 1] * w[c, 0]
+        elif k0 == ROW_ANCHOR_UPPER:  # upper end of c: v_c - e_c x w_c
+            out[j, 0] += vel[c, 0] - e[c, 1] * w[c, 2] + e[c, 2] * w[c, 1]
+            out[j, 1] += vel[c, 1] - e[c, 2] * w[c, 0] + e[c, 0] * w[c, 2]
+            out[j, 2] += vel[c, 2] - e[c, 0] * w[c, 1] + e[c, 1] * w[c, 0]
+        if nr == 4:
+            nx = e[a, 1] * e[c, 2] - e[a, 2] * e[c, 1]
+            ny = e[a, 2] * e[c, 0] - e[a, 0] * e[c, 2]
+            nz = e[a, 0] * e[c, 1] - e[a, 1] * e[c, 0]
+            acc = 0.0
+            if not _is_landed(anchored, a):
+                acc += nx * w[a, 0] + ny * w[a, 1] + nz * w[a, 2]
+            if c < n and not _is_landed(anchored, c):
+                acc -= nx * w[c, 0] + ny * w[c, 1] + nz * w[c, 2]
+            out[j, 3] = acc
+
+
+@njit(cache=True)
+def torque_jump(e, w, anchored, gf, sign):
+    """w_i += sign * 3 P_i gf[i, 3:6] (P_i: projection perpendicular to e_i); w = 0 on
+    landed segments."""
     for i in range(e.shape[0]):
         if _is_landed(anchored, i):
             w[i, 0] = 0.0
@@ -971,27 +1018,44 @@ def rotate_by(e, anchored, gf, sign):
 
 
 @njit(cache=True)
+def constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs):
+    """The constraint rows of the current anchors and locks: the fixed-size layout
+    (kind, nrow; no J) when every point fits it, else J as well (``build_rows``).
+    Returns True for the fixed-size layout.  ``rhs`` is scratch."""
+    if rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
+        return True
+    build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(False))
+    return False
+
+
+@njit(cache=True)
 def project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs,
                   x, gf, pts, vel, tol, iters):
     """Remove constraint drift: normalise, then Gauss-Newton on anchor positions and
     locked angles (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.
     Returns the largest position residual before projection."""
     normalize_state(e, w, anchored)
-    build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(False))
+    fits = constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs)
     res0 = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
     res = res0
     it = 0
     while res > tol and it < iters:
         factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
-        generalized_forces(anchored, J, nrow, x, gf)
+        if fits:
+            torques4(e, kind, nrow, x, gf)
+        else:
+            generalized_forces(anchored, J, nrow, x, gf)
         rotate_by(e, anchored, gf, -1.0)
-        build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(False))
+        fits = constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs)
         res = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
         it += 1
     normalize_state(e, w, anchored)
     # velocities
-    constraint_velocities(e, w, J, nrow, pts, vel, rhs)
+    if fits:
+        constraint_rates4(e, w, anchored, kind, nrow, pts, vel, rhs)
+    else:
+        constraint_velocities(e, w, J, nrow, pts, vel, rhs)
     vres = 0.0
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
@@ -999,5 +1063,9 @@ def project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S
     if vres > tol:
         factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
-        apply_impulses(e, w, anchored, J, nrow, x, gf, -1.0)
+        if fits:
+            torques4(e, kind, nrow, x, gf)
+            torque_jump(e, w, anchored, gf, -1.0)
+        else:
+            apply_impulses(e, w, anchored, J, nrow, x, gf, -1.0)
     return res0

@@ -38,9 +38,13 @@ from .dynamics import (
     accelerations,
     apply_impulses,
     build_rows,
+    constraint_rates4,
+    constraint_rows,
     constraint_velocities,
     factor,
     solve,
+    torque_jump,
+    torques4,
     W_W,
 )
 from .rules import RATE_TOL
@@ -330,19 +334,27 @@ def _dense_fallback(e, w, anchored, base, idx, c, q_all, tol, J, kind, nrow, S, 
 @njit(cache=True)
 def _impact_trial(e, w, anchored, active, J, kind, nrow, S, G, drop, rhs, x, gf, pv, vel, jv_minus, w_plus,
                   rates):
-    """Post-impact velocity w_plus and hinge rates for the lock set ``active``."""
+    """Post-impact velocity w_plus and hinge rates for the lock set ``active``: the
+    impulses x solve (J W J^T) x = -J v-, and w+ = w- + W J^T x."""
     n = e.shape[0]
-    build_rows(e, w, anchored, active, J, kind, nrow, rhs, np.bool_(False))
-    constraint_velocities(e, w, J, nrow, pv, vel, jv_minus)
+    for i in range(n):
+        for q in range(3):
+            w_plus[i, q] = w[i, q]
+    fits = constraint_rows(e, w, anchored, active, J, kind, nrow, rhs)
+    if fits:
+        constraint_rates4(e, w, anchored, kind, nrow, pv, vel, jv_minus)
+    else:
+        constraint_velocities(e, w, J, nrow, pv, vel, jv_minus)
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
             rhs[j, r] = -jv_minus[j, r]
     factor(e, anchored, J, kind, nrow, S, G, drop)
     solve(nrow, S, G, drop, rhs, x)
-    for i in range(n):
-        for q in range(3):
-            w_plus[i, q] = w[i, q]
-    apply_impulses(e, w_plus, anchored, J, nrow, x, gf, 1.0)
+    if fits:
+        torques4(e, kind, nrow, x, gf)
+        torque_jump(e, w_plus, anchored, gf, 1.0)
+    else:
+        apply_impulses(e, w_plus, anchored, J, nrow, x, gf, 1.0)
     hinge_rates(e, w_plus, rates)
 
 

@@ -1,0 +1,105 @@
+"""The same falls with two revisions of ballchain, side by side: wall time, evaluations,
+event instants, and the cost per evaluation.
+
+    python benchmarks/compare_revisions.py --base HEAD~1 --segments 64,128 --seeds 0-7
+    python benchmarks/compare_revisions.py --base HEAD~1 --segments 512 --seeds 0-1
+
+``--base`` is checked out as a git worktree (in a temporary directory, removed at the
+end); the other side is this checkout.  Each revision compiles its kernels once (a
+first fall at N = 8, not timed), then the falls run alternately (base, head, base,
+head, ...), one process each, so that the machine's drift hits both alike.  Falls are
+chaotic: a change of round-off gives another fall, so compare medians over several
+starts (random family, ``--seeds``), never one fall.  Prints the machine, the versions
+and a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from machine import machine_info  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def seeds(spec: str) -> list[int]:
+    if "-" in spec:
+        a, b = spec.split("-")
+        return list(range(int(a), int(b) + 1))
+    return [int(s) for s in spec.split(",")]
+
+
+def fall(src: Path, args: list[str]) -> dict:
+    """One fall in a fresh process importing ballchain from ``src``; its JSON summary."""
+    env = dict(os.environ, PYTHONPATH=str(src))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = subprocess.run([sys.executable, "-m", "ballchain.cli", "simulate", *args, "--output",
+                              str(Path(tmp) / "fall.h5"), "--json"], env=env, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"fall failed ({src}): {out.stderr.strip().splitlines()[-1:]}")
+    return json.loads(out.stdout)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--base", required=True, help="git revision to compare against (e.g. HEAD~1)")
+    ap.add_argument("--segments", default="64,128")
+    ap.add_argument("--alpha", default="pi/4")
+    ap.add_argument("--floor", default="all")
+    ap.add_argument("--seeds", default="0-7", help="random starts: 0-7 or 1,4,9")
+    args = ap.parse_args()
+    rev = subprocess.run(["git", "rev-parse", "--short", args.base], cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout.strip()
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                          check=True).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "src"], cwd=ROOT, capture_output=True,
+                           text=True).stdout.strip()
+    print(machine_info())
+    print(f"base {rev}, head {head}{' + uncommitted changes' if dirty else ''}; alpha {args.alpha}, "
+          f"floor {args.floor}, random starts {args.seeds}")
+    tmp = Path(tempfile.mkdtemp(prefix="ballchain-base-"))
+    wt = tmp / "tree"
+    subprocess.run(["git", "worktree", "add", "--detach", str(wt), args.base], cwd=ROOT, check=True,
+                   capture_output=True)
+    sides = {"base": wt / "src", "head": ROOT / "src"}
+    try:
+        for src in sides.values():  # compile (or load) each side's kernels, untimed
+            fall(src, ["-N", "8"])
+        rows = []
+        for n in [int(s) for s in args.segments.split(",")]:
+            res = {"base": [], "head": []}
+            for seed in seeds(args.seeds):
+                for side, src in sides.items():
+                    res[side].append(fall(src, ["-N", str(n), "--alpha", args.alpha, "--floor", args.floor,
+                                                "--ic", "random", "--seed", str(seed)]))
+                    r = res[side][-1]
+                    print(f"  N={n} seed={seed} {side}: {r['wall_seconds']:.2f} s, t_fall/t_ff {r['ratio']:.4f}, "
+                          f"{r['n_evals']} evaluations, {r['n_instants']} instants", flush=True)
+            rows.append((n, res))
+        print()
+        print("| N | starts | median wall base (s) | median wall head (s) | head / base | "
+              "median us per evaluation base / head | median instants base / head |")
+        print("|---|---|---|---|---|---|---|")
+        for n, res in rows:
+            wb = statistics.median(r["wall_seconds"] for r in res["base"])
+            wh = statistics.median(r["wall_seconds"] for r in res["head"])
+            eb = statistics.median(1e6 * r["wall_seconds"] / r["n_evals"] for r in res["base"])
+            eh = statistics.median(1e6 * r["wall_seconds"] / r["n_evals"] for r in res["head"])
+            ib = statistics.median(r["n_instants"] for r in res["base"])
+            ih = statistics.median(r["n_instants"] for r in res["head"])
+            print(f"| {n} | {len(res['base'])} | {wb:.2f} | {wh:.2f} | {wh / wb:.2f} | {eb:.1f} / {eh:.1f} | "
+                  f"{ib:.0f} / {ih:.0f} |")
+    finally:
+        subprocess.run(["git", "worktree", "remove", "--force", str(wt)], cwd=ROOT, capture_output=True)
+
+
+if __name__ == "__main__":
+    main()
