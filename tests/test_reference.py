@@ -459,7 +459,7 @@ def test_fixed_size_path_equals_general_path(n):
         g = _general_path(e, w, a8, l8)
         ws = dyn.Workspace(n)
         if not dyn.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs):
-            continue  # some point has 6 rows: only the general path applies
+            continue  # a lock beside a split anchor (7 rows): only the general path applies
         fitted += 1
         assert np.array_equal(ws.nrow, g.nrow)
         for j in range(n + 1):
@@ -511,3 +511,21 @@ def test_fixed_size_path_off_unit_axes_and_folded():
         scale = max(1.0, np.abs(g.x).max())
         np.testing.assert_allclose(ws.x, g.x, rtol=0, atol=1e-6 * scale)
         np.testing.assert_allclose(ws.gf[:, 3:], g.gf[:, 3:], rtol=0, atol=1e-6 * scale)
+
+
+@pytest.mark.parametrize("n, split, locked_hinges", [(5, 2, []), (8, 3, [0, 1, 5]), (12, 6, [4, 7, 9])])
+def test_split_anchor_on_the_fixed_size_path(n, split, locked_hinges):
+    """An anchored point between two airborne segments (a fold touching the floor) has
+    six rows that do not couple: the fixed-size path takes them as the end of one sweep
+    and the start of the next.  Accelerations and impacts against the dense reference."""
+    for seed in range(4):
+        e, w, anchored, locked, alpha = _case(n, [split], locked_hinges, seed)
+        ws = dyn.Workspace(n)
+        a8 = anchored.astype(np.uint8)
+        assert dyn.rows_rhs4(e, w, a8, in_force(anchored, locked), ws.kind, ws.nrow, ws.rhs)
+        assert ws.nrow[split] == 6
+        err, _, _ = compare_accelerations(e, w, anchored, locked, alpha)
+        assert max(err.values()) < ACC_TOL, err
+        rng = np.random.default_rng(seed)
+        w_minus = ref.project_velocity(e, rng.normal(size=(n, 3)), anchored, np.zeros(n - 1, bool))
+        check_impact(e, w_minus, a8, locked, alpha)

@@ -182,7 +182,7 @@ def build_rows(e, w, anchored, locked, J, kind, nrow, rhs, with_acc_rhs):
 def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
     """``build_rows`` without J, for the fixed-size path, in one pass that carries each
     segment's |w|^2, de = w x e and airborne flag to the next point.  Returns False if
-    some point needs more than 4 rows (then the general path must be used)."""
+    some point does not fit that path (then the general path must be used)."""
     n = e.shape[0]
     fits = True
     a_air = False
@@ -206,8 +206,15 @@ def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
                 for q in range(3):
                     rhs[j, q] = -(wa2 * e[j - 1, q] + wc2 * e[j, q])
                 r = 3
-        elif a_air and c_air:
-            fits = False  # an anchor between two airborne segments: 6 rows
+        elif a_air and c_air:  # an anchor between two airborne segments: 6 rows
+            kind[j, 0] = kind[j, 1] = kind[j, 2] = ROW_ANCHOR_LOWER
+            kind[j, 3] = kind[j, 4] = kind[j, 5] = ROW_ANCHOR_UPPER
+            for q in range(3):
+                rhs[j, q] = -wa2 * e[j - 1, q]
+                rhs[j, 3 + q] = wc2 * e[j, q]
+            rhs[j, 2] += 1.0
+            rhs[j, 5] += 1.0
+            r = 6
         elif a_air:
             kind[j, 0] = kind[j, 1] = kind[j, 2] = ROW_ANCHOR_LOWER
             for q in range(3):
@@ -221,7 +228,7 @@ def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
             rhs[j, 2] += 1.0
             r = 3
         if j >= 1 and j < n and locked[j - 1] != 0:
-            if r == 0:
+            if r != 3:  # a lock row with no end rows, or beside a split anchor: 7 rows
                 fits = False
             kind[j, r] = ROW_LOCK
             cdot = e[j - 1, 0] * e[j, 0] + e[j - 1, 1] * e[j, 1] + e[j - 1, 2] * e[j, 2]
@@ -424,12 +431,47 @@ def _lock_vector(e, j, nr):
 
 @njit(cache=True)
 def _fits4(nrow):
-    """Every point has 0, 3 or 4 rows (one end group and at most one lock row)."""
+    """Every point has 0, 3 or 4 rows (one end group and at most one lock row), or 6
+    (an anchor between two airborne segments, without a lock row)."""
     for j in range(nrow.shape[0]):
         r = nrow[j]
-        if r != 0 and r != 3 and r != 4:
+        if r != 0 and r != 3 and r != 4 and r != 6:
             return False
     return True
+
+
+@njit(cache=True, inline="always")
+def _ldl3(s00, s10, s11, s20, s21, s22, d00, d11, d22, drop, j, r0):
+    """L P L^T of a 3 x 3 block (lower triangle s), dropping redundant rows (pivot below
+    DROP_RTOL of the diagonal d_kk; flags at drop[j, r0 + k]).  Returns (1/p0, L10, L20,
+    1/p1, L21, 1/p2, rows dropped)."""
+    nd = 0
+    i0 = i1 = i2 = 0.0
+    if s00 <= DROP_RTOL * max(abs(d00), 1e-300):
+        drop[j, r0] = 1
+        nd += 1
+    else:
+        drop[j, r0] = 0
+        i0 = 1.0 / s00
+    l10 = s10 * i0
+    l20 = s20 * i0
+    p = s11 - l10 * s10
+    w21 = s21 - l20 * s10
+    if p <= DROP_RTOL * max(abs(d11), 1e-300):
+        drop[j, r0 + 1] = 1
+        nd += 1
+    else:
+        drop[j, r0 + 1] = 0
+        i1 = 1.0 / p
+    l21 = w21 * i1
+    p = s22 - l20 * s20 - l21 * w21
+    if p <= DROP_RTOL * max(abs(d22), 1e-300):
+        drop[j, r0 + 2] = 1
+        nd += 1
+    else:
+        drop[j, r0 + 2] = 0
+        i2 = 1.0 / p
+    return i0, l10, l20, i1, l21, i2, nd
 
 
 @njit(cache=True)
@@ -465,91 +507,133 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         qc = cw * Bc * Bc
         na2 = ea0 * ea0 + ea1 * ea1 + ea2 * ea2  # |e|^2: 1 only on the constraint manifold
         nc2 = ec0 * ec0 + ec1 * ec1 + ec2 * ec2
-        base = av * Aa * Aa + qa * na2 + cv * Ac * Ac + qc * nc2
-        d00 = base - qa * ea0 * ea0 - qc * ec0 * ec0
-        d10 = - qa * ea1 * ea0 - qc * ec1 * ec0
-        d11 = base - qa * ea1 * ea1 - qc * ec1 * ec1
-        d20 = - qa * ea2 * ea0 - qc * ec2 * ec0
-        d21 = - qa * ea2 * ea1 - qc * ec2 * ec1
-        d22 = base - qa * ea2 * ea2 - qc * ec2 * ec2
-        if nr == 4:
-            la = aw * Ba
-            lc = cw * Bc
-            d30 = la * (ea1 * nz - ea2 * ny) - lc * (ec1 * nz - ec2 * ny)
-            d31 = la * (ea2 * nx - ea0 * nz) - lc * (ec2 * nx - ec0 * nz)
-            d32 = la * (ea0 * ny - ea1 * nx) - lc * (ec0 * ny - ec1 * nx)
-            d33 = (aw + cw) * (nx * nx + ny * ny + nz * nz)
-        else:
-            d30 = d31 = d32 = 0.0
-            d33 = 1.0
-        # Schur complement D_j - F_{j-1}^T H_{j-1}
-        s00 = d00 - u00
-        s10 = d10 - u10
-        s11 = d11 - u11
-        s20 = d20 - u20
-        s21 = d21 - u21
-        s22 = d22 - u22
-        s30 = d30 - u30
-        s31 = d31 - u31
-        s32 = d32 - u32
-        s33 = d33 - u33
-        # L P L^T of the block, dropping redundant rows (and padding rows k >= nr):
-        # i_k = 1/p_k, or 0 for a dropped row; w_ik = L_ik p_k
-        p = s00
-        if p <= DROP_RTOL * max(abs(d00), 1e-300) or 0 >= nr:
-            if 0 < nr:
-                drop[j, 0] = 1
-                ndrop += 1
-            i0 = 0.0
-        else:
-            drop[j, 0] = 0
-            i0 = 1.0 / p
-        l10 = s10 * i0
-        l20 = s20 * i0
-        l30 = s30 * i0
-        p = s11 - l10 * s10
-        w21 = s21 - l20 * s10
-        w31 = s31 - l30 * s10
-        if p <= DROP_RTOL * max(abs(d11), 1e-300) or 1 >= nr:
-            if 1 < nr:
-                drop[j, 1] = 1
-                ndrop += 1
-            i1 = 0.0
-        else:
-            drop[j, 1] = 0
-            i1 = 1.0 / p
-        l21 = w21 * i1
-        l31 = w31 * i1
-        p = s22 - l20 * s20 - l21 * w21
-        w32 = s32 - l30 * s20 - l31 * w21
-        if p <= DROP_RTOL * max(abs(d22), 1e-300) or 2 >= nr:
-            if 2 < nr:
-                drop[j, 2] = 1
-                ndrop += 1
-            i2 = 0.0
-        else:
-            drop[j, 2] = 0
-            i2 = 1.0 / p
-        l32 = w32 * i2
-        p = s33 - l30 * s30 - l31 * w31 - l32 * w32
-        if p <= DROP_RTOL * max(abs(d33), 1e-300) or 3 >= nr:
-            if 3 < nr:
-                drop[j, 3] = 1
-                ndrop += 1
+        if nr == 6:
+            # an anchor between two airborne segments: its lower rows (segment a) end
+            # the sweep so far, its upper rows (segment c) start a new one (S[j, 4:7, 4:7])
+            t = aw * na2
+            d00 = av + t - aw * ea0 * ea0
+            d10 = - aw * ea1 * ea0
+            d11 = av + t - aw * ea1 * ea1
+            d20 = - aw * ea2 * ea0
+            d21 = - aw * ea2 * ea1
+            d22 = av + t - aw * ea2 * ea2
+            i0, l10, l20, i1, l21, i2, nd = _ldl3(d00 - u00, d10 - u10, d11 - u11, d20 - u20, d21 - u21,
+                                                  d22 - u22, d00, d11, d22, drop, j, 0)
+            ndrop += nd
+            S[j, 0, 0] = i0
+            S[j, 1, 0] = l10
+            S[j, 1, 1] = i1
+            S[j, 2, 0] = l20
+            S[j, 2, 1] = l21
+            S[j, 2, 2] = i2
+            S[j, 3, 0] = 0.0
+            S[j, 3, 1] = 0.0
+            S[j, 3, 2] = 0.0
+            S[j, 3, 3] = 0.0
+            t = cw * nc2
+            d00 = cv + t - cw * ec0 * ec0
+            d10 = - cw * ec1 * ec0
+            d11 = cv + t - cw * ec1 * ec1
+            d20 = - cw * ec2 * ec0
+            d21 = - cw * ec2 * ec1
+            d22 = cv + t - cw * ec2 * ec2
+            i0, l10, l20, i1, l21, i2, nd = _ldl3(d00, d10, d11, d20, d21, d22, d00, d11, d22, drop, j, 3)
+            ndrop += nd
+            S[j, 4, 4] = i0
+            S[j, 5, 4] = l10
+            S[j, 5, 5] = i1
+            S[j, 6, 4] = l20
+            S[j, 6, 5] = l21
+            S[j, 6, 6] = i2
             i3 = 0.0
+            l30 = l31 = l32 = 0.0
+            Ac, Bc = 1.0, -1.0  # the upper rows act on segment c as an upper anchor
         else:
-            drop[j, 3] = 0
-            i3 = 1.0 / p
-        S[j, 0, 0] = i0
-        S[j, 1, 0] = l10
-        S[j, 1, 1] = i1
-        S[j, 2, 0] = l20
-        S[j, 2, 1] = l21
-        S[j, 2, 2] = i2
-        S[j, 3, 0] = l30
-        S[j, 3, 1] = l31
-        S[j, 3, 2] = l32
-        S[j, 3, 3] = i3
+            base = av * Aa * Aa + qa * na2 + cv * Ac * Ac + qc * nc2
+            d00 = base - qa * ea0 * ea0 - qc * ec0 * ec0
+            d10 = - qa * ea1 * ea0 - qc * ec1 * ec0
+            d11 = base - qa * ea1 * ea1 - qc * ec1 * ec1
+            d20 = - qa * ea2 * ea0 - qc * ec2 * ec0
+            d21 = - qa * ea2 * ea1 - qc * ec2 * ec1
+            d22 = base - qa * ea2 * ea2 - qc * ec2 * ec2
+            if nr == 4:
+                la = aw * Ba
+                lc = cw * Bc
+                d30 = la * (ea1 * nz - ea2 * ny) - lc * (ec1 * nz - ec2 * ny)
+                d31 = la * (ea2 * nx - ea0 * nz) - lc * (ec2 * nx - ec0 * nz)
+                d32 = la * (ea0 * ny - ea1 * nx) - lc * (ec0 * ny - ec1 * nx)
+                d33 = (aw + cw) * (nx * nx + ny * ny + nz * nz)
+            else:
+                d30 = d31 = d32 = 0.0
+                d33 = 1.0
+            # Schur complement D_j - F_{j-1}^T H_{j-1}
+            s00 = d00 - u00
+            s10 = d10 - u10
+            s11 = d11 - u11
+            s20 = d20 - u20
+            s21 = d21 - u21
+            s22 = d22 - u22
+            s30 = d30 - u30
+            s31 = d31 - u31
+            s32 = d32 - u32
+            s33 = d33 - u33
+            # L P L^T of the block, dropping redundant rows (and padding rows k >= nr):
+            # i_k = 1/p_k, or 0 for a dropped row; w_ik = L_ik p_k
+            p = s00
+            if p <= DROP_RTOL * max(abs(d00), 1e-300) or 0 >= nr:
+                if 0 < nr:
+                    drop[j, 0] = 1
+                    ndrop += 1
+                i0 = 0.0
+            else:
+                drop[j, 0] = 0
+                i0 = 1.0 / p
+            l10 = s10 * i0
+            l20 = s20 * i0
+            l30 = s30 * i0
+            p = s11 - l10 * s10
+            w21 = s21 - l20 * s10
+            w31 = s31 - l30 * s10
+            if p <= DROP_RTOL * max(abs(d11), 1e-300) or 1 >= nr:
+                if 1 < nr:
+                    drop[j, 1] = 1
+                    ndrop += 1
+                i1 = 0.0
+            else:
+                drop[j, 1] = 0
+                i1 = 1.0 / p
+            l21 = w21 * i1
+            l31 = w31 * i1
+            p = s22 - l20 * s20 - l21 * w21
+            w32 = s32 - l30 * s20 - l31 * w21
+            if p <= DROP_RTOL * max(abs(d22), 1e-300) or 2 >= nr:
+                if 2 < nr:
+                    drop[j, 2] = 1
+                    ndrop += 1
+                i2 = 0.0
+            else:
+                drop[j, 2] = 0
+                i2 = 1.0 / p
+            l32 = w32 * i2
+            p = s33 - l30 * s30 - l31 * w31 - l32 * w32
+            if p <= DROP_RTOL * max(abs(d33), 1e-300) or 3 >= nr:
+                if 3 < nr:
+                    drop[j, 3] = 1
+                    ndrop += 1
+                i3 = 0.0
+            else:
+                drop[j, 3] = 0
+                i3 = 1.0 / p
+            S[j, 0, 0] = i0
+            S[j, 1, 0] = l10
+            S[j, 1, 1] = i1
+            S[j, 2, 0] = l20
+            S[j, 2, 1] = l21
+            S[j, 2, 2] = i2
+            S[j, 3, 0] = l30
+            S[j, 3, 1] = l31
+            S[j, 3, 2] = l32
+            S[j, 3, 3] = i3
         if j == n:
             break
         # E_j: rows of point j (side c, segment j) x rows of point j+1 (side a, segment j)
@@ -631,7 +715,7 @@ def solve4(nrow, S, G, rhs, x):
             x[j, 0] = 0.0; x[j, 1] = 0.0; x[j, 2] = 0.0; x[j, 3] = 0.0
             continue
         b0, b1, b2 = rhs[j, 0], rhs[j, 1], rhs[j, 2]
-        b3 = rhs[j, 3] if nr == 4 else 0.0
+        b3 = rhs[j, 3] if nr == 4 else 0.0  # (nr == 6: rhs[j, 3:6] are the upper rows)
         if j >= 1 and nrow[j - 1] != 0:
             b0 -= G[j - 1, 0, 0] * u0 + G[j - 1, 1, 0] * u1 + G[j - 1, 2, 0] * u2 + G[j - 1, 3, 0] * u3
             b1 -= G[j - 1, 0, 1] * u0 + G[j - 1, 1, 1] * u1 + G[j - 1, 2, 1] * u2 + G[j - 1, 3, 1] * u3
@@ -642,10 +726,34 @@ def solve4(nrow, S, G, rhs, x):
         u2 = b2 - S[j, 2, 0] * u0 - S[j, 2, 1] * u1
         u3 = b3 - S[j, 3, 0] * u0 - S[j, 3, 1] * u1 - S[j, 3, 2] * u2
         x[j, 0] = u0; x[j, 1] = u1; x[j, 2] = u2; x[j, 3] = u3
+        if nr == 6:  # the upper rows of a split anchor start afresh (factors in S[j, 4:7, 4:7])
+            u0 = rhs[j, 3]
+            u1 = rhs[j, 4] - S[j, 5, 4] * u0
+            u2 = rhs[j, 5] - S[j, 6, 4] * u0 - S[j, 6, 5] * u1
+            u3 = 0.0
+            x[j, 3] = u0; x[j, 4] = u1; x[j, 5] = u2
     z0 = z1 = z2 = z3 = 0.0
     for j in range(npts - 1, -1, -1):
         if nrow[j] == 0:
             z0 = z1 = z2 = z3 = 0.0
+            continue
+        if nrow[j] == 6:  # upper rows (coupled to j + 1), then the lower rows (to j - 1)
+            b0 = x[j, 3] * S[j, 4, 4]
+            b1 = x[j, 4] * S[j, 5, 5]
+            b2 = x[j, 5] * S[j, 6, 6]
+            if j < npts - 1:
+                b0 -= G[j, 0, 0] * z0 + G[j, 0, 1] * z1 + G[j, 0, 2] * z2 + G[j, 0, 3] * z3
+                b1 -= G[j, 1, 0] * z0 + G[j, 1, 1] * z1 + G[j, 1, 2] * z2 + G[j, 1, 3] * z3
+                b2 -= G[j, 2, 0] * z0 + G[j, 2, 1] * z1 + G[j, 2, 2] * z2 + G[j, 2, 3] * z3
+            z2 = b2
+            z1 = b1 - S[j, 6, 5] * z2
+            z0 = b0 - S[j, 5, 4] * z1 - S[j, 6, 4] * z2
+            x[j, 3] = z0; x[j, 4] = z1; x[j, 5] = z2
+            z2 = x[j, 2] * S[j, 2, 2]
+            z1 = x[j, 1] * S[j, 1, 1] - S[j, 2, 1] * z2
+            z0 = x[j, 0] * S[j, 0, 0] - S[j, 1, 0] * z1 - S[j, 2, 0] * z2
+            z3 = 0.0
+            x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2
             continue
         b0 = x[j, 0] * S[j, 0, 0]
         b1 = x[j, 1] * S[j, 1, 1]
@@ -712,8 +820,12 @@ def torques4(e, kind, nrow, x, gf):
             nr = nrow[j]
             Aa, Ba, Ac, Bc = _end_coeffs(kind[j, 0], nr)
             B = Ba if side == 1 else Bc
+            r0 = 0
+            if nr == 6 and side == 0:  # the upper rows of a split anchor
+                B = -1.0
+                r0 = 3
             if B != 0.0:
-                fx, fy, fz = x[j, 0], x[j, 1], x[j, 2]
+                fx, fy, fz = x[j, r0], x[j, r0 + 1], x[j, r0 + 2]
                 tx += B * (fy * ez - fz * ey)
                 ty += B * (fz * ex - fx * ez)
                 tz += B * (fx * ey - fy * ex)
@@ -927,10 +1039,11 @@ def constraint_rates4(e, w, anchored, kind, nrow, pv, vel, out):
             out[j, 0] += -vel[c, 0] + e[c, 1] * w[c, 2] - e[c, 2] * w[c, 1]
             out[j, 1] += -vel[c, 1] + e[c, 2] * w[c, 0] - e[c, 0] * w[c, 2]
             out[j, 2] += -vel[c, 2] + e[c, 0] * w[c, 1] - e[c, 1] * w[c, 0]
-        elif k0 == ROW_ANCHOR_UPPER:  # upper end of c: v_c - e_c x w_c
-            out[j, 0] += vel[c, 0] - e[c, 1] * w[c, 2] + e[c, 2] * w[c, 1]
-            out[j, 1] += vel[c, 1] - e[c, 2] * w[c, 0] + e[c, 0] * w[c, 2]
-            out[j, 2] += vel[c, 2] - e[c, 0] * w[c, 1] + e[c, 1] * w[c, 0]
+        elif k0 == ROW_ANCHOR_UPPER or nr == 6:  # upper end of c: v_c - e_c x w_c
+            r0 = 3 if nr == 6 else 0  # (rows 3:6 of a split anchor)
+            out[j, r0] = vel[c, 0] - e[c, 1] * w[c, 2] + e[c, 2] * w[c, 1]
+            out[j, r0 + 1] = vel[c, 1] - e[c, 2] * w[c, 0] + e[c, 0] * w[c, 2]
+            out[j, r0 + 2] = vel[c, 2] - e[c, 0] * w[c, 1] + e[c, 1] * w[c, 0]
         if nr == 4:
             nx = e[a, 1] * e[c, 2] - e[a, 2] * e[c, 1]
             ny = e[a, 2] * e[c, 0] - e[a, 0] * e[c, 2]
