@@ -441,36 +441,37 @@ def _fits4(nrow):
 
 
 @njit(cache=True, inline="always")
+def _inverse_pivot(p, dkk, k, nr, drop, j, r):
+    """(1/p, 0) for the pivot p of row k of a block with nr rows, its flag drop[j, r]
+    cleared; (0, 1) with the flag set if the row is redundant (p below DROP_RTOL of its
+    diagonal dkk); (0, 0) for a padding row (k >= nr)."""
+    if k >= nr:
+        return 0.0, 0
+    if p <= DROP_RTOL * max(abs(dkk), 1e-300):
+        drop[j, r] = 1
+        return 0.0, 1
+    drop[j, r] = 0
+    return 1.0 / p, 0
+
+
+@njit(cache=True, inline="always")
 def _ldl3(s00, s10, s11, s20, s21, s22, d00, d11, d22, drop, j, r0):
     """L P L^T of a 3 x 3 block (lower triangle s), dropping redundant rows (pivot below
     DROP_RTOL of the diagonal d_kk; flags at drop[j, r0 + k]).  Returns (1/p0, L10, L20,
     1/p1, L21, 1/p2, rows dropped)."""
     nd = 0
-    i0 = i1 = i2 = 0.0
-    if s00 <= DROP_RTOL * max(abs(d00), 1e-300):
-        drop[j, r0] = 1
-        nd += 1
-    else:
-        drop[j, r0] = 0
-        i0 = 1.0 / s00
+    i0, dk = _inverse_pivot(s00, d00, 0, 3, drop, j, r0)
+    nd += dk
     l10 = s10 * i0
     l20 = s20 * i0
     p = s11 - l10 * s10
     w21 = s21 - l20 * s10
-    if p <= DROP_RTOL * max(abs(d11), 1e-300):
-        drop[j, r0 + 1] = 1
-        nd += 1
-    else:
-        drop[j, r0 + 1] = 0
-        i1 = 1.0 / p
+    i1, dk = _inverse_pivot(p, d11, 1, 3, drop, j, r0 + 1)
+    nd += dk
     l21 = w21 * i1
     p = s22 - l20 * s20 - l21 * w21
-    if p <= DROP_RTOL * max(abs(d22), 1e-300):
-        drop[j, r0 + 2] = 1
-        nd += 1
-    else:
-        drop[j, r0 + 2] = 0
-        i2 = 1.0 / p
+    i2, dk = _inverse_pivot(p, d22, 2, 3, drop, j, r0 + 2)
+    nd += dk
     return i0, l10, l20, i1, l21, i2, nd
 
 
@@ -580,50 +581,26 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
             # L P L^T of the block, dropping redundant rows (and padding rows k >= nr):
             # i_k = 1/p_k, or 0 for a dropped row; w_ik = L_ik p_k
             p = s00
-            if p <= DROP_RTOL * max(abs(d00), 1e-300) or 0 >= nr:
-                if 0 < nr:
-                    drop[j, 0] = 1
-                    ndrop += 1
-                i0 = 0.0
-            else:
-                drop[j, 0] = 0
-                i0 = 1.0 / p
+            i0, nd = _inverse_pivot(p, d00, 0, nr, drop, j, 0)
+            ndrop += nd
             l10 = s10 * i0
             l20 = s20 * i0
             l30 = s30 * i0
             p = s11 - l10 * s10
             w21 = s21 - l20 * s10
             w31 = s31 - l30 * s10
-            if p <= DROP_RTOL * max(abs(d11), 1e-300) or 1 >= nr:
-                if 1 < nr:
-                    drop[j, 1] = 1
-                    ndrop += 1
-                i1 = 0.0
-            else:
-                drop[j, 1] = 0
-                i1 = 1.0 / p
+            i1, nd = _inverse_pivot(p, d11, 1, nr, drop, j, 1)
+            ndrop += nd
             l21 = w21 * i1
             l31 = w31 * i1
             p = s22 - l20 * s20 - l21 * w21
             w32 = s32 - l30 * s20 - l31 * w21
-            if p <= DROP_RTOL * max(abs(d22), 1e-300) or 2 >= nr:
-                if 2 < nr:
-                    drop[j, 2] = 1
-                    ndrop += 1
-                i2 = 0.0
-            else:
-                drop[j, 2] = 0
-                i2 = 1.0 / p
+            i2, nd = _inverse_pivot(p, d22, 2, nr, drop, j, 2)
+            ndrop += nd
             l32 = w32 * i2
             p = s33 - l30 * s30 - l31 * w31 - l32 * w32
-            if p <= DROP_RTOL * max(abs(d33), 1e-300) or 3 >= nr:
-                if 3 < nr:
-                    drop[j, 3] = 1
-                    ndrop += 1
-                i3 = 0.0
-            else:
-                drop[j, 3] = 0
-                i3 = 1.0 / p
+            i3, nd = _inverse_pivot(p, d33, 3, nr, drop, j, 3)
+            ndrop += nd
             S[j, 0, 0] = i0
             S[j, 1, 0] = l10
             S[j, 1, 1] = i1
