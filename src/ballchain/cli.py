@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 from pathlib import Path
 from typing import Any, Optional
 
@@ -139,7 +140,10 @@ def run_summary(result) -> dict:
     """``Result.summary()`` and the measurements of ``analysis`` on it: ``gamma_measured``
     (Hamm-Geminard gamma from the floor's momentum record, analysis.floor_gamma) and
     ``gamma_inferred`` (the gamma whose fall time is t_fall/t_ff); and
-    ``wall_includes_compile`` (the run compiled the kernels first: its wall time has it)."""
+    ``wall_includes_compile`` (the run compiled the kernels first: its wall time has it;
+    false for runs of the command line, which loads the kernels before the run), and
+    from the command line ``setup_seconds`` (loading, or the first time compiling, the
+    kernels before the run) and ``setup_compiled``."""
     from .analysis import floor_gamma
     from .theory import gamma_from_time_ratio
 
@@ -154,7 +158,11 @@ def run_summary(result) -> dict:
         gi = math.nan
     s["gamma_measured"] = gm if math.isfinite(gm) else None
     s["gamma_inferred"] = gi if math.isfinite(gi) else None
-    s["wall_includes_compile"] = bool(getattr(result, "extra", {}).get("compiled_kernels", False))
+    extra = getattr(result, "extra", {})
+    s["wall_includes_compile"] = bool(extra.get("compiled_kernels", False))
+    if "setup_seconds" in extra:
+        s["setup_seconds"] = float(extra["setup_seconds"])
+        s["setup_compiled"] = bool(extra.get("setup_compiled", False))
     return s
 
 
@@ -225,6 +233,10 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     lines.append(f"  wall time          {_fmt(s.get('wall_seconds'), '.3g')} s "
                  f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)"
                  + ("; includes compiling the kernels (first run only)" if s.get("wall_includes_compile") else ""))
+    if s.get("setup_seconds") is not None:
+        lines.append(f"  kernels            {'compiled' if s.get('setup_compiled') else 'loaded'} in "
+                     f"{_fmt(s['setup_seconds'], '.2g')} s before the run"
+                     + (" (first run only: cached afterwards)" if s.get("setup_compiled") else ""))
     if output:
         lines.append(f"  output             {output}")
     return "\n".join(lines)
@@ -242,14 +254,17 @@ def _progress_console():
 
 
 def _run_engine(params, init, options, show_progress: bool, state=None):
-    from .engine import kernels_cached, simulate  # lazy: the engine (numba) is heavy to import
+    from .engine import kernels_cached, load_kernels, simulate  # lazy: the engine (numba) is heavy to import
 
     cold = not kernels_cached()
     if cold:
         typer.echo("compiling the numba kernels (first run only; about a minute, cached afterwards)...", err=True)
+    t0 = time.perf_counter()
+    load_kernels()  # before the run: its wall time is the integration alone
+    setup = time.perf_counter() - t0
     result = _simulate_with_progress(simulate, params, init, options, show_progress, state)
-    if cold:  # the run's wall time includes the compile
-        result.extra["compiled_kernels"] = True
+    result.extra["setup_seconds"] = setup
+    result.extra["setup_compiled"] = cold
     return result
 
 

@@ -65,6 +65,15 @@ def kernels_cached() -> bool:
         return True
 
 
+def load_kernels() -> bool:
+    """Load the compiled kernels from numba's cache (the first time: compile them) with
+    a tiny run, so that the wall time of the next run is its integration alone.  Returns
+    whether they had to be compiled."""
+    cold = not kernels_cached()
+    simulate(ChainParams(segments=2), InitialCondition(), SolverOptions(until=0.05))
+    return cold
+
+
 class SimulationError(RuntimeError):
     """A run that cannot go on (blow-up, event accumulation, singular configuration)."""
 

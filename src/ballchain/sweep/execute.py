@@ -43,13 +43,11 @@ def run_task(task: Task) -> dict:
 
 
 def warm_kernels() -> bool:
-    """Load (or, the first time, compile) the numba kernels with a tiny run.  Returns
-    whether they had to be compiled."""
-    from ..engine import kernels_cached, simulate
+    """Load (or, the first time, compile) the numba kernels (``engine.load_kernels``).
+    Returns whether they had to be compiled."""
+    from ..engine import load_kernels
 
-    cold = not kernels_cached()
-    simulate(ChainParams(segments=2), InitialCondition(), SolverOptions(until=0.05))
-    return cold
+    return load_kernels()
 
 
 @dataclass
