@@ -711,17 +711,21 @@ def solve4(nrow, S, G, rhs, x):
             x[j, 3] = u0; x[j, 4] = u1; x[j, 5] = u2
     z0 = z1 = z2 = z3 = 0.0
     for j in range(npts - 1, -1, -1):
-        if nrow[j] == 0:
+        nr = nrow[j]
+        if nr == 0:
             z0 = z1 = z2 = z3 = 0.0
             continue
-        if nrow[j] == 6:  # upper rows (coupled to j + 1), then the lower rows (to j - 1)
-            b0 = x[j, 3] * S[j, 4, 4]
-            b1 = x[j, 4] * S[j, 5, 5]
-            b2 = x[j, 5] * S[j, 6, 6]
-            if j < npts - 1:
-                b0 -= G[j, 0, 0] * z0 + G[j, 0, 1] * z1 + G[j, 0, 2] * z2 + G[j, 0, 3] * z3
-                b1 -= G[j, 1, 0] * z0 + G[j, 1, 1] * z1 + G[j, 1, 2] * z2 + G[j, 1, 3] * z3
-                b2 -= G[j, 2, 0] * z0 + G[j, 2, 1] * z1 + G[j, 2, 2] * z2 + G[j, 2, 3] * z3
+        # H_j x_{j+1}: the coupling to the next point (of the upper rows of a split anchor)
+        c0 = c1 = c2 = c3 = 0.0
+        if j < npts - 1:
+            c0 = G[j, 0, 0] * z0 + G[j, 0, 1] * z1 + G[j, 0, 2] * z2 + G[j, 0, 3] * z3
+            c1 = G[j, 1, 0] * z0 + G[j, 1, 1] * z1 + G[j, 1, 2] * z2 + G[j, 1, 3] * z3
+            c2 = G[j, 2, 0] * z0 + G[j, 2, 1] * z1 + G[j, 2, 2] * z2 + G[j, 2, 3] * z3
+            c3 = G[j, 3, 0] * z0 + G[j, 3, 1] * z1 + G[j, 3, 2] * z2 + G[j, 3, 3] * z3
+        if nr == 6:  # upper rows (coupled to j + 1), then the lower rows (to j - 1)
+            b2 = x[j, 5] * S[j, 6, 6] - c2
+            b1 = x[j, 4] * S[j, 5, 5] - c1
+            b0 = x[j, 3] * S[j, 4, 4] - c0
             z2 = b2
             z1 = b1 - S[j, 6, 5] * z2
             z0 = b0 - S[j, 5, 4] * z1 - S[j, 6, 4] * z2
@@ -732,19 +736,10 @@ def solve4(nrow, S, G, rhs, x):
             z3 = 0.0
             x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2
             continue
-        b0 = x[j, 0] * S[j, 0, 0]
-        b1 = x[j, 1] * S[j, 1, 1]
-        b2 = x[j, 2] * S[j, 2, 2]
-        b3 = x[j, 3] * S[j, 3, 3]
-        if j < npts - 1:
-            b0 -= G[j, 0, 0] * z0 + G[j, 0, 1] * z1 + G[j, 0, 2] * z2 + G[j, 0, 3] * z3
-            b1 -= G[j, 1, 0] * z0 + G[j, 1, 1] * z1 + G[j, 1, 2] * z2 + G[j, 1, 3] * z3
-            b2 -= G[j, 2, 0] * z0 + G[j, 2, 1] * z1 + G[j, 2, 2] * z2 + G[j, 2, 3] * z3
-            b3 -= G[j, 3, 0] * z0 + G[j, 3, 1] * z1 + G[j, 3, 2] * z2 + G[j, 3, 3] * z3
-        z3 = b3
-        z2 = b2 - S[j, 3, 2] * z3
-        z1 = b1 - S[j, 2, 1] * z2 - S[j, 3, 1] * z3
-        z0 = b0 - S[j, 1, 0] * z1 - S[j, 2, 0] * z2 - S[j, 3, 0] * z3
+        z3 = x[j, 3] * S[j, 3, 3] - c3
+        z2 = x[j, 2] * S[j, 2, 2] - c2 - S[j, 3, 2] * z3
+        z1 = x[j, 1] * S[j, 1, 1] - c1 - S[j, 2, 1] * z2 - S[j, 3, 1] * z3
+        z0 = x[j, 0] * S[j, 0, 0] - c0 - S[j, 1, 0] * z1 - S[j, 2, 0] * z2 - S[j, 3, 0] * z3
         x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2; x[j, 3] = z3
 
 
