@@ -38,6 +38,17 @@ import numpy as np
 from numba import njit
 
 MAXR = 7  # rows per point at most: 3 + 3 + 1
+# factor4's restart record: rows MAXR .. MAXR+2 of S[j] (below the factors) hold what
+# point j's block was computed from: the Schur complement carried into it (10 values),
+# the rows dropped above it, its row count, first row kind and anchor flag, and the axis
+# of segment j; S[0, REC_E, REC_VALID] = 1 while S, G, drop hold factor4's factors of
+# those inputs (factor_general clears it).  A refactorisation restarts at the first
+# point whose inputs changed: the trials of an impact or a lock set, the projection and
+# the first evaluation after an event share the axes and differ only in a few rows.
+# The record is kept only while S[0, REC_E, REC_ON] = 1 (``reuse_factors``: during an
+# event instant); between events every evaluation has new axes and records nothing.
+REC_U, REC_P, REC_E = MAXR, MAXR + 1, MAXR + 2
+REC_VALID, REC_NDROP, REC_ON = 3, 4, 5
 ROW_HINGE, ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_LOCK = 0, 1, 2, 3
 W_V, W_W = 1.0, 3.0  # inverse mass and inverse moment of inertia, nondimensional
 DROP_RTOL = 1e-11  # relative pivot below which a constraint row is treated as redundant
@@ -52,7 +63,7 @@ class Workspace:
         self.J = np.zeros((p, MAXR, 12))
         self.kind = np.zeros((p, MAXR), dtype=np.int8)
         self.nrow = np.zeros(p, dtype=np.int64)
-        self.S = np.zeros((p, MAXR, MAXR))
+        self.S = np.zeros((p, MAXR + 3, MAXR))  # factors, then factor4's restart record
         self.G = np.zeros((p, MAXR, MAXR))
         self.drop = np.zeros((p, MAXR), dtype=np.uint8)
         self.rhs = np.zeros((p, MAXR))
@@ -306,6 +317,7 @@ def factor_general(anchored, J, nrow, S, G, drop):
     (the coupling of points j and j+1 through their shared segment j)."""
     npts = nrow.shape[0]
     n = npts - 1
+    S[0, REC_E, REC_VALID] = 0.0  # S, G, drop no longer hold factor4's factors
     E = np.zeros((MAXR, MAXR))  # E_j, kept for the next point's Schur complement
     col = np.empty(MAXR)
     ndrop = 0
@@ -482,13 +494,33 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
     dropped."""
     npts = nrow.shape[0]
     n = npts - 1
-    ndrop = 0
+    rec = S[0, REC_E, REC_ON] == 1.0
+    j0 = _restart_point(e, anchored, kind, nrow, S) if rec else 0
+    if j0 == npts:  # the same inputs as the factors held
+        return np.int64(S[0, REC_E, REC_NDROP])
+    S[0, REC_E, REC_VALID] = 0.0
     # u = F_{j-1}^T H_{j-1}, the previous point's part of the Schur complement
     u00 = u10 = u11 = u20 = u21 = u22 = u30 = u31 = u32 = u33 = 0.0
-    nr = nrow[0]
-    Aa, Ba, Ac, Bc = _end_coeffs(kind[0, 0], nr)
-    nx, ny, nz = _lock_vector(e, 0, nr)
-    for j in range(npts):
+    ndrop = 0
+    if j0 > 0:
+        u00, u10, u11, u20 = S[j0, REC_U, 0], S[j0, REC_U, 1], S[j0, REC_U, 2], S[j0, REC_U, 3]
+        u21, u22, u30 = S[j0, REC_U, 4], S[j0, REC_U, 5], S[j0, REC_U, 6]
+        u31, u32, u33 = S[j0, REC_P, 0], S[j0, REC_P, 1], S[j0, REC_P, 2]
+        ndrop = np.int64(S[j0, REC_P, 3])
+    nr = nrow[j0]
+    Aa, Ba, Ac, Bc = _end_coeffs(kind[j0, 0], nr)
+    nx, ny, nz = _lock_vector(e, j0, nr)
+    for j in range(j0, npts):
+        if rec:  # the restart record of point j (what its block is computed from)
+            S[j, REC_U, 0] = u00; S[j, REC_U, 1] = u10; S[j, REC_U, 2] = u11; S[j, REC_U, 3] = u20
+            S[j, REC_U, 4] = u21; S[j, REC_U, 5] = u22; S[j, REC_U, 6] = u30
+            S[j, REC_P, 0] = u31; S[j, REC_P, 1] = u32; S[j, REC_P, 2] = u33
+            S[j, REC_P, 3] = ndrop
+            S[j, REC_P, 4] = nr
+            S[j, REC_P, 5] = kind[j, 0]
+            S[j, REC_P, 6] = anchored[j]
+            if j < n:
+                S[j, REC_E, 0] = e[j, 0]; S[j, REC_E, 1] = e[j, 1]; S[j, REC_E, 2] = e[j, 2]
         if nr == 0:  # no rows: E_{j-1} = E_j = 0
             u00 = u10 = u11 = u20 = u21 = u22 = u30 = u31 = u32 = u33 = 0.0
             if j == n:
@@ -676,7 +708,44 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         nr = nr1
         Aa, Ba, Ac, Bc = Aa1, Ba1, Ac1, Bc1
         nx, ny, nz = mx, my, mz
+    if rec:
+        S[0, REC_E, REC_NDROP] = ndrop
+        S[0, REC_E, REC_VALID] = 1.0
     return ndrop
+
+
+@njit(cache=True)
+def reuse_factors(S, on):
+    """Keep factor4's restart record (on: during an event instant, where J W J^T is
+    factored many times for the same axes) or stop keeping it (off: between events,
+    where every evaluation has new axes; the record is dropped)."""
+    S[0, REC_E, REC_ON] = 1.0 if on else 0.0
+    if not on:
+        S[0, REC_E, REC_VALID] = 0.0
+
+
+@njit(cache=True)
+def _restart_point(e, anchored, kind, nrow, S):
+    """The first point whose block factor4 must recompute: npts if S holds the factors
+    of these very inputs, else one above the first segment or point whose inputs
+    differ from the restart record (point j's block reads segments j-1..j+1 and the
+    rows and anchor flags of points j-1..j+1), 0 if there is no valid record."""
+    npts = nrow.shape[0]
+    n = npts - 1
+    if S[0, REC_E, REC_VALID] != 1.0:
+        return 0
+    first = npts
+    for i in range(n):
+        if e[i, 0] != S[i, REC_E, 0] or e[i, 1] != S[i, REC_E, 1] or e[i, 2] != S[i, REC_E, 2]:
+            first = i
+            break
+    for j in range(first if first < npts else npts):
+        if nrow[j] != S[j, REC_P, 4] or kind[j, 0] != S[j, REC_P, 5] or anchored[j] != S[j, REC_P, 6]:
+            first = j
+            break
+    if first == npts:
+        return npts
+    return max(first - 1, 0)
 
 
 @njit(cache=True)

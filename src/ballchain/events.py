@@ -32,7 +32,7 @@ import numpy as np
 
 from numba import njit
 
-from .dynamics import kinetic_energy, point_positions, project_state, velocities
+from .dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
 from .impacts import hinge_gaps, hinge_rates, lock_set, velocity_impact
 from .result import EVENT_CODES
 from .integrator import ADV_EVENT, EV_LANDING, EV_TOP, EV_UNLOCK, PROJ_TOL, advance
@@ -162,6 +162,7 @@ def handle_event(t, ev_kind, ev_idx, ev_time, nev, xtol, hold_rate, hold_apex, a
     n = e.shape[0]
     nh = n - 1
     cos_alpha = math.cos(alpha)
+    reuse_factors(S, np.bool_(True))  # the axes stay (off after the next evaluation: integrator.advance)
     point_positions(e, pts)  # (positions do not change at an instant)
     # 1. unlocks; the top end crossing the floor in the pivot model
     for k in range(nh):

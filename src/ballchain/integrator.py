@@ -50,6 +50,7 @@ from .dynamics import (
     lock_multipliers,
     potential_energy,
     project_state,
+    reuse_factors,
 )
 from .rules import ARMED, DEPARTING, OFF, ZERO_BAND, floor_value, floor_values
 
@@ -132,9 +133,11 @@ def _stage_rhs(Y, anchored, locked, ws, dY, F):
 
 
 @njit(cache=True)
-def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F):
+def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F, last):
     """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y), F[0] given);
-    Y1 = the 5th-order solution, K[6] = f(Y1); F[s] the anchors' force at stage s."""
+    Y1 = the 5th-order solution, K[6] = f(Y1) (only if ``last``: the error estimate
+    needs it, the 5th-order solution and the floor's quadrature do not); F[s] the
+    anchors' force at stage s."""
     n = Y.shape[1]
     for s in range(1, 7):
         for a in range(2):
@@ -155,7 +158,8 @@ def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F):
                 for i in range(n):
                     for q in range(3):
                         Y1[a, i, q] = Ytmp[a, i, q]
-            _stage_rhs(Y1, anchored, locked, ws, K[6], F[6])
+            if last:
+                _stage_rhs(Y1, anchored, locked, ws, K[6], F[6])
 
 
 @njit(cache=True)
@@ -433,6 +437,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
         _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
         counters[1] += 1
     fsal[0] = 0
+    reuse_factors(ws[3], np.bool_(False))  # the steps have new axes at every stage
     nfail = 0
     while True:
         if counters[0] >= max_steps:
@@ -451,7 +456,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
         if h < 1e-14 * max(1.0, abs(t)):
             return ADV_FAIL_STEP, t, h
         # --- one Dormand-Prince step
-        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F)
+        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F, np.bool_(True))
         counters[1] += 6
         err = _step_error(Y, Y1, K, h, rtol, atol)
         if not math.isfinite(err) or _nonfinite(Y1):
@@ -553,8 +558,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
                                 K2[0, a, i, q] = K[0, a, i, q]
                     for q in range(3):
                         F2[0, q] = F[0, q]
-                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, ws, F2)
-                    counters[1] += 6
+                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, ws, F2, np.bool_(False))
+                    counters[1] += 5
                     floor_impulse_step(theta_stop * h, F2, n_landed, fint)
                     for a in range(2):
                         for i in range(n):
