@@ -38,6 +38,7 @@ meaning does not change with N.
 from __future__ import annotations
 
 import math
+from fractions import Fraction as Fr
 
 import numpy as np
 from numba import njit
@@ -75,6 +76,35 @@ P = np.array([
     [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
     [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
 ])
+
+
+
+def _hermite_birkhoff_inverse(sa, sb):
+    """Exact inverse of the 4 x 4 system for the coefficients a_2..a_5 of the quintic
+    p(s) = y0 + s h f0 + sum_m a_m s^m with p(1) = y1, p'(1) = h f1, p'(sa) = h fa,
+    p'(sb) = h fb (rows in that order)."""
+    m = [[Fr(1)] * 4, [Fr(2), Fr(3), Fr(4), Fr(5)],
+         [2 * sa, 3 * sa ** 2, 4 * sa ** 3, 5 * sa ** 4], [2 * sb, 3 * sb ** 2, 4 * sb ** 3, 5 * sb ** 4]]
+    inv = [[Fr(int(i == j)) for j in range(4)] for i in range(4)]
+    for col in range(4):  # Gauss-Jordan in exact rationals
+        piv = next(r for r in range(col, 4) if m[r][col] != 0)
+        m[col], m[piv] = m[piv], m[col]
+        inv[col], inv[piv] = inv[piv], inv[col]
+        d = m[col][col]
+        m[col] = [v / d for v in m[col]]
+        inv[col] = [v / d for v in inv[col]]
+        for r in range(4):
+            if r != col and m[r][col] != 0:
+                fac = m[r][col]
+                m[r] = [a - fac * b for a, b in zip(m[r], m[col])]
+                inv[r] = [a - fac * b for a, b in zip(inv[r], inv[col])]
+    return np.array([[float(v) for v in row] for row in inv])
+
+
+# the state at an event: a quintic through the step's ends and f at the 4th-order dense
+# output at these nodes (``_event_state``)
+HB_NODES = np.array([1 / 3, 2 / 3])
+HB_MINV = _hermite_birkhoff_inverse(Fr(1, 3), Fr(2, 3))
 
 EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP = 1, 2, 3, 4
 ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0, 1, 2, 3, 4, 5
@@ -133,11 +163,9 @@ def _stage_rhs(Y, anchored, locked, ws, dY, F):
 
 
 @njit(cache=True)
-def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F, last):
+def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F):
     """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y), F[0] given);
-    Y1 = the 5th-order solution, K[6] = f(Y1) (only if ``last``: the error estimate
-    needs it, the 5th-order solution and the floor's quadrature do not); F[s] the
-    anchors' force at stage s."""
+    Y1 = the 5th-order solution, K[6] = f(Y1); F[s] the anchors' force at stage s."""
     n = Y.shape[1]
     for s in range(1, 7):
         for a in range(2):
@@ -158,8 +186,48 @@ def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F, last):
                 for i in range(n):
                     for q in range(3):
                         Y1[a, i, q] = Ytmp[a, i, q]
-            if last:
-                _stage_rhs(Y1, anchored, locked, ws, K[6], F[6])
+            _stage_rhs(Y1, anchored, locked, ws, K[6], F[6])
+
+
+@njit(cache=True)
+def _event_state(Y, K, K2, F, F2, Y1, Ytmp, h, theta, anchored, locked, ws, n_landed, fint):
+    """Y <- the state at t0 + theta h of the step from Y (stages K, F; Y1 its 5th-order
+    end, K[6] = f(Y1)), fint advanced to that time.  The quintic p(s), s in [0, 1], with
+    p(0) = y0, p'(0) = h f0, p(1) = y1, p'(1) = h f(y1) and p'(s_r) = h f(y(s_r)) at the
+    nodes s_r = 1/3, 2/3, y(s_r) from the 4th-order continuous extension: two
+    evaluations (K2[1:3], F2[1:3]), against five for a new step to t0 + theta h, and a
+    local error of the step's own order, O(h^6) (the data's errors enter times h).
+    With c = M^-T (theta^2 .. theta^5) (``HB_MINV``):
+      p(theta) = y0 + theta h f0 + c0 (y1 - y0 - h f0) + c1 h (f1 - f0)
+                 + c2 h (f(y(1/3)) - f0) + c3 h (f(y(2/3)) - f0).
+    The floor's impulse, the integral of F (an extra state J' = F), the same way."""
+    n = Y.shape[1]
+    for r in range(2):
+        _dense(Y, K, h, HB_NODES[r], Ytmp)
+        _stage_rhs(Ytmp, anchored, locked, ws, K2[1 + r], F2[1 + r])
+    c0 = c1 = c2 = c3 = 0.0
+    tp = theta * theta
+    for m in range(4):
+        c0 += HB_MINV[m, 0] * tp
+        c1 += HB_MINV[m, 1] * tp
+        c2 += HB_MINV[m, 2] * tp
+        c3 += HB_MINV[m, 3] * tp
+        tp *= theta
+    for a in range(2):
+        for i in range(n):
+            for q in range(3):
+                y0 = Y[a, i, q]
+                k0 = h * K[0, a, i, q]
+                Y[a, i, q] = (y0 + theta * k0 + c0 * (Y1[a, i, q] - y0 - k0) + c1 * (h * K[6, a, i, q] - k0)
+                              + c2 * (h * K2[1, a, i, q] - k0) + c3 * (h * K2[2, a, i, q] - k0))
+    for q in range(3):
+        acc = 0.0
+        for s in range(6):
+            acc += B[s] * F[s, q]
+        k0 = h * F[0, q]
+        fint[q] += (theta * k0 + c0 * (h * acc - k0) + c1 * (h * F[6, q] - k0) + c2 * (h * F2[1, q] - k0)
+                    + c3 * (h * F2[2, q] - k0))
+    fint[2] += theta * h * n_landed
 
 
 @njit(cache=True)
@@ -456,7 +524,7 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
         if h < 1e-14 * max(1.0, abs(t)):
             return ADV_FAIL_STEP, t, h
         # --- one Dormand-Prince step
-        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F, np.bool_(True))
+        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F)
         counters[1] += 6
         err = _step_error(Y, Y1, K, h, rtol, atol)
         if not math.isfinite(err) or _nonfinite(Y1):
@@ -548,23 +616,12 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             fr_k += 1
             frame_next[0] += frame_dt
         if fire:
-            # a full 5th-order step to the event time (the 4th-order interpolant is
-            # good enough to locate the event, not to restart from)
+            # the state at the event time to the step's order (the 4th-order interpolant
+            # is good enough to locate the event, not to restart from)
             if theta_stop < 1.0:
                 if theta_stop > 0.0:
-                    for a in range(2):
-                        for i in range(n):
-                            for q in range(3):
-                                K2[0, a, i, q] = K[0, a, i, q]
-                    for q in range(3):
-                        F2[0, q] = F[0, q]
-                    _rk_stages(Y, theta_stop * h, K2, Ytmp, Y1, anchored, locked, ws, F2, np.bool_(False))
-                    counters[1] += 5
-                    floor_impulse_step(theta_stop * h, F2, n_landed, fint)
-                    for a in range(2):
-                        for i in range(n):
-                            for q in range(3):
-                                Y[a, i, q] = Y1[a, i, q]
+                    _event_state(Y, K, K2, F, F2, Y1, Ytmp, h, theta_stop, anchored, locked, ws, n_landed, fint)
+                    counters[1] += 2
             else:
                 floor_impulse_step(h, F, n_landed, fint)
                 for a in range(2):
