@@ -196,7 +196,8 @@ def _event_state(Y, K, K2, F, F2, Y1, Ytmp, h, theta, anchored, locked, ws, n_la
     p(0) = y0, p'(0) = h f0, p(1) = y1, p'(1) = h f(y1) and p'(s_r) = h f(y(s_r)) at the
     nodes s_r = 1/3, 2/3, y(s_r) from the 4th-order continuous extension: two
     evaluations (K2[1:3], F2[1:3]), against five for a new step to t0 + theta h, and a
-    local error of the step's own order, O(h^6) (the data's errors enter times h).
+    local error of the step's own order, O(h^6) (the data's errors enter times h), a
+    few times the full step's (tests/test_event_state.py).
     With c = M^-T (theta^2 .. theta^5) (``HB_MINV``):
       p(theta) = y0 + theta h f0 + c0 (y1 - y0 - h f0) + c1 h (f1 - f0)
                  + c2 h (f(y(1/3)) - f0) + c3 h (f(y(2/3)) - f0).

@@ -1,0 +1,74 @@
+"""The state at an event time (integrator._event_state): a quintic through the step's
+ends and f at two interior points must have the Dormand-Prince step's own order (local
+error O(h^6)), where the 4th-order continuous extension is O(h^5), and an error of the
+size of the step's.  Checked against the same chain integrated in many small steps."""
+
+import numpy as np
+
+from ballchain import integrator as itg
+from ballchain.dynamics import Workspace
+from ballchain.initial import helix_directions
+
+N = 8
+THETA = 0.37
+
+
+def _chain():
+    e = helix_directions(N, 0.3, 1.0, 0.0)
+    rng = np.random.default_rng(3)
+    w = rng.normal(size=(N, 3)) * 0.3
+    w -= np.sum(w * e, axis=1)[:, None] * e  # w perpendicular to e
+    Y = np.stack([e, w])
+    anchored = np.zeros(N + 1, dtype=np.uint8)
+    anchored[N] = 1  # the pivot
+    locked = np.zeros(N - 1, dtype=np.uint8)
+    return Y, anchored, locked, Workspace(N).arrays()
+
+
+def _step(Y, h, anchored, locked, ws):
+    """One Dormand-Prince step: (stages K, anchor forces F, 5th-order end Y1)."""
+    K = np.zeros((7,) + Y.shape)
+    F = np.zeros((7, 3))
+    itg._stage_rhs(Y, anchored, locked, ws, K[0], F[0])
+    Y1 = np.empty_like(Y)
+    itg._rk_stages(Y, h, K, np.empty_like(Y), Y1, anchored, locked, ws, F)
+    return K, F, Y1
+
+
+def _fine(Y, t, anchored, locked, ws, m=200):
+    """The state at time t and the anchors' impulse over [0, t]: m small steps."""
+    Y = Y.copy()
+    imp = np.zeros(4)
+    for _ in range(m):
+        K, F, Y1 = _step(Y, t / m, anchored, locked, ws)
+        itg.floor_impulse_step(t / m, F, np.int64(0), imp)
+        Y = Y1
+    return Y, imp[:3]
+
+
+def _errors(h):
+    """Max errors at THETA h: the quintic, its impulse, the 4th-order extension; and the
+    full step's error at h."""
+    Y, anchored, locked, ws = _chain()
+    K, F, Y1 = _step(Y, h, anchored, locked, ws)
+    ref, imp_ref = _fine(Y, THETA * h, anchored, locked, ws)
+    ref_end, _ = _fine(Y, h, anchored, locked, ws)
+    Ye = Y.copy()
+    fint = np.zeros(4)
+    itg._event_state(Ye, K, np.zeros_like(K), F, np.zeros_like(F), Y1, np.empty_like(Y), h, THETA, anchored,
+                     locked, ws, np.int64(0), fint)
+    Yd = np.empty_like(Y)
+    itg._dense(Y, K, h, THETA, Yd)
+    return (np.abs(Ye - ref).max(), np.abs(fint[:3] - imp_ref).max(), np.abs(Yd - ref).max(),
+            np.abs(Y1 - ref_end).max())
+
+
+def test_event_state_has_the_steps_order():
+    errs = np.array([_errors(h) for h in (0.05, 0.025, 0.0125)])
+    quintic, impulse, dense4, step = errs.T
+    # local error O(h^6): halving h divides it by ~64 (by ~32 for the 4th-order extension)
+    assert np.all(quintic[:-1] / quintic[1:] > 45), quintic
+    assert np.all(impulse[:-1] / impulse[1:] > 45), impulse
+    assert dense4[-2] / dense4[-1] < 40, dense4  # (the test tells the orders apart)
+    # of the size of the error the step itself makes (measured: 3 to 6 times)
+    assert np.all(quintic < 10 * step), (quintic, step)
