@@ -564,7 +564,8 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
                                         h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
                 counters[1] += 2
                 nev += 1
-        _dense(Y, K, h, 0.5, Ytmp)  # (the locating above may have used Ytmp)
+        if nev > 0:
+            _dense(Y, K, h, 0.5, Ytmp)  # (the locating above used Ytmp)
         floor_values(floor, Ytmp[0], anchored, fv_mid)
         floor_values(floor, Y1[0], anchored, fv_end)
         for j in range(n + 1):
