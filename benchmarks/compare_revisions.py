@@ -3,14 +3,17 @@ event instants, and the cost per evaluation.
 
     python benchmarks/compare_revisions.py --base HEAD~1 --segments 64,128 --seeds 0-7
     python benchmarks/compare_revisions.py --base HEAD~1 --segments 512 --seeds 0-1
+    python benchmarks/compare_revisions.py --base HEAD~1 --segments 128 --helix --reps 5
 
 ``--base`` is checked out as a git worktree (in a temporary directory, removed at the
 end); the other side is this checkout.  Each revision compiles its kernels once (a
 first fall at N = 8, not timed), then the falls run alternately (base, head, base,
 head, ...), one process each, so that the machine's drift hits both alike.  Falls are
 chaotic: a change of round-off gives another fall, so compare medians over several
-starts (random family, ``--seeds``), never one fall.  Prints the machine, the versions
-and a Markdown table.
+starts (random family, ``--seeds``), never one fall; ``--helix`` runs the default start
+instead (one fall: ``--reps`` of it).  ``--reps R`` runs every fall R times (alternating)
+and keeps the shortest wall time (the machine's noise only adds).  Prints the machine,
+the versions and a Markdown table (medians over the starts; totals per event instant).
 """
 
 from __future__ import annotations
@@ -55,7 +58,11 @@ def main() -> None:
     ap.add_argument("--alpha", default="pi/4")
     ap.add_argument("--floor", default="all")
     ap.add_argument("--seeds", default="0-7", help="random starts: 0-7 or 1,4,9")
+    ap.add_argument("--helix", action="store_true", help="the default helix start instead of random starts")
+    ap.add_argument("--reps", type=int, default=1, help="runs of each fall; the shortest wall time is kept")
     args = ap.parse_args()
+    if args.reps < 1:
+        ap.error("--reps must be >= 1")
     rev = subprocess.run(["git", "rev-parse", "--short", args.base], cwd=ROOT, capture_output=True, text=True,
                          check=True).stdout.strip()
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
@@ -64,7 +71,8 @@ def main() -> None:
                            text=True).stdout.strip()
     print(machine_info())
     print(f"base {rev}, head {head}{' + uncommitted changes' if dirty else ''}; alpha {args.alpha}, "
-          f"floor {args.floor}, random starts {args.seeds}")
+          f"floor {args.floor}, {'helix start' if args.helix else 'random starts ' + args.seeds}, "
+          f"shortest of {args.reps} run(s) each")
     tmp = Path(tempfile.mkdtemp(prefix="ballchain-base-"))
     wt = tmp / "tree"
     subprocess.run(["git", "worktree", "add", "--detach", str(wt), args.base], cwd=ROOT, check=True,
@@ -76,18 +84,25 @@ def main() -> None:
         rows = []
         for n in [int(s) for s in args.segments.split(",")]:
             res = {"base": [], "head": []}
-            for seed in seeds(args.seeds):
-                for side, src in sides.items():
-                    res[side].append(fall(src, ["-N", str(n), "--alpha", args.alpha, "--floor", args.floor,
-                                                "--ic", "random", "--seed", str(seed)]))
-                    r = res[side][-1]
-                    print(f"  N={n} seed={seed} {side}: {r['wall_seconds']:.2f} s, t_fall/t_ff {r['ratio']:.4f}, "
-                          f"{r['n_evals']} evaluations, {r['n_instants']} instants", flush=True)
+            for seed in ([None] if args.helix else seeds(args.seeds)):
+                start = ["--ic", "helix"] if seed is None else ["--ic", "random", "--seed", str(seed)]
+                best = {}
+                for _ in range(args.reps):
+                    for side, src in sides.items():
+                        r = fall(src, ["-N", str(n), "--alpha", args.alpha, "--floor", args.floor, *start])
+                        if side not in best or r["wall_seconds"] < best[side]["wall_seconds"]:
+                            best[side] = r
+                for side, r in best.items():
+                    res[side].append(r)
+                    print(f"  N={n} {'helix' if seed is None else f'seed={seed}'} {side}: {r['wall_seconds']:.2f} s, "
+                          f"t_fall/t_ff {r['ratio']:.4f}, {r['n_evals']} evaluations, {r['n_instants']} instants",
+                          flush=True)
             rows.append((n, res))
         print()
         print("| N | starts | median wall base (s) | median wall head (s) | head / base | "
-              "median us per evaluation base / head | median instants base / head |")
-        print("|---|---|---|---|---|---|---|")
+              "median us per evaluation base / head | median instants base / head | "
+              "us per instant base / head | evaluations per instant base / head |")
+        print("|---|---|---|---|---|---|---|---|---|")
         for n, res in rows:
             wb = statistics.median(r["wall_seconds"] for r in res["base"])
             wh = statistics.median(r["wall_seconds"] for r in res["head"])
@@ -95,8 +110,14 @@ def main() -> None:
             eh = statistics.median(1e6 * r["wall_seconds"] / r["n_evals"] for r in res["head"])
             ib = statistics.median(r["n_instants"] for r in res["base"])
             ih = statistics.median(r["n_instants"] for r in res["head"])
+            per = {}
+            for side in ("base", "head"):
+                inst = sum(r["n_instants"] for r in res[side])
+                per[side] = (1e6 * sum(r["wall_seconds"] for r in res[side]) / inst,
+                             sum(r["n_evals"] for r in res[side]) / inst)
             print(f"| {n} | {len(res['base'])} | {wb:.2f} | {wh:.2f} | {wh / wb:.2f} | {eb:.1f} / {eh:.1f} | "
-                  f"{ib:.0f} / {ih:.0f} |")
+                  f"{ib:.0f} / {ih:.0f} | {per['base'][0]:.0f} / {per['head'][0]:.0f} | "
+                  f"{per['base'][1]:.1f} / {per['head'][1]:.1f} |")
     finally:
         subprocess.run(["git", "worktree", "remove", "--force", str(wt)], cwd=ROOT, capture_output=True)
 
