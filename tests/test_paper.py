@@ -89,3 +89,21 @@ def test_fig7_is_the_theory():
     zero = [ln for ln in fig.axes[1].lines][0]
     for t0, s in zip(zero.get_xdata(), zero.get_ydata()):
         assert abs(theory.pivot_rod_impulse(t0, s)) < 1e-8
+
+
+def test_a_changed_engine_does_not_reuse_the_cache(tmp_path, monkeypatch):
+    """A run cached by other engine code is not taken for this engine's (the key holds a
+    hash of the engine's source, not only the package version)."""
+    from ballchain import paper
+    from ballchain.model import ChainParams, InitialCondition, SolverOptions
+
+    args = (ChainParams(segments=3), InitialCondition(), SolverOptions(until=0.05))
+    notes = []
+    paper.cached_run(*args, tmp_path, notes.append)
+    paper.cached_run(*args, tmp_path, notes.append)
+    assert len(notes) == 1 and notes[0].startswith("running")  # simulated once, then reused
+    assert len(list(tmp_path.glob("run-*.h5"))) == 1
+    monkeypatch.setattr(paper, "engine_fingerprint", lambda: "another engine")
+    paper.cached_run(*args, tmp_path, notes.append)
+    assert len(notes) == 2 and notes[1].startswith("running")  # simulated again, under a new name
+    assert len(list(tmp_path.glob("run-*.h5"))) == 2

@@ -1,13 +1,15 @@
 """``ballchain paper``: run what the paper's figures need (cached) and draw them.
 
 Runs are cached as result files under ``<out>/cache/``, named by a hash of everything
-that determines them (parameters, initial condition, options, package version): a
-second call reuses them.  The figures are ``plots.paper``'s.
+that determines them (parameters, initial condition, options, package version and the
+engine's source, ``engine_fingerprint``): a second call reuses them, a changed engine
+does not.  The figures are ``plots.paper``'s.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -46,8 +48,23 @@ class PaperSetup:
 QUICK = dict(segments=12, alpha_segments=16, alphas=(math.pi / 4, math.pi / 2, math.pi), rod_grid=11)
 
 
+# the modules whose code decides a run's numbers: a cached run made by other code is stale
+ENGINE_MODULES = ("model", "initial", "rules", "dynamics", "impacts", "integrator", "events", "engine")
+
+
+@functools.lru_cache(maxsize=1)
+def engine_fingerprint() -> str:
+    """Hash of the engine's source (``ENGINE_MODULES``): changes with any edit of the engine,
+    whether or not the package version does."""
+    h = hashlib.sha256()
+    for name in ENGINE_MODULES:
+        h.update((Path(__file__).parent / f"{name}.py").read_bytes())
+    return h.hexdigest()[:16]
+
+
 def _key(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
-    blob = json.dumps([params.to_dict(), ic.to_dict(), options.to_dict(), __version__], sort_keys=True, default=str)
+    blob = json.dumps([params.to_dict(), ic.to_dict(), options.to_dict(), __version__, engine_fingerprint()],
+                      sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
