@@ -487,6 +487,16 @@ def _ldl3(s00, s10, s11, s20, s21, s22, d00, d11, d22, drop, j, r0):
     return i0, l10, l20, i1, l21, i2, nd
 
 
+@njit(cache=True, inline="always")
+def _unit_lower_solve4(l10, l20, l21, l30, l31, l32, b0, b1, b2, b3):
+    """x = L^{-1} b for the 4 x 4 unit lower triangular L (forward substitution)."""
+    x0 = b0
+    x1 = b1 - l10 * x0
+    x2 = b2 - l20 * x0 - l21 * x1
+    x3 = b3 - l30 * x0 - l31 * x1 - l32 * x2
+    return x0, x1, x2, x3
+
+
 @njit(cache=True)
 def factor4(e, anchored, kind, nrow, S, G, drop):
     """L P L^T factor of J W J^T in 4 x 4 blocks formed in closed form (see above), every
@@ -670,23 +680,11 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         g31 = la * (ec2 * nx - ec0 * nz)
         g32 = la * (ec0 * ny - ec1 * nx)
         g33 = -cw * (nx * mx + ny * my + nz * mz)
-        # F_j = L_j^{-1} E_j (L_j unit lower), H_j = P_j^{-1} F_j
-        f00 = g00
-        f10 = g10 - l10 * f00
-        f20 = g20 - l20 * f00 - l21 * f10
-        f30 = g30 - l30 * f00 - l31 * f10 - l32 * f20
-        f01 = g01
-        f11 = g11 - l10 * f01
-        f21 = g21 - l20 * f01 - l21 * f11
-        f31 = g31 - l30 * f01 - l31 * f11 - l32 * f21
-        f02 = g02
-        f12 = g12 - l10 * f02
-        f22 = g22 - l20 * f02 - l21 * f12
-        f32 = g32 - l30 * f02 - l31 * f12 - l32 * f22
-        f03 = g03
-        f13 = g13 - l10 * f03
-        f23 = g23 - l20 * f03 - l21 * f13
-        f33 = g33 - l30 * f03 - l31 * f13 - l32 * f23
+        # F_j = L_j^{-1} E_j (L_j unit lower), column by column; H_j = P_j^{-1} F_j
+        f00, f10, f20, f30 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g00, g10, g20, g30)
+        f01, f11, f21, f31 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g01, g11, g21, g31)
+        f02, f12, f22, f32 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g02, g12, g22, g32)
+        f03, f13, f23, f33 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g03, g13, g23, g33)
         h00 = f00 * i0; h01 = f01 * i0; h02 = f02 * i0; h03 = f03 * i0
         h10 = f10 * i1; h11 = f11 * i1; h12 = f12 * i1; h13 = f13 * i1
         h20 = f20 * i2; h21 = f21 * i2; h22 = f22 * i2; h23 = f23 * i2
@@ -767,10 +765,8 @@ def solve4(nrow, S, G, rhs, x):
             b1 -= G[j - 1, 0, 1] * u0 + G[j - 1, 1, 1] * u1 + G[j - 1, 2, 1] * u2 + G[j - 1, 3, 1] * u3
             b2 -= G[j - 1, 0, 2] * u0 + G[j - 1, 1, 2] * u1 + G[j - 1, 2, 2] * u2 + G[j - 1, 3, 2] * u3
             b3 -= G[j - 1, 0, 3] * u0 + G[j - 1, 1, 3] * u1 + G[j - 1, 2, 3] * u2 + G[j - 1, 3, 3] * u3
-        u0 = b0
-        u1 = b1 - S[j, 1, 0] * u0
-        u2 = b2 - S[j, 2, 0] * u0 - S[j, 2, 1] * u1
-        u3 = b3 - S[j, 3, 0] * u0 - S[j, 3, 1] * u1 - S[j, 3, 2] * u2
+        u0, u1, u2, u3 = _unit_lower_solve4(S[j, 1, 0], S[j, 2, 0], S[j, 2, 1], S[j, 3, 0], S[j, 3, 1], S[j, 3, 2],
+                                            b0, b1, b2, b3)
         x[j, 0] = u0; x[j, 1] = u1; x[j, 2] = u2; x[j, 3] = u3
         if nr == 6:  # the upper rows of a split anchor start afresh (factors in S[j, 4:7, 4:7])
             u0 = rhs[j, 3]

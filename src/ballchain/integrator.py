@@ -78,7 +78,6 @@ P = np.array([
 ])
 
 
-
 def _hermite_birkhoff_inverse(sa, sb):
     """Exact inverse of the 4 x 4 system for the coefficients a_2..a_5 of the quintic
     p(s) = y0 + s h f0 + sum_m a_m s^m with p(1) = y1, p'(1) = h f1, p'(sa) = h fa,

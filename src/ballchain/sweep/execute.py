@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from ..model import ParameterError
 from .spec import SweepSpec, Task
 from .table import TableWriter, error_row, read_table, result_row
 
