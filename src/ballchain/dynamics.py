@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from .jit import entry, njit
 
 MAXR = 7  # rows per point at most: 3 + 3 + 1
 # factor4's restart record: rows MAXR .. MAXR+2 of S[j] (below the factors) hold what
@@ -880,6 +880,7 @@ def torques4(e, kind, nrow, x, gf):
 # ------------------------------------------------------------ accelerations
 
 
+@entry
 @njit(cache=True)
 def accelerations(e, w, anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw):
     """Equations of motion between events: de/dt = w x e, dw/dt = 3 P (torque).
@@ -1005,6 +1006,7 @@ def velocities(e, w, pv, vel):
         pv[i, 2] = pv[i + 1, 2] + 2.0 * dz
 
 
+@entry
 @njit(cache=True)
 def kinetic_energy(e, w, pv, vel):
     """T = sum 1/2 |v_i|^2 + 1/2 (1/3) |w_i|^2 (units m g b)."""
@@ -1016,6 +1018,7 @@ def kinetic_energy(e, w, pv, vel):
     return t
 
 
+@entry
 @njit(cache=True)
 def potential_energy(e):
     """U = sum z_centre_i = sum_i (e_iz + 2 sum_{k>i} e_kz) (units m g b)."""

@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from numba import njit
+from .jit import entry, njit
 
 from .dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
 from .impacts import hinge_gaps, hinge_rates, lock_set, velocity_impact
@@ -59,6 +59,7 @@ LOG_ANCHOR = EVENT_CODES["anchor"]
 
 ACC_LOST_LOCKING, ACC_LOST_LANDING, ACC_FLOOR_IMPULSE, ACC_T_FALL, ACC_T_LANDED = 0, 1, 2, 5, 6
 
+@entry
 @njit(cache=True)
 def log_room(n):
     """Log rows one event instant can add at most: per hinge a lock/impulse/hold row and
@@ -91,6 +92,7 @@ def _log(log, log_n, t, kind, index, i0, i1, i2, energy, pts, j):
     log_n[0] = k + 1
 
 
+@entry
 @njit(cache=True)
 def arm_functions(floor, alpha, cone, e, anchored, locked, gaps, lam, t_fall_known, arms, refs, fv):
     """Arm state of every event function after an instant (or at the start): a function
@@ -329,6 +331,7 @@ def _all_anchored(anchored):
     return True
 
 
+@entry
 @njit(cache=True)
 def run_events(Y, t, h, t_stop, alpha, floor, cone, anchored, locked, lock_cos, anchor_pos, anchor_t,
                arms, refs, apexes, rtol, xtol, hold_rate, hold_apex, ws, adv, frames, trace, ev, pts, pv, vel,

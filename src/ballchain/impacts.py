@@ -29,7 +29,7 @@ P-matrix; M costs one factorisation and c solves.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .jit import entry, njit
 
 from .dynamics import (
     ROW_ANCHOR_LOWER,
@@ -57,6 +57,7 @@ FROZEN_RTOL = 1e-9  # fallback: M_kk below this fraction of its unconstrained va
 _HKEY = np.uint64(0x9E3779B97F4A7C15)
 
 
+@entry
 @njit(cache=True)
 def hinge_gaps(e, cos_alpha, out):
     """g_k = e_k . e_{k+1} - cos(alpha)."""

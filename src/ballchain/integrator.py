@@ -41,7 +41,7 @@ import math
 from fractions import Fraction as Fr
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .dynamics import (
     accelerations,

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from .jit import njit
 
 # floor models (ChainParams.floor)
 FLOOR_ALL, FLOOR_PIVOT = 0, 1

@@ -1,0 +1,99 @@
+"""The one-time compile of the kernels (a first run on a fresh machine), side by side.
+
+    python benchmarks/compile_time.py                 # this checkout: policy off vs on
+    python benchmarks/compile_time.py --base c4917c9  # a git revision vs this checkout
+    python benchmarks/compile_time.py --reps 5
+
+Each compile is a fresh process with an empty numba cache (``NUMBA_CACHE_DIR`` in a
+temporary directory) that imports ballchain and loads the kernels as the first run of
+``ballchain simulate`` does (``engine.load_kernels``); it reports wall and CPU seconds.
+Without ``--base`` the two sides are this checkout with the compile policy of
+``ballchain.jit`` switched off (``BALLCHAIN_OPTIMIZE_CALLEES=1``: numba as it always
+compiles) and on; with ``--base`` the revision is checked out as a git worktree (removed
+at the end).  The sides alternate (A, B, A, B, ...) so that the machine's drift hits both
+alike; prints the machine, the versions, every compile, and the medians with their ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from machine import machine_info  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+
+PROBE = """
+import json, resource, time
+t0 = time.perf_counter()
+import ballchain
+from ballchain import engine
+cold = engine.load_kernels()
+r = resource.getrusage(resource.RUSAGE_SELF)
+try:
+    from ballchain.jit import policy_active
+    policy = policy_active()
+except ImportError:  # a revision from before the policy
+    policy = False
+print(json.dumps({"wall": time.perf_counter() - t0, "cpu": r.ru_utime + r.ru_stime, "cold": cold,
+                  "file": ballchain.__file__, "policy": policy}))
+"""
+
+
+def cold_compile(src: Path, extra_env: dict) -> dict:
+    """Compile the kernels of ``src`` in a fresh process with an empty cache."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, PYTHONPATH=str(src), NUMBA_CACHE_DIR=cache, **extra_env)
+        out = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"compile failed ({src}): {out.stderr.strip().splitlines()[-3:]}")
+    rec = json.loads(out.stdout.strip().splitlines()[-1])
+    if not rec["cold"] or not rec["file"].startswith(str(src)):
+        raise SystemExit(f"not a cold compile of {src}: {rec}")
+    return rec
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--base", help="git revision to compare with this checkout (default: the policy off vs on)")
+    ap.add_argument("--reps", type=int, default=3, help="cold compiles per side (alternating)")
+    args = ap.parse_args()
+    print(machine_info())
+    head = ROOT / "src"
+    tmp = None
+    if args.base:
+        tmp = tempfile.mkdtemp(prefix="ballchain-base-")
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", tmp, args.base],
+                       check=True, capture_output=True)
+        sides = [(f"base {args.base}", Path(tmp) / "src", {}), ("this checkout", head, {})]
+    else:
+        sides = [("policy off", head, {"BALLCHAIN_OPTIMIZE_CALLEES": "1"}), ("policy on", head, {})]
+    times: dict[str, list] = {name: [] for name, _, _ in sides}
+    try:
+        for rep in range(args.reps):
+            for name, src, env in sides:
+                rec = cold_compile(src, env)
+                times[name].append(rec)
+                print(f"  rep {rep + 1}  {name:<24} wall {rec['wall']:6.1f} s   cpu {rec['cpu']:6.1f} s"
+                      f"   policy {'on' if rec['policy'] else 'off'}", flush=True)
+    finally:
+        if tmp:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", tmp], capture_output=True)
+    print("\n| side | median wall (s) | median CPU (s) | compiles |\n|---|---|---|---|")
+    med = {}
+    for name, recs in times.items():
+        med[name] = statistics.median(r["wall"] for r in recs)
+        print(f"| {name} | {med[name]:.1f} | {statistics.median(r['cpu'] for r in recs):.1f} | {len(recs)} |")
+    a, b = (med[name] for name, _, _ in sides)
+    print(f"\nratio (second / first): {b / a:.2f}")
+
+
+if __name__ == "__main__":
+    main()
