@@ -19,6 +19,7 @@ the versions and a Markdown table (medians over the starts; totals per event ins
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -38,6 +39,19 @@ def seeds(spec: str) -> list[int]:
         a, b = spec.split("-")
         return list(range(int(a), int(b) + 1))
     return [int(s) for s in spec.split(",")]
+
+
+@contextlib.contextmanager
+def base_worktree(rev: str):
+    """The revision ``rev`` checked out as a git worktree in a temporary directory (its
+    path), removed on exit."""
+    wt = Path(tempfile.mkdtemp(prefix="ballchain-base-")) / "tree"
+    subprocess.run(["git", "worktree", "add", "--detach", str(wt), rev], cwd=ROOT, check=True,
+                   capture_output=True)
+    try:
+        yield wt
+    finally:
+        subprocess.run(["git", "worktree", "remove", "--force", str(wt)], cwd=ROOT, capture_output=True)
 
 
 def fall(src: Path, args: list[str]) -> dict:
@@ -73,12 +87,8 @@ def main() -> None:
     print(f"base {rev}, head {head}{' + uncommitted changes' if dirty else ''}; alpha {args.alpha}, "
           f"floor {args.floor}, {'helix start' if args.helix else 'random starts ' + args.seeds}, "
           f"shortest of {args.reps} run(s) each")
-    tmp = Path(tempfile.mkdtemp(prefix="ballchain-base-"))
-    wt = tmp / "tree"
-    subprocess.run(["git", "worktree", "add", "--detach", str(wt), args.base], cwd=ROOT, check=True,
-                   capture_output=True)
-    sides = {"base": wt / "src", "head": ROOT / "src"}
-    try:
+    with base_worktree(args.base) as wt:
+        sides = {"base": wt / "src", "head": ROOT / "src"}
         for src in sides.values():  # compile (or load) each side's kernels, untimed
             fall(src, ["-N", "8"])
         rows = []
@@ -118,8 +128,6 @@ def main() -> None:
             print(f"| {n} | {len(res['base'])} | {wb:.2f} | {wh:.2f} | {wh / wb:.2f} | {eb:.1f} / {eh:.1f} | "
                   f"{ib:.0f} / {ih:.0f} | {per['base'][0]:.0f} / {per['head'][0]:.0f} | "
                   f"{per['base'][1]:.1f} / {per['head'][1]:.1f} |")
-    finally:
-        subprocess.run(["git", "worktree", "remove", "--force", str(wt)], cwd=ROOT, capture_output=True)
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ alike; prints the machine, the versions, every compile, and the medians with the
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -26,6 +27,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
+from compare_revisions import base_worktree  # noqa: E402
 from machine import machine_info  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -67,25 +69,19 @@ def main() -> None:
     args = ap.parse_args()
     print(machine_info())
     head = ROOT / "src"
-    tmp = None
-    if args.base:
-        tmp = tempfile.mkdtemp(prefix="ballchain-base-")
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", tmp, args.base],
-                       check=True, capture_output=True)
-        sides = [(f"base {args.base}", Path(tmp) / "src", {}), ("this checkout", head, {})]
-    else:
-        sides = [("policy off", head, {"BALLCHAIN_OPTIMIZE_CALLEES": "1"}), ("policy on", head, {})]
-    times: dict[str, list] = {name: [] for name, _, _ in sides}
-    try:
+    with contextlib.ExitStack() as stack:
+        if args.base:
+            wt = stack.enter_context(base_worktree(args.base))
+            sides = [(f"base {args.base}", wt / "src", {}), ("this checkout", head, {})]
+        else:
+            sides = [("policy off", head, {"BALLCHAIN_OPTIMIZE_CALLEES": "1"}), ("policy on", head, {})]
+        times: dict[str, list] = {name: [] for name, _, _ in sides}
         for rep in range(args.reps):
             for name, src, env in sides:
                 rec = cold_compile(src, env)
                 times[name].append(rec)
                 print(f"  rep {rep + 1}  {name:<24} wall {rec['wall']:6.1f} s   cpu {rec['cpu']:6.1f} s"
                       f"   policy {'on' if rec['policy'] else 'off'}", flush=True)
-    finally:
-        if tmp:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", tmp], capture_output=True)
     print("\n| side | median wall (s) | median CPU (s) | compiles |\n|---|---|---|---|")
     med = {}
     for name, recs in times.items():

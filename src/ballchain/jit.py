@@ -110,8 +110,8 @@ def _shape_known() -> bool:
     lib = getattr(_codegen, "CPUCodeLibrary", None)
     method = getattr(lib, "_optimize_final_module", None)
     code = getattr(method, "__code__", None)
-    if code is None or getattr(method, "_ballchain_policy", False):
-        return code is not None
+    if code is None:
+        return False
     needed = {"_module_pass_manager", "_final_module", "_recorded_timings", "LLVM_REFPRUNE_PASS",
               "remove_redundant_nrt_refct", "run"}
     return needed <= set(code.co_names) and hasattr(_codegen, "remove_redundant_nrt_refct")
@@ -120,12 +120,12 @@ def _shape_known() -> bool:
 def _install() -> bool:
     if os.environ.get("BALLCHAIN_OPTIMIZE_CALLEES", "") not in ("", "0"):
         return False
+    lib = getattr(_codegen, "CPUCodeLibrary", None)
+    if getattr(getattr(lib, "_optimize_final_module", None), "_ballchain_policy", False):
+        return True  # installed already (the module was reloaded)
     if not _shape_known():
         return False
-    lib = _codegen.CPUCodeLibrary
     full = lib._optimize_final_module
-    if getattr(full, "_ballchain_policy", False):
-        return True
 
     def _optimize_final_module(self):
         if _DEPTH.optimise_in_full(self):
@@ -147,5 +147,3 @@ _ACTIVE = _install()
 def policy_active() -> bool:
     """Is the compile policy of this module in force (module docstring)?"""
     return _ACTIVE
-
-
