@@ -73,3 +73,65 @@ def test_policy_can_be_switched_off():
     out = subprocess.run([sys.executable, "-c", "from ballchain import jit; print(jit.policy_active())"],
                          env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@needs_policy
+def test_cheap_libraries_link_nothing_and_the_outer_one_everything():
+    leaf, middle, outer = _chain("ballchain._probe_link")
+    assert outer(np.array([1.0, 4.0])) == pytest.approx(2.0 * (2.0 + 3.0), rel=1e-15)
+    (outer_cres,) = outer.overloads.values()
+    middle_lib = next(lib for lib in outer_cres.library._linking_libraries if lib.name == middle)
+    leaf_fn = next(fn.name for fn in middle_lib._final_module.functions if leaf in fn.name)
+    # the cheap library only declares its callee (resolved in the JIT engine) ...
+    assert middle_lib._final_module.get_function(leaf_fn).is_declaration
+    # ... while the module whose machine code runs holds every kernel it calls
+    assert not any(fn.is_declaration and ("_probe_link" in fn.name)
+                   for fn in outer_cres.library._final_module.functions)
+
+
+PROBE_MODULE = '''
+import numpy as np
+from ballchain.jit import njit
+
+_ours = njit(cache=True)
+
+@_ours
+def leaf(x):
+    return np.sqrt(x) + 1.0
+
+@_ours
+def middle(x):
+    return 2.0 * leaf(x)
+
+@_ours
+def outer(a):
+    s = 0.0
+    for v in a:
+        s += middle(v)
+    return s
+'''
+
+
+@needs_policy
+def test_cheap_libraries_are_not_cached_and_compile_when_called_later(tmp_path):
+    """A cheap library calls its callees through the JIT engine, so loaded alone from the
+    cache it could not run: only self-contained libraries are cached."""
+    (tmp_path / "probe_cache_mod.py").write_text(PROBE_MODULE)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(tmp_path))
+
+    def run(code):
+        # the policy counts this module's kernels as the package's own
+        head = "from ballchain import jit; jit._PACKAGE = 'probe_cache_mod'\nimport numpy as np, probe_cache_mod as m\n"
+        return subprocess.run([sys.executable, "-c", head + code],
+                              env=env, capture_output=True, text=True, check=True, cwd=tmp_path).stdout
+
+    assert float(run("print(m.outer(np.array([1.0, 4.0, 9.0])))")) == pytest.approx(18.0, rel=1e-15)
+    cached = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbc"))
+    assert cached == ["probe_cache_mod.outer"]
+    # a later process calls the cheap kernels on their own, then the cached outer one
+    out = run("print(m.middle(4.0), m.leaf(9.0), m.outer(np.array([4.0])))").split()
+    assert [float(v) for v in out] == pytest.approx([6.0, 4.0, 6.0], rel=1e-15)
+    cached = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbc"))
+    # middle was compiled as called from Python (self-contained, cached); leaf, compiled
+    # under it, is cheap again and still not cached
+    assert cached == ["probe_cache_mod.middle", "probe_cache_mod.outer"]

@@ -11,18 +11,25 @@ tree makes the one-time compile several times the work of optimising its code on
 
 The policy here: a library compiled only because a kernel of ours being compiled calls it
 (a *nested* compile) gets numba's cheap pipeline (the per-function passes and the cheap
-module pass numba runs before the full one); the full pipeline runs once, on the module
-of the kernel called from Python, where every callee has been linked in and is optimised
-with it.  The machine code that runs is that of the outer module, optimised in full as
-before.  Kernels that the package calls from Python as well (``@entry``) are optimised in
-full wherever they are compiled; any other kernel's own machine code runs only if Python
-calls it later with the types of a nested compile (tests do), and is then less optimised.
-``benchmarks/compile_time.py`` measures the effect (cold compiles side by side, the
-policy on and off); ``BALLCHAIN_OPTIMIZE_CALLEES=1`` switches the policy off.
+module pass numba runs before the full one) and links nothing in: its calls to its
+callees stay declarations, resolved in numba's JIT engine (where every callee was added
+before its caller).  The full pipeline runs once, on the module of the kernel called from
+Python (``events.run_events``), into which every library of its call tree is linked,
+callers before callees, and optimised together.  The machine code that runs is that of
+this outer module, optimised in full as before.  Kernels that the package calls from
+Python as well (``@entry``) are linked and optimised in full wherever they are compiled.
+Any other kernel's own machine code runs only if Python calls it later with the types of
+a nested compile (tests do), and is then less optimised.  A nested library is not
+self-contained, so it is never written to numba's cache (loaded alone in a later process
+it would call into nothing): a later process that calls such a kernel from Python
+compiles it afresh, in full.  ``benchmarks/compile_time.py`` measures the effect (cold
+compiles side by side, the policy on and off); ``BALLCHAIN_OPTIMIZE_CALLEES=1`` switches
+the policy off.
 
-The policy is installed only where numba's private method it wraps
-(``CPUCodeLibrary._optimize_final_module``) still has the shape it was written for;
-elsewhere numba compiles as it always does (slower, same results).
+The policy is installed only where numba's private methods it wraps
+(``CPUCodeLibrary.finalize`` and ``_optimize_final_module``, and the cache's
+``check_cachable``) still have the shape it was written for; elsewhere numba compiles as
+it always does (slower, same results).
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ from __future__ import annotations
 import os
 
 from numba import njit  # noqa: F401  (the kernels' decorator: ``from .jit import njit``)
+from numba.core import caching as _caching
 from numba.core import codegen as _codegen
 from numba.core import config as _config
 from numba.core import event as _event
@@ -93,6 +101,36 @@ def nested_depth() -> int:
     return _DEPTH.depth
 
 
+def _is_cheap(library) -> bool:
+    """Was this library compiled with the cheap pipeline, linking nothing?"""
+    return getattr(library, "_ballchain_cheap", False)
+
+
+def _no_check():
+    return None
+
+
+def _closure(libraries) -> list:
+    """The libraries linked into a library optimised in full: its callees and, for those
+    compiled with the cheap pipeline (which link nothing), their callees in turn.  Callers
+    come before their callees: LLVM's linker copies a ``linkonce_odr`` function only if
+    the module it is linked into already calls it."""
+    post, seen = [], set()
+
+    def visit(lib):
+        seen.add(lib)
+        if _is_cheap(lib):
+            for callee in lib._linking_libraries:
+                if callee not in seen:
+                    visit(callee)
+        post.append(lib)
+
+    for lib in libraries:
+        if lib not in seen:
+            visit(lib)
+    return post[::-1]
+
+
 def _cheap_only(library) -> None:
     """numba's cheap module pipeline and reference-count pruning, without the full one
     (the first half of ``CPUCodeLibrary._optimize_final_module``)."""
@@ -105,16 +143,28 @@ def _cheap_only(library) -> None:
         library._final_module = _codegen.remove_redundant_nrt_refct(library._final_module)
 
 
+def _names(owner, method: str) -> set:
+    """The names a method's code uses (empty if it is not plain Python)."""
+    code = getattr(getattr(owner, method, None), "__code__", None)
+    return set(code.co_names) if code is not None else set()
+
+
 def _shape_known() -> bool:
-    """Does numba's method still do what ``_cheap_only`` copies the first half of?"""
+    """Do numba's methods still do what the policy relies on: ``finalize`` links the
+    ``_linking_libraries`` then optimises, ``_finalize_final_module`` verifies the
+    declarations, ``_optimize_final_module`` runs what ``_cheap_only`` copies the first
+    half of, and the cache asks ``check_cachable`` before it saves?"""
     lib = getattr(_codegen, "CPUCodeLibrary", None)
-    method = getattr(lib, "_optimize_final_module", None)
-    code = getattr(method, "__code__", None)
-    if code is None:
-        return False
-    needed = {"_module_pass_manager", "_final_module", "_recorded_timings", "LLVM_REFPRUNE_PASS",
-              "remove_redundant_nrt_refct", "run"}
-    return needed <= set(code.co_names) and hasattr(_codegen, "remove_redundant_nrt_refct")
+    impl = getattr(_caching, "CompileResultCacheImpl", None)
+    cache = getattr(_caching, "Cache", None)
+    return (lib is not None and impl is not None and cache is not None
+            and {"_module_pass_manager", "_final_module", "_recorded_timings", "LLVM_REFPRUNE_PASS",
+                 "remove_redundant_nrt_refct", "run"} <= _names(lib, "_optimize_final_module")
+            and {"_linking_libraries", "link_in", "_get_module_for_linking", "_optimize_final_module",
+                 "_reload_init", "_finalize_final_module"} <= _names(lib, "finalize")
+            and "_verify_declare_only_symbols" in _names(lib, "_finalize_final_module")
+            and "check_cachable" in _names(cache, "_save_overload")
+            and hasattr(impl, "check_cachable") and hasattr(_codegen, "remove_redundant_nrt_refct"))
 
 
 def _install() -> bool:
@@ -126,17 +176,44 @@ def _install() -> bool:
     if not _shape_known():
         return False
     full = lib._optimize_final_module
+    finalize = lib.finalize
+    check_cachable = _caching.CompileResultCacheImpl.check_cachable
+
+    def _finalize(self):
+        self._ballchain_cheap = not _DEPTH.optimise_in_full(self)
+        linking = self._linking_libraries
+        if self._ballchain_cheap:
+            # nothing linked in: calls to the callees are resolved in the JIT engine,
+            # where the callees were added before; a full caller links them all
+            for callee in linking:
+                self._reload_init.update(callee._reload_init)
+            self._linking_libraries = []
+            self._verify_declare_only_symbols = _no_check
+        else:
+            self._linking_libraries = _closure(linking)
+        try:
+            finalize(self)
+        finally:
+            self._linking_libraries = linking
+            self.__dict__.pop("_verify_declare_only_symbols", None)
 
     def _optimize_final_module(self):
-        if _DEPTH.optimise_in_full(self):
-            full(self)
-        else:
+        if _is_cheap(self):
             _cheap_only(self)  # linked into the caller being compiled, optimised there
             _CHEAP.append(self.name)
+        else:
+            full(self)
+
+    def _check_cachable(self, cres):
+        if _is_cheap(cres.library):
+            return False  # not self-contained: never loaded without its callees
+        return check_cachable(self, cres)
 
     _optimize_final_module._ballchain_policy = True
     _optimize_final_module.__doc__ = full.__doc__
     lib._optimize_final_module = _optimize_final_module
+    lib.finalize = _finalize
+    _caching.CompileResultCacheImpl.check_cachable = _check_cachable
     _event.register("numba:compile", _DEPTH)
     return True
 
