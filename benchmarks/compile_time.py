@@ -3,10 +3,13 @@
     python benchmarks/compile_time.py                 # this checkout: policy off vs on
     python benchmarks/compile_time.py --base c4917c9  # a git revision vs this checkout
     python benchmarks/compile_time.py --reps 5
+    python benchmarks/compile_time.py --breakdown     # one cold compile: LLVM time per library
+    BALLCHAIN_OPTIMIZE_CALLEES=1 python benchmarks/compile_time.py --breakdown   # policy off
 
 Each compile is a fresh process with an empty numba cache (``NUMBA_CACHE_DIR`` in a
 temporary directory) that imports ballchain and loads the kernels as the first run of
-``ballchain simulate`` does (``engine.load_kernels``); it reports wall and CPU seconds.
+``ballchain simulate`` does (``engine.load_kernels``; for a revision from before it, the
+smallest run through its CLI, ``simulate -N 4``); it reports wall and CPU seconds.
 Without ``--base`` the two sides are this checkout with the compile policy of
 ``ballchain.jit`` switched off (``BALLCHAIN_OPTIMIZE_CALLEES=1``: numba as it always
 compiles) and on; with ``--base`` the revision is checked out as a git worktree (removed
@@ -37,7 +40,17 @@ import json, resource, time
 t0 = time.perf_counter()
 import ballchain
 from ballchain import engine
-cold = engine.load_kernels()
+if hasattr(engine, "load_kernels"):
+    cold = engine.load_kernels()
+else:  # a revision from before load_kernels: the smallest run through its CLI
+    import tempfile
+    from ballchain.cli import app
+    with tempfile.TemporaryDirectory() as d:
+        try:
+            app(["simulate", "-N", "4", "--output", d + "/x.h5"], standalone_mode=False)
+        except SystemExit:
+            pass
+    cold = True  # the cache directory was empty
 r = resource.getrusage(resource.RUSAGE_SELF)
 try:
     from ballchain.jit import policy_active
@@ -46,6 +59,30 @@ except ImportError:  # a revision from before the policy
     policy = False
 print(json.dumps({"wall": time.perf_counter() - t0, "cpu": r.ru_utime + r.ru_stime, "cold": cold,
                   "file": ballchain.__file__, "policy": policy}))
+"""
+
+
+BREAKDOWN = """
+import collections, time
+import numba.core.codegen as cg
+import ballchain.jit  # its policy wraps numba's methods first: time them as installed
+llvm, count = collections.defaultdict(float), collections.Counter()
+finalize = cg.CPUCodeLibrary.finalize
+def timed(self):  # link, optimise and emit machine code: numba's LLVM work per library
+    t = time.perf_counter()
+    try:
+        return finalize(self)
+    finally:
+        llvm[self.name] += time.perf_counter() - t
+        count[self.name] += 1
+cg.CPUCodeLibrary.finalize = timed
+""" + PROBE + """
+from ballchain import jit
+cheap = set(jit.cheap_libraries()) if hasattr(jit, "cheap_libraries") else set()
+print(f"wall {time.perf_counter() - t0:.1f} s; LLVM (finalize) {sum(llvm.values()):.1f} s over "
+      f"{sum(count.values())} libraries; the rest is numba's front end (typing, lowering)")
+for name, sec in sorted(llvm.items(), key=lambda kv: -kv[1])[:12]:
+    print(f"  {sec:6.2f} s  {count[name]:3d}x  {name}  ({'cheap' if name in cheap else 'full'} pipeline)")
 """
 
 
@@ -66,8 +103,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", help="git revision to compare with this checkout (default: the policy off vs on)")
     ap.add_argument("--reps", type=int, default=3, help="cold compiles per side (alternating)")
+    ap.add_argument("--breakdown", action="store_true",
+                    help="one cold compile of this checkout: LLVM seconds per library, the rest")
     args = ap.parse_args()
     print(machine_info())
+    if args.breakdown:
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), NUMBA_CACHE_DIR=cache)
+            subprocess.run([sys.executable, "-c", BREAKDOWN], env=env, check=True)
+        return
     head = ROOT / "src"
     with contextlib.ExitStack() as stack:
         if args.base:
