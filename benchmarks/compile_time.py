@@ -5,6 +5,7 @@
     python benchmarks/compile_time.py --reps 5
     python benchmarks/compile_time.py --breakdown     # one cold compile: LLVM time per library
     BALLCHAIN_OPTIMIZE_CALLEES=1 python benchmarks/compile_time.py --breakdown   # policy off
+    python benchmarks/compile_time.py --run-pairs 10  # the default fall: policy off vs on
 
 Each compile is a fresh process with an empty numba cache (``NUMBA_CACHE_DIR`` in a
 temporary directory) that imports ballchain and loads the kernels as the first run of
@@ -99,14 +100,57 @@ def cold_compile(src: Path, extra_env: dict) -> dict:
     return rec
 
 
+def default_fall(cache: str, extra_env: dict) -> dict:
+    """The default ``ballchain simulate`` in a fresh process with the given numba cache."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), NUMBA_CACHE_DIR=cache, **extra_env)
+    code = ("import sys; from ballchain.cli import app; "
+            "sys.argv = ['ballchain', 'simulate', '--json', '--output', sys.argv[1], '--force']; app()")
+    out = subprocess.run([sys.executable, "-c", code, str(Path(cache) / "fall.h5")], env=env,
+                         capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"the default fall failed: {out.stderr.strip().splitlines()[-3:]}")
+    return json.loads(out.stdout)
+
+
+def run_pairs(pairs: int) -> None:
+    """The machine code that runs is the outer kernel's: is the default fall as fast with
+    the policy as without it?  Each side compiles into its own cache, then the falls
+    alternate (off, on / on, off), one process each; prints every pair and the median
+    ratio of wall_seconds."""
+    sides = {"policy off": {"BALLCHAIN_OPTIMIZE_CALLEES": "1"}, "policy on": {}}
+    with tempfile.TemporaryDirectory() as off, tempfile.TemporaryDirectory() as on:
+        caches = {"policy off": off, "policy on": on}
+        for name, env in sides.items():
+            rec = default_fall(caches[name], env)  # compiles
+            print(f"  {name}: compiled; t_fall/t_ff {rec['ratio']:.4f}, "
+                  f"{rec['n_evals']} evaluations", flush=True)
+        ratios, walls = [], {name: [] for name in sides}
+        for i in range(pairs):
+            order = list(sides) if i % 2 == 0 else list(sides)[::-1]
+            wall = {name: default_fall(caches[name], sides[name])["wall_seconds"] for name in order}
+            for name in sides:
+                walls[name].append(wall[name])
+            ratios.append(wall["policy on"] / wall["policy off"])
+            print(f"  pair {i + 1}: off {wall['policy off']:.2f} s, on {wall['policy on']:.2f} s, "
+                  f"ratio {ratios[-1]:.3f}", flush=True)
+    print(f"\nmedian wall: off {statistics.median(walls['policy off']):.2f} s, "
+          f"on {statistics.median(walls['policy on']):.2f} s; ratios (on / off) "
+          f"{min(ratios):.2f} to {max(ratios):.2f}, median {statistics.median(ratios):.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", help="git revision to compare with this checkout (default: the policy off vs on)")
     ap.add_argument("--reps", type=int, default=3, help="cold compiles per side (alternating)")
     ap.add_argument("--breakdown", action="store_true",
                     help="one cold compile of this checkout: LLVM seconds per library, the rest")
+    ap.add_argument("--run-pairs", type=int, metavar="P",
+                    help="instead: P pairs of default falls compiled with the policy off and on")
     args = ap.parse_args()
     print(machine_info())
+    if args.run_pairs:
+        run_pairs(args.run_pairs)
+        return
     if args.breakdown:
         with tempfile.TemporaryDirectory() as cache:
             env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), NUMBA_CACHE_DIR=cache)
