@@ -6,6 +6,7 @@
     python benchmarks/compile_time.py --breakdown     # one cold compile: LLVM time per library
     BALLCHAIN_OPTIMIZE_CALLEES=1 python benchmarks/compile_time.py --breakdown   # policy off
     python benchmarks/compile_time.py --run-pairs 10  # the default fall: policy off vs on
+    python benchmarks/compile_time.py --functions     # one cold compile: seconds per kernel
 
 Each compile is a fresh process with an empty numba cache (``NUMBA_CACHE_DIR`` in a
 temporary directory) that imports ballchain and loads the kernels as the first run of
@@ -87,6 +88,47 @@ for name, sec in sorted(llvm.items(), key=lambda kv: -kv[1])[:12]:
 """
 
 
+FUNCTIONS = """
+import collections, time
+from numba.core import event
+class Compiles(event.Listener):  # numba's compile events nest: a callee inside its caller
+    def __init__(self):
+        self.stack, self.excl, self.incl, self.parent = [], collections.Counter(), collections.Counter(), {}
+    def on_start(self, ev):
+        f = getattr(ev.data.get("dispatcher"), "py_func", None)
+        name = f"{f.__module__}.{f.__qualname__}" if f is not None else "?"
+        self.parent.setdefault(name, self.stack[-1][0] if self.stack else None)
+        self.stack.append([name, time.perf_counter(), 0.0])
+    def on_end(self, ev):
+        name, t, inner = self.stack.pop()
+        dt = time.perf_counter() - t
+        self.incl[name] += dt
+        self.excl[name] += dt - inner
+        if self.stack:
+            self.stack[-1][2] += dt
+c = Compiles()
+event.register("numba:compile", c)
+""" + PROBE + """
+work = sum(c.excl.values())
+def path(name):  # the compiles that must follow one another down to this one
+    s = 0.0
+    while name is not None:
+        s, name = s + c.excl[name], c.parent[name]
+    return s
+leaf = max(c.excl, key=path)
+chain, name = [], leaf
+while name is not None:
+    chain.append(name.rpartition(".")[2])
+    name = c.parent[name]
+print(f"wall {time.perf_counter() - t0:.1f} s; {len(c.excl)} compiled functions, {work:.1f} s compiling them")
+for name, sec in sorted(c.excl.items(), key=lambda kv: -kv[1])[:15]:
+    print(f"  {sec:6.2f} s own  {c.incl[name]:6.2f} s with its callees  {name}")
+print(f"longest chain of compiles that must follow one another: {path(leaf):.1f} s ({' <- '.join(chain)})")
+print(f"no split over two processes compiles faster than max(that chain, half the work) = "
+      f"{max(path(leaf), work / 2):.1f} s, before starting the processes and compiling shared callees twice")
+"""
+
+
 def cold_compile(src: Path, extra_env: dict) -> dict:
     """Compile the kernels of ``src`` in a fresh process with an empty cache."""
     with tempfile.TemporaryDirectory() as cache:
@@ -144,6 +186,9 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=3, help="cold compiles per side (alternating)")
     ap.add_argument("--breakdown", action="store_true",
                     help="one cold compile of this checkout: LLVM seconds per library, the rest")
+    ap.add_argument("--functions", action="store_true",
+                    help="one cold compile of this checkout: compile seconds per kernel, and the least a "
+                         "compile split over two processes could take")
     ap.add_argument("--run-pairs", type=int, metavar="P",
                     help="instead: P pairs of default falls compiled with the policy off and on")
     args = ap.parse_args()
@@ -151,10 +196,10 @@ def main() -> None:
     if args.run_pairs:
         run_pairs(args.run_pairs)
         return
-    if args.breakdown:
+    if args.breakdown or args.functions:
         with tempfile.TemporaryDirectory() as cache:
             env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), NUMBA_CACHE_DIR=cache)
-            subprocess.run([sys.executable, "-c", BREAKDOWN], env=env, check=True)
+            subprocess.run([sys.executable, "-c", BREAKDOWN if args.breakdown else FUNCTIONS], env=env, check=True)
         return
     head = ROOT / "src"
     with contextlib.ExitStack() as stack:
