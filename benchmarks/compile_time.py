@@ -110,22 +110,21 @@ c = Compiles()
 event.register("numba:compile", c)
 """ + PROBE + """
 work = sum(c.excl.values())
-def path(name):  # the compiles that must follow one another down to this one
-    s = 0.0
+def chain(name):  # the compiles that must follow one another down to this one, innermost first
+    out = []
     while name is not None:
-        s, name = s + c.excl[name], c.parent[name]
-    return s
-leaf = max(c.excl, key=path)
-chain, name = [], leaf
-while name is not None:
-    chain.append(name.rpartition(".")[2])
-    name = c.parent[name]
+        out.append(name)
+        name = c.parent[name]
+    return out
+longest = max((chain(name) for name in c.excl), key=lambda ch: sum(c.excl[x] for x in ch))
+span = sum(c.excl[x] for x in longest)
 print(f"wall {time.perf_counter() - t0:.1f} s; {len(c.excl)} compiled functions, {work:.1f} s compiling them")
 for name, sec in sorted(c.excl.items(), key=lambda kv: -kv[1])[:15]:
     print(f"  {sec:6.2f} s own  {c.incl[name]:6.2f} s with its callees  {name}")
-print(f"longest chain of compiles that must follow one another: {path(leaf):.1f} s ({' <- '.join(chain)})")
+print(f"longest chain of compiles that must follow one another: {span:.1f} s "
+      f"({' <- '.join(x.rpartition('.')[2] for x in longest)})")
 print(f"no split over two processes compiles faster than max(that chain, half the work) = "
-      f"{max(path(leaf), work / 2):.1f} s, before starting the processes and compiling shared callees twice")
+      f"{max(span, work / 2):.1f} s, before starting the processes and compiling shared callees twice")
 """
 
 

@@ -34,9 +34,9 @@ def _interrupted_run(tmp_path, sig):
         status = load_result(out).status if out.exists() else None
         if status == "interrupted":
             return p.returncode, stderr, out
-        if p.returncode == 0 or status is not None:
-            # the fall ended before the signal (it may even arrive after the file was
-            # saved, while the interpreter shuts down: killed then, the work kept)
+        if status is not None:
+            # the fall ended and saved its file before the signal (which may arrive while
+            # the interpreter shuts down: the process is killed then, the work kept)
             wait /= 3.0
         else:  # signalled before the run's loop
             wait *= 2.5
