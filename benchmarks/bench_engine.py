@@ -42,7 +42,7 @@ def _compiled_loop():
     """A compiled loop calling the kernel k times (no Python call overhead per call)."""
     from numba import njit
 
-    from ballchain.dynamics import accelerations
+    from ballchain.core.dynamics import accelerations
 
     @njit(cache=False)
     def loop(k, e, w, anchored, locked, ws, de, dw):
@@ -56,7 +56,7 @@ def _compiled_loop():
 def bench_evals(sizes, repeats=7, quiet=False) -> list[tuple[int, float, float, float]]:
     """Median wall time of one call of dynamics.accelerations (with locked hinges):
     called from Python, and inside a compiled loop (as the integrator calls it)."""
-    from ballchain.dynamics import Workspace, accelerations
+    from ballchain.core.dynamics import Workspace, accelerations
 
     loop = _compiled_loop()
 
@@ -104,7 +104,7 @@ def bench_interval(n: int, until: float, frames_per_tff: float, alpha: str = "pi
     import tempfile
 
     from ballchain.engine import simulate
-    from ballchain.files import save_result
+    from ballchain.records.files import save_result
     from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
 
     r = simulate(ChainParams(segments=n, alpha=parse_angle(alpha)), InitialCondition(),

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from ballchain.analysis import floor_gamma, landing_times, momentum, touch_times
+from ballchain.records.measures import floor_gamma, landing_times, momentum, touch_times
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
 

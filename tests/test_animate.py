@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from ballchain import cli
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.files import save_result
+from ballchain.records.files import save_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
 from ballchain.plots.animate import AnimationError, ChainAnimation, frame_indices, write_animation
 

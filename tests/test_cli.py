@@ -17,9 +17,9 @@ from typer.testing import CliRunner
 
 from ballchain import cli
 from ballchain.cli import app
-from ballchain.files import load_result, save_result
+from ballchain.records.files import load_result, save_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
-from ballchain.result import Result
+from ballchain.records.result import Result
 
 
 def fake_result(params: ChainParams, ic: InitialCondition, options: SolverOptions, *,
@@ -280,7 +280,7 @@ def test_ctrl_c_before_the_run_starts_exit_130_no_file(engine, tmp_path):
 
 
 def test_ctrl_c_while_saving_leaves_no_file(engine, tmp_path, monkeypatch):
-    from ballchain import files
+    from ballchain.records import files
 
     def interrupted(f, result):
         f.create_group("trace")

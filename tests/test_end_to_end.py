@@ -16,9 +16,9 @@ from typer.testing import CliRunner
 from ballchain import engine
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.files import load_result
+from ballchain.records.files import load_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
-from ballchain.result import EVENT_KINDS
+from ballchain.records.result import EVENT_KINDS
 
 runner = CliRunner()
 

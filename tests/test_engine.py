@@ -11,7 +11,7 @@ import pytest
 
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from ballchain.result import EVENT_CODES
+from ballchain.records.result import EVENT_CODES
 
 FULL = os.environ.get("BALLCHAIN_FULL") == "1"
 SIZES = [8, 16, 32, 64] if FULL else [8, 16]

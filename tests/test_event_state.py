@@ -5,8 +5,8 @@ size of the step's.  Checked against the same chain integrated in many small ste
 
 import numpy as np
 
-from ballchain import integrator as itg
-from ballchain.dynamics import Workspace
+from ballchain.methods.event_driven import integrator as itg
+from ballchain.core.dynamics import Workspace
 from ballchain.initial import helix_directions
 
 N = 8

@@ -11,11 +11,11 @@ import h5py
 import numpy as np
 import pytest
 
-from ballchain import files
-from ballchain.files import (FORMAT_NAME, FORMAT_VERSION, ResultFileError, check_writable, load_result,
+from ballchain.records import files
+from ballchain.records.files import (FORMAT_NAME, FORMAT_VERSION, ResultFileError, check_writable, load_result,
                              save_result, unit_of)
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
-from ballchain.result import EVENT_KINDS, Result
+from ballchain.records.result import EVENT_KINDS, Result
 
 
 def make_result(n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="nondimensional",

@@ -1,5 +1,5 @@
 """An independent derivation of the chain's equations of motion, held against the fast
-O(N) path (ballchain.dynamics) and, once it exists, the engine (ballchain.engine).
+O(N) path (ballchain.core.dynamics) and, once it exists, the engine (ballchain.engine).
 
 The reference is a Lagrangian in generalised coordinates, two spherical angles per rod,
 with no constraints at all:
@@ -21,7 +21,7 @@ d/dt dT/dqd and dT/dq terms of Jdot cancel because d(J qd)/dq = Jdot), so
     (J^T Mbig J) qdd = -J^T (Mbig Jdot qd + grad_E U),
 
 with Jdot qd from the analytic second derivatives of e(th, ph).  Nothing here shares
-code or algebra with the hinge-force formulation of ballchain.dynamics.
+code or algebra with the hinge-force formulation of ballchain.core.dynamics.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from ballchain import dynamics as dyn
+from ballchain.core import dynamics as dyn
 from ballchain.theory import pivot_rod_vertical_force, rod_fall_time
 
 # ------------------------------------------------------------------ Lagrangian reference
@@ -124,7 +124,7 @@ class Lagrangian:
 
 
 class FastPath:
-    """A plain solve_ivp driver around ballchain.dynamics.accelerations: the chain free
+    """A plain solve_ivp driver around ballchain.core.dynamics.accelerations: the chain free
     (no locks), the bottom point N anchored, no floor, no events."""
 
     def __init__(self, n: int):

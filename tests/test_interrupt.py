@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from ballchain.engine import simulate
-from ballchain.files import load_result
+from ballchain.records.files import load_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
 
 N = 256  # a fall of several seconds

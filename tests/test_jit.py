@@ -1,4 +1,4 @@
-"""The compile policy (ballchain.jit): nested compiles under a kernel of the package get
+"""The compile policy (ballchain.core.jit): nested compiles under a kernel of the package get
 numba's cheap pipeline, the kernel called from Python and ``entry`` kernels the full one;
 numbers are unchanged (every physics test runs with the policy in force)."""
 
@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from ballchain import jit
+from ballchain.core import jit
 
 
 def _chain(module, entry_middle=False):
@@ -70,7 +70,7 @@ def test_entry_kernels_and_foreign_code_get_the_full_pipeline():
 
 def test_policy_can_be_switched_off():
     env = dict(os.environ, BALLCHAIN_OPTIMIZE_CALLEES="1")
-    out = subprocess.run([sys.executable, "-c", "from ballchain import jit; print(jit.policy_active())"],
+    out = subprocess.run([sys.executable, "-c", "from ballchain.core import jit; print(jit.policy_active())"],
                          env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -91,7 +91,7 @@ def test_cheap_libraries_link_nothing_and_the_outer_one_everything():
 
 PROBE_MODULE = '''
 import numpy as np
-from ballchain.jit import njit
+from ballchain.core.jit import njit
 
 _ours = njit(cache=True)
 
@@ -121,7 +121,7 @@ def test_cheap_libraries_are_not_cached_and_compile_when_called_later(tmp_path):
 
     def run(code):
         # the policy counts this module's kernels as the package's own
-        head = "from ballchain import jit; jit._PACKAGE = 'probe_cache_mod'\nimport numpy as np, probe_cache_mod as m\n"
+        head = "from ballchain.core import jit; jit._PACKAGE = 'probe_cache_mod'\nimport numpy as np, probe_cache_mod as m\n"
         return subprocess.run([sys.executable, "-c", head + code],
                               env=env, capture_output=True, text=True, check=True, cwd=tmp_path).stdout
 

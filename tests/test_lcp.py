@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ballchain import dynamics as dyn
-from ballchain import reference as ref
-from ballchain.impacts import _lemke, hinge_accels, lock_set
-from ballchain.rules import limit_in_force
+from ballchain.core import dynamics as dyn
+from oracle import reference as ref
+from ballchain.core.impacts import _lemke, hinge_accels, lock_set
+from ballchain.core.rules import limit_in_force
 
 from test_reference import chain_directions
 

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from ballchain import theory
 from ballchain.cli import app
-from ballchain.files import load_result
+from ballchain.records.files import load_result
 from ballchain.plots import paper as pp
 
 NAMES = ("fig2_strobe", "fig3_lock_map", "fig4_pile", "fig5_alpha", "fig6_hamm_geminard", "fig7_pivot_rod")
@@ -57,7 +57,7 @@ def test_fig5_and_fig6_plot_the_runs(made):
         gam, ratio = ln.get_xdata()[0], ln.get_ydata()[0]
         assert theory.hamm_geminard_time_ratio(gam) == pytest.approx(ratio, rel=1e-9)
     # the measured gammas: one open square per run, at that run's floor_gamma
-    from ballchain.analysis import floor_gamma
+    from ballchain.records.measures import floor_gamma
 
     squares = [ln for ln in fig6.axes[0].lines if ln.get_gid() == "measured"]
     expected = sorted((floor_gamma(r).gamma, r.t_fall / r.t_ff) for r in placed if math.isfinite(floor_gamma(r).gamma))

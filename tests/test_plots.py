@@ -7,7 +7,7 @@ from typer.testing import CliRunner
 
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.files import save_result
+from ballchain.records.files import save_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
 from ballchain.plots import FIGURES, fall_figure, floor_figure, lock_map_figure, pile_figure
 

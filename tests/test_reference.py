@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from ballchain import dynamics as dyn
-from ballchain import reference as ref
-from ballchain.impacts import velocity_impact
-from ballchain.rules import limit_in_force
+from ballchain.core import dynamics as dyn
+from oracle import reference as ref
+from ballchain.core.impacts import velocity_impact
+from ballchain.core.rules import limit_in_force
 
 ACC_TOL = 1e-10  # relative to the scale of the compared values
 IMP_TOL = 1e-10

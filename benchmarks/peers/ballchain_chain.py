@@ -2,7 +2,7 @@
 accelerations, and a run of free motion.
 
 ``ballchain_eval`` is the ONLY place that knows the kernel's signature: adapt it if
-``ballchain.dynamics.accelerations`` changes.
+``ballchain.core.dynamics.accelerations`` changes.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def ballchain_eval(e: np.ndarray, w: np.ndarray, locked: np.ndarray | None = Non
     """A zero-argument callable evaluating ballchain's accelerations once at (e, w), the
     bottom point pinned, hinges ``locked`` (default none).  It returns (de, dw): de = w x e,
     dw = world-frame angular accelerations (perpendicular to e)."""
-    from ballchain.dynamics import Workspace, accelerations
+    from ballchain.core.dynamics import Workspace, accelerations
 
     n = e.shape[0]
     e = np.ascontiguousarray(e, dtype=float)

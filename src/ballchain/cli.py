@@ -23,7 +23,7 @@ import typer
 from typer.core import TyperGroup
 
 from . import __version__
-from .files import ResultFileError, check_writable, file_info, load_result, save_result
+from .records.files import ResultFileError, check_writable, file_info, load_result, save_result
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 try:  # typer >= 0.16 vendors click
@@ -144,7 +144,7 @@ def run_summary(result) -> dict:
     false for runs of the command line, which loads the kernels before the run), and
     from the command line ``setup_seconds`` (loading, or the first time compiling, the
     kernels before the run) and ``setup_compiled``."""
-    from .analysis import floor_gamma
+    from .records.measures import floor_gamma
     from .theory import gamma_from_time_ratio
 
     s = result.summary()
@@ -193,7 +193,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     imb = en.get("imbalance")
     rel = _div(imb, abs(init) if init else None)
     units = s.get("units") or "nondimensional"
-    from .files import unit_of
+    from .records.files import unit_of
 
     u_t, u_l, u_e, u_i = (unit_of(q, units) for q in ("t", "z0", "frame_kinetic", "floor_impulse"))
 

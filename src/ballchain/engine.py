@@ -21,8 +21,8 @@ from typing import Callable
 import numpy as np
 
 from . import __version__
-from .dynamics import Workspace, kinetic_energy, potential_energy
-from .events import (
+from .core.dynamics import Workspace, kinetic_energy, potential_energy
+from .methods.event_driven.events import (
     ERR_ENERGY,
     ERR_IMPACT_LCP,
     ERR_LOCK_LCP,
@@ -34,12 +34,12 @@ from .events import (
     log_room,
     run_events,
 )
-from .impacts import hinge_gaps
+from .core.impacts import hinge_gaps
 from .initial import check_inside_cone, initial_directions
-from .integrator import ADV_BUFFER, ADV_FAIL_NAN, ADV_FAIL_STEP, ADV_MAX_STEPS, ADV_STOP
+from .methods.event_driven.integrator import ADV_BUFFER, ADV_FAIL_NAN, ADV_FAIL_STEP, ADV_MAX_STEPS, ADV_STOP
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from .result import EVENT_KINDS, Result
-from .rules import FLOOR_CODES
+from .records.result import EVENT_KINDS, Result
+from .core.rules import FLOOR_CODES
 
 LOOSE_RTOL = 1e-7  # an impact that fails above this tolerance gets a hint to tighten it
 RETURN_EVERY = 256  # events handled in compiled code between returns to Python (progress)

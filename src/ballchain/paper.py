@@ -9,7 +9,6 @@ does not.  The figures are ``plots.paper``'s.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import json
 import math
@@ -18,9 +17,10 @@ from typing import Callable
 
 from . import __version__
 from .engine import simulate
-from .files import ResultFileError, load_result, save_result
+from .provenance import engine_fingerprint
+from .records.files import ResultFileError, load_result, save_result
 from .model import ChainParams, InitialCondition, SolverOptions
-from .result import Result
+from .records.result import Result
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,20 +46,6 @@ class PaperSetup:
 
 
 QUICK = dict(segments=12, alpha_segments=16, alphas=(math.pi / 4, math.pi / 2, math.pi), rod_grid=11)
-
-
-# the modules whose code decides a run's numbers: a cached run made by other code is stale
-ENGINE_MODULES = ("model", "initial", "rules", "dynamics", "impacts", "integrator", "events", "engine")
-
-
-@functools.lru_cache(maxsize=1)
-def engine_fingerprint() -> str:
-    """Hash of the engine's source (``ENGINE_MODULES``): changes with any edit of the engine,
-    whether or not the package version does."""
-    h = hashlib.sha256()
-    for name in ENGINE_MODULES:
-        h.update((Path(__file__).parent / f"{name}.py").read_bytes())
-    return h.hexdigest()[:16]
 
 
 def _key(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-from ..result import Result
+from ..records.result import Result
 
 SUFFIXES = (".mp4", ".gif")
 SIZE_PX = (1024, 576)  # multiples of 16: what H.264 encoders want, no rescaling

@@ -15,8 +15,8 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from .. import theory
-from ..analysis import floor_gamma  # noqa: E402
-from ..result import Result  # noqa: E402
+from ..records.measures import floor_gamma  # noqa: E402
+from ..records.result import Result  # noqa: E402
 from .run import lock_map_figure  # noqa: E402
 
 STROBE = 0.13  # the paper's Fig. 2: a side view every 0.13 t_ff

@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from ..result import EVENT_CODES, Result  # noqa: E402
+from ..records.result import EVENT_CODES, Result  # noqa: E402
 
 
 def _title(r: Result) -> str:
@@ -106,7 +106,7 @@ def lock_map_figure(r: Result) -> Figure:
 def gamma_figure(r: Result) -> Figure:
     """gamma measured from the floor (analysis.floor_gamma) per window of t/t_ff, its
     value over the fall, and the gamma that t_fall/t_ff implies (Hamm-Geminard)."""
-    from ..analysis import floor_gamma
+    from ..records.measures import floor_gamma
     from ..theory import gamma_from_time_ratio
 
     fg = floor_gamma(r)

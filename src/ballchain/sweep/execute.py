@@ -32,7 +32,7 @@ def run_task(task: Task) -> dict:
 
         result = simulate(task.params, task.ic, task.options)
         if task.save_path is not None:
-            from ..files import save_result
+            from ..records.files import save_result
 
             save_result(result, task.save_path, force=True)
         return result_row(task, result, where)

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model import ParameterError
-from ..result import EVENT_KINDS
+from ..records.result import EVENT_KINDS
 
 # column -> (arrow type name, meaning).  Units: nondimensional m = b = g = 1 (times in
 # sqrt(b/g), energies in m g b, impulses in m sqrt(g b)); ratios in units of t_ff.
@@ -110,7 +110,7 @@ def _gamma(ratio: float) -> float:
 
 
 def _measured_gamma(result) -> float:
-    from ..analysis import floor_gamma
+    from ..records.measures import floor_gamma
 
     try:
         return float(floor_gamma(result).gamma)

@@ -30,13 +30,13 @@ import math
 
 import numpy as np
 
-from .jit import entry, njit
+from ...core.jit import entry, njit
 
-from .dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
-from .impacts import hinge_gaps, hinge_rates, lock_set, velocity_impact
-from .result import EVENT_CODES
+from ...core.dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
+from ...core.impacts import hinge_gaps, hinge_rates, lock_set, velocity_impact
+from ...records.result import EVENT_CODES
 from .integrator import ADV_EVENT, EV_LANDING, EV_TOP, EV_UNLOCK, PROJ_TOL, advance
-from .rules import (
+from ...core.rules import (
     DEPARTING,
     FLOOR_PIVOT,
     GAP_TOL,

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .model import ChainParams, InitialCondition, SolverOptions
+from ..model import ChainParams, InitialCondition, SolverOptions
 
 # The event log's kinds (one row per constraint that acted at an event instant).
 EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top", 5: "impulse", 6: "release", 7: "hold",

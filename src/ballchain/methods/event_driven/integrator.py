@@ -41,9 +41,9 @@ import math
 from fractions import Fraction as Fr
 
 import numpy as np
-from .jit import njit
+from ...core.jit import njit
 
-from .dynamics import (
+from ...core.dynamics import (
     accelerations,
     anchor_force_total,
     pile_pull,
@@ -53,7 +53,7 @@ from .dynamics import (
     project_state,
     reuse_factors,
 )
-from .rules import ARMED, DEPARTING, OFF, ZERO_BAND, floor_value, floor_values
+from ...core.rules import ARMED, DEPARTING, OFF, ZERO_BAND, floor_value, floor_values
 
 # Dormand-Prince 5(4) (Hairer's DOPRI5; the coefficients of scipy's RK45)
 C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])

@@ -44,7 +44,7 @@ from numba.core import event as _event
 
 __all__ = ["njit", "entry", "policy_active", "nested_depth", "cheap_libraries"]
 
-_PACKAGE = __name__.rpartition(".")[0]  # "ballchain"
+_PACKAGE = __name__.partition(".")[0]  # "ballchain"
 
 
 class _CompileDepth(_event.Listener):

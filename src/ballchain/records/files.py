@@ -43,8 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from .. import __version__
+from ..model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from .result import EVENT_KINDS, EVENT_MEANINGS, QUANTITY, Result
 
 FORMAT_NAME = "ballchain-result"
