@@ -56,7 +56,8 @@ def _compiled_loop():
 def bench_evals(sizes, repeats=7, quiet=False) -> list[tuple[int, float, float, float]]:
     """Median wall time of one call of dynamics.accelerations (with locked hinges):
     called from Python, and inside a compiled loop (as the integrator calls it)."""
-    from ballchain.core.dynamics import Workspace, accelerations
+    from ballchain.core.dynamics import accelerations
+    from ballchain.core.state import new_work
 
     loop = _compiled_loop()
 
@@ -64,10 +65,10 @@ def bench_evals(sizes, repeats=7, quiet=False) -> list[tuple[int, float, float, 
     rows = []
     for n in sizes:
         e, w, anchored, locked = random_state(n, rng)
-        ws = Workspace(n)
+        ws = new_work(n)
         de = np.zeros((n, 3))
         dw = np.zeros((n, 3))
-        args = (e, w, anchored, locked, *ws.arrays(), de, dw)
+        args = (e, w, anchored, locked, ws, de, dw)
         accelerations(*args)  # compile / warm up
         inner = max(1, int(2e5 // n))
         times = []
@@ -77,11 +78,11 @@ def bench_evals(sizes, repeats=7, quiet=False) -> list[tuple[int, float, float, 
                 accelerations(*args)
             times.append((time.perf_counter() - t0) / inner)
         med = statistics.median(times)
-        loop(1, e, w, anchored, locked, ws.arrays(), de, dw)
+        loop(1, e, w, anchored, locked, ws, de, dw)
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            loop(inner, e, w, anchored, locked, ws.arrays(), de, dw)
+            loop(inner, e, w, anchored, locked, ws, de, dw)
             times.append((time.perf_counter() - t0) / inner)
         medc = statistics.median(times)
         rows.append((n, med * 1e6, med / n * 1e6, medc / n * 1e6))

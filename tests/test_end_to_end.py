@@ -14,6 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ballchain import engine
+from ballchain.methods import outputs
 from ballchain.cli import app
 from ballchain.engine import simulate
 from ballchain.records.files import load_result
@@ -82,7 +83,7 @@ def test_frames_stream_in_chunks_without_changing_a_number(monkeypatch):
     redoes the step it stopped in: the result is that of one big buffer (same machine)."""
     params, ic, opts = ChainParams(segments=8), InitialCondition(eps=0.05), SolverOptions(frames_per_tff=300)
     whole = simulate(params, ic, opts)
-    monkeypatch.setattr(engine, "FRAME_CHUNK_BYTES", 7 * engine.frame_bytes(8))
+    monkeypatch.setattr(outputs, "FRAME_CHUNK_BYTES", 7 * outputs.frame_bytes(8))
     chunked = simulate(params, ic, opts)
     assert chunked.frame_t.size == whole.frame_t.size > 300
     for name in ("frame_t", "frame_e", "frame_omega", "frame_floor_impulse", "frame_pile_pull", "event_t",

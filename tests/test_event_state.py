@@ -6,7 +6,7 @@ size of the step's.  Checked against the same chain integrated in many small ste
 import numpy as np
 
 from ballchain.methods.event_driven import integrator as itg
-from ballchain.core.dynamics import Workspace
+from ballchain.core.state import new_work
 from ballchain.initial import helix_directions
 
 N = 8
@@ -22,17 +22,15 @@ def _chain():
     anchored = np.zeros(N + 1, dtype=np.uint8)
     anchored[N] = 1  # the pivot
     locked = np.zeros(N - 1, dtype=np.uint8)
-    return Y, anchored, locked, Workspace(N).arrays()
+    return Y, anchored, locked, new_work(N)
 
 
 def _step(Y, h, anchored, locked, ws):
     """One Dormand-Prince step: (stages K, anchor forces F, 5th-order end Y1)."""
-    K = np.zeros((7,) + Y.shape)
-    F = np.zeros((7, 3))
-    itg._stage_rhs(Y, anchored, locked, ws, K[0], F[0])
-    Y1 = np.empty_like(Y)
-    itg._rk_stages(Y, h, K, np.empty_like(Y), Y1, anchored, locked, ws, F)
-    return K, F, Y1
+    st = itg.new_stepper(Y.shape[1])
+    itg._stage_rhs(Y, anchored, locked, ws, st.K[0], st.F[0])
+    itg._rk_stages(Y, h, st, anchored, locked, ws)
+    return st
 
 
 def _fine(Y, t, anchored, locked, ws, m=200):
@@ -40,9 +38,9 @@ def _fine(Y, t, anchored, locked, ws, m=200):
     Y = Y.copy()
     imp = np.zeros(4)
     for _ in range(m):
-        K, F, Y1 = _step(Y, t / m, anchored, locked, ws)
-        itg.floor_impulse_step(t / m, F, np.int64(0), imp)
-        Y = Y1
+        st = _step(Y, t / m, anchored, locked, ws)
+        itg.floor_impulse_step(t / m, st.F, np.int64(0), imp)
+        Y = st.Y1.copy()
     return Y, imp[:3]
 
 
@@ -50,13 +48,13 @@ def _errors(h):
     """Max errors at THETA h: the quintic, its impulse, the 4th-order extension; and the
     full step's error at h."""
     Y, anchored, locked, ws = _chain()
-    K, F, Y1 = _step(Y, h, anchored, locked, ws)
+    st = _step(Y, h, anchored, locked, ws)
+    K, Y1 = st.K, st.Y1.copy()
     ref, imp_ref = _fine(Y, THETA * h, anchored, locked, ws)
     ref_end, _ = _fine(Y, h, anchored, locked, ws)
     Ye = Y.copy()
     fint = np.zeros(4)
-    itg._event_state(Ye, K, np.zeros_like(K), F, np.zeros_like(F), Y1, np.empty_like(Y), h, THETA, anchored,
-                     locked, ws, np.int64(0), fint)
+    itg._event_state(Ye, st, h, THETA, anchored, locked, ws, np.int64(0), fint)
     Yd = np.empty_like(Y)
     itg._dense(Y, K, h, THETA, Yd)
     return (np.abs(Ye - ref).max(), np.abs(fint[:3] - imp_ref).max(), np.abs(Yd - ref).max(),

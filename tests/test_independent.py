@@ -33,6 +33,7 @@ import pytest
 from scipy import integrate
 
 from ballchain.core import dynamics as dyn
+from ballchain.core.state import new_work
 from ballchain.theory import pivot_rod_vertical_force, rod_fall_time
 
 # ------------------------------------------------------------------ Lagrangian reference
@@ -129,7 +130,7 @@ class FastPath:
 
     def __init__(self, n: int):
         self.n = n
-        self.ws = dyn.Workspace(n)
+        self.ws = new_work(n)
         self.anchored = np.zeros(n + 1, np.uint8)
         self.anchored[n] = 1
         self.locked = np.zeros(max(n - 1, 0), np.uint8)
@@ -142,7 +143,7 @@ class FastPath:
         n = self.n
         e = np.ascontiguousarray(y[:3 * n].reshape(n, 3))
         w = np.ascontiguousarray(y[3 * n:].reshape(n, 3))
-        dyn.accelerations(e, w, self.anchored, self.locked, *self.ws.arrays(), self.de, self.dw)
+        dyn.accelerations(e, w, self.anchored, self.locked, self.ws, self.de, self.dw)
         return np.concatenate([self.de.reshape(-1), self.dw.reshape(-1)])
 
     def pivot_force(self, e, w):

@@ -108,9 +108,9 @@ def test_a_signal_before_any_work_stops_at_once(monkeypatch):
     kernels compile on a first run) has nothing to keep: it stops at once."""
     import os
 
-    from ballchain import engine
+    from ballchain.methods.event_driven import driver
 
-    real = engine.run_events
+    real = driver.run_events
     calls = []
 
     def signalled_first_call(*args):
@@ -119,7 +119,7 @@ def test_a_signal_before_any_work_stops_at_once(monkeypatch):
         calls.append(1)
         return real(*args)
 
-    monkeypatch.setattr(engine, "run_events", signalled_first_call)
+    monkeypatch.setattr(driver, "run_events", signalled_first_call)
     before = signal.getsignal(signal.SIGINT)
     with pytest.raises(KeyboardInterrupt):
         simulate(ChainParams(segments=8), InitialCondition(), SolverOptions())

@@ -8,8 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from ballchain.core import dynamics as dyn
+from ballchain.core.state import new_work
 from oracle import reference as ref
-from ballchain.core.impacts import _lemke, hinge_accels, lock_set
+from ballchain.core.impacts import hinge_accels, lock_set
+from ballchain.core.lcp import _lemke
 from ballchain.core.rules import limit_in_force
 
 from test_reference import chain_directions
@@ -64,12 +66,12 @@ def test_lock_set_finishes_on_a_span_between_two_anchors():
     for _ in range(10):
         e = chain_directions(rng, n, "tilted", [True, True], alpha)
         w = ref.project_velocity(e, rng.normal(size=(n, 3)), anchored.astype(bool), [False, False])
-        ws = dyn.Workspace(n)
+        ws = new_work(n)
         cand = np.array([1, 1], np.uint8)
         active = np.array([1, 1], np.uint8)
         de, dw = np.zeros((n, 3)), np.zeros((n, 3))
         ddg, lam = np.zeros(2), np.zeros(2)
-        it = lock_set(e, w, anchored, cand, active, *ws.arrays(), de, dw, ddg, lam)
+        it = lock_set(e, w, anchored, cand, active, ws, de, dw, ddg, lam)
         assert it >= 0
         hinge_accels(e, w, de, dw, ddg)
         scale = max(1.0, np.abs(ddg).max(), np.abs(lam).max())
@@ -77,9 +79,9 @@ def test_lock_set_finishes_on_a_span_between_two_anchors():
         assert np.all(lam >= -1e-9 * scale) and np.all(ddg >= -1e-9 * scale)
         assert np.all(np.minimum(np.abs(lam), np.abs(ddg)) <= 1e-9 * scale)
         assert abs(ddg[1]) <= 1e-8 * scale  # the span's angle cannot change
-        ws2 = dyn.Workspace(n)
+        ws2 = new_work(n)
         de2, dw2 = np.zeros((n, 3)), np.zeros((n, 3))
-        dyn.accelerations(e, w, anchored, np.array([active[0], 0], np.uint8), *ws2.arrays(), de2, dw2)
+        dyn.accelerations(e, w, anchored, np.array([active[0], 0], np.uint8), ws2, de2, dw2)
         np.testing.assert_allclose(dw, dw2, atol=1e-9 * max(1.0, np.abs(dw2).max()))
 
 
@@ -95,11 +97,11 @@ def test_lock_set_finishes_on_the_state_where_it_used_to_cycle():
     for cand in (d["cand"].astype(np.uint8),
                  np.array([c and limit_in_force(anchored, k, False, math.pi / 4) for k, c in enumerate(d["cand"])],
                           np.uint8)):
-        ws = dyn.Workspace(n)
+        ws = new_work(n)
         active = (d["active"].astype(np.uint8) & cand).copy()
         de, dw = np.zeros((n, 3)), np.zeros((n, 3))
         ddg, lam = np.zeros(n - 1), np.zeros(n - 1)
-        it = lock_set(e, w, anchored, cand, active, *ws.arrays(), de, dw, ddg, lam)
+        it = lock_set(e, w, anchored, cand, active, ws, de, dw, ddg, lam)
         assert it >= 0
         hinge_accels(e, w, de, dw, ddg)
         c = cand != 0

@@ -10,7 +10,8 @@ import pytest
 
 from ballchain.core import dynamics as dyn
 from oracle import reference as ref
-from ballchain.core.impacts import velocity_impact
+from ballchain.core.impacts import new_impact_work, velocity_impact
+from ballchain.core.state import new_work
 from ballchain.core.rules import limit_in_force
 
 ACC_TOL = 1e-10  # relative to the scale of the compared values
@@ -30,10 +31,10 @@ def in_force(anchored, mask):
 
 def fast_accelerations(e, w, anchored, locked):
     n = e.shape[0]
-    ws = dyn.Workspace(n)
+    ws = new_work(n)
     de = np.zeros((n, 3))
     dw = np.zeros((n, 3))
-    dyn.accelerations(e, w, np.asarray(anchored, np.uint8), in_force(anchored, locked), *ws.arrays(), de, dw)
+    dyn.accelerations(e, w, np.asarray(anchored, np.uint8), in_force(anchored, locked), ws, de, dw)
     lam = np.zeros(max(n - 1, 0))
     dyn.lock_multipliers(ws.kind, ws.nrow, ws.x, lam)
     af = np.zeros((n + 1, 3))
@@ -45,26 +46,18 @@ def fast_impact(e, w, anchored_u8, cand):
     """``anchored_u8``: 1 for old anchors, 2 for the points anchored by this impact
     (the engine's convention)."""
     n = e.shape[0]
-    ws = dyn.Workspace(n)
+    ws = new_work(n)
     nh = max(n - 1, 0)
     w_after = np.array(w, dtype=float, copy=True)
     c8 = in_force(anchored_u8, cand)
     active = c8.copy()
     pv = np.zeros((n + 1, 3))
     vel = np.zeros((n, 3))
-    out = {
-        "jv_minus": np.zeros((n + 1, dyn.MAXR)),
-        "w_plus": np.zeros((n, 3)),
-        "rates": np.zeros(nh),
-        "impulse": np.zeros(nh),
-        "anchor_impulse": np.zeros((n + 1, 3)),
-        "energy_split": np.zeros(2),
-    }
+    iw = new_impact_work(n)
+    out = {"jv_minus": iw.jv, "w_plus": iw.w_plus, "rates": iw.rates_after, "impulse": iw.impulse,
+           "anchor_impulse": iw.anchor_impulse, "energy_split": iw.split}
     T0 = dyn.kinetic_energy(e, w, pv, vel)
-    it = velocity_impact(e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active,
-                         *ws.arrays(), pv, vel,
-                         out["jv_minus"], out["w_plus"], out["rates"], out["impulse"], out["anchor_impulse"],
-                         out["energy_split"])
+    it = velocity_impact(e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active, ws, iw)
     out["T0"] = T0
     out["T1"] = dyn.kinetic_energy(e, w_after, pv, vel)
     dyn.velocities(e, w_after, pv, vel)
@@ -439,7 +432,7 @@ def test_impact_limit_next_to_segment_landing_now():
 def _general_path(e, w, anchored, locked):
     """Multipliers and torques from the general (J-based, any row count) kernels."""
     n = e.shape[0]
-    ws = dyn.Workspace(n)
+    ws = new_work(n)
     dyn.build_rows(e, w, anchored, locked, ws.J, ws.kind, ws.nrow, ws.rhs, True)
     dyn.factor_general(anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
     dyn.solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
@@ -457,7 +450,7 @@ def test_fixed_size_path_equals_general_path(n):
         e, w, anchored, locked, _alpha = random_acc_state(rng, n)
         a8, l8 = anchored.astype(np.uint8), in_force(anchored, locked)
         g = _general_path(e, w, a8, l8)
-        ws = dyn.Workspace(n)
+        ws = new_work(n)
         if not dyn.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs):
             continue  # a lock beside a split anchor (7 rows): only the general path applies
         fitted += 1
@@ -503,7 +496,7 @@ def test_fixed_size_path_off_unit_axes_and_folded():
         l8 = np.zeros(n - 1, np.uint8)
         w[2:] = 0.0
         g = _general_path(e, w, a8, l8)
-        ws = dyn.Workspace(n)
+        ws = new_work(n)
         assert dyn.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs)
         assert dyn.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop) == 0
         dyn.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
@@ -520,7 +513,7 @@ def test_split_anchor_on_the_fixed_size_path(n, split, locked_hinges):
     and the start of the next.  Accelerations and impacts against the dense reference."""
     for seed in range(4):
         e, w, anchored, locked, alpha = _case(n, [split], locked_hinges, seed)
-        ws = dyn.Workspace(n)
+        ws = new_work(n)
         a8 = anchored.astype(np.uint8)
         assert dyn.rows_rhs4(e, w, a8, in_force(anchored, locked), ws.kind, ws.nrow, ws.rhs)
         assert ws.nrow[split] == 6

@@ -31,12 +31,13 @@ def ballchain_eval(e: np.ndarray, w: np.ndarray, locked: np.ndarray | None = Non
     """A zero-argument callable evaluating ballchain's accelerations once at (e, w), the
     bottom point pinned, hinges ``locked`` (default none).  It returns (de, dw): de = w x e,
     dw = world-frame angular accelerations (perpendicular to e)."""
-    from ballchain.core.dynamics import Workspace, accelerations
+    from ballchain.core.dynamics import accelerations
+    from ballchain.core.state import new_work
 
     n = e.shape[0]
     e = np.ascontiguousarray(e, dtype=float)
     w = np.ascontiguousarray(w, dtype=float)
-    ws = Workspace(n)
+    ws = new_work(n)
     anchored = np.zeros(n + 1, np.uint8)
     anchored[n] = 1
     if locked is None:
@@ -44,7 +45,7 @@ def ballchain_eval(e: np.ndarray, w: np.ndarray, locked: np.ndarray | None = Non
     locked = np.ascontiguousarray(locked, dtype=np.uint8)
     de = np.zeros((n, 3))
     dw = np.zeros((n, 3))
-    args = (e, w, anchored, locked, *ws.arrays(), de, dw)
+    args = (e, w, anchored, locked, ws, de, dw)
 
     def call():
         accelerations(*args)

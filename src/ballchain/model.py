@@ -19,7 +19,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-FLOOR_MODELS = ("all", "pivot")
+from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
+from .methods import METHOD_NAMES  # noqa: E402  (one registry of methods)
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
 
@@ -216,6 +217,8 @@ class SolverOptions:
         away from its limit (v^2 / 2|a|, in units of the bend function g = cos) would
         stay below this is held too (it cannot be resolved in double precision; at
         least 1e-12).
+    method: the integration method (``methods.METHODS``): ``event`` (event-driven:
+        every event located and resolved exactly).
     """
 
     rtol: float = 1e-9
@@ -228,6 +231,7 @@ class SolverOptions:
     progress: bool = False
     hold_rate: float = 1e-6
     hold_apex: float = 1e-11
+    method: str = "event"
 
     def __post_init__(self) -> None:
         r = float(self.rtol)
@@ -247,6 +251,8 @@ class SolverOptions:
         if self.hold_apex < 1e-12:
             raise ParameterError(f"hold_apex must be >= 1e-12 (the round-off band of the bend function), "
                                  f"got {self.hold_apex!r}")
+        if self.method not in METHOD_NAMES:
+            raise ParameterError(f"method must be one of {METHOD_NAMES}, got {self.method!r}")
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 

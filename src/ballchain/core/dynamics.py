@@ -36,8 +36,9 @@ import math
 
 import numpy as np
 from .jit import entry, njit
+from .rules import is_landed as _is_landed
+from .state import MAXR
 
-MAXR = 7  # rows per point at most: 3 + 3 + 1
 # factor4's restart record: rows MAXR .. MAXR+2 of S[j] (below the factors) hold what
 # point j's block was computed from: the Schur complement carried into it (10 values),
 # the rows dropped above it, its row count, first row kind and anchor flag, and the axis
@@ -54,36 +55,7 @@ W_V, W_W = 1.0, 3.0  # inverse mass and inverse moment of inertia, nondimensiona
 DROP_RTOL = 1e-11  # relative pivot below which a constraint row is treated as redundant
 
 
-class Workspace:
-    """Preallocated arrays for the O(N) kernels (no allocation in the hot loop)."""
-
-    def __init__(self, n: int):
-        p = n + 1
-        self.n = n
-        self.J = np.zeros((p, MAXR, 12))
-        self.kind = np.zeros((p, MAXR), dtype=np.int8)
-        self.nrow = np.zeros(p, dtype=np.int64)
-        self.S = np.zeros((p, MAXR + 3, MAXR))  # factors, then factor4's restart record
-        self.G = np.zeros((p, MAXR, MAXR))
-        self.drop = np.zeros((p, MAXR), dtype=np.uint8)
-        self.rhs = np.zeros((p, MAXR))
-        self.x = np.zeros((p, MAXR))
-        self.gf = np.zeros((n, 6))
-        self.vel = np.zeros((n, 3))  # centre velocities
-        self.pts = np.zeros((p, 3))  # point positions or velocities
-
-    def arrays(self):
-        return (self.J, self.kind, self.nrow, self.S, self.G, self.drop, self.rhs, self.x, self.gf)
-
-
 # --------------------------------------------------------------------------- rows
-
-
-@njit(cache=True, inline="always")
-def _is_landed(anchored, i):
-    """Both ends anchored (an anchor marked 2 is being made in the current impact:
-    the segments next to it still move until the impulse has stopped them)."""
-    return anchored[i] == 1 and anchored[i + 1] == 1
 
 
 @njit(cache=True, inline="always")
@@ -882,13 +854,15 @@ def torques4(e, kind, nrow, x, gf):
 
 @entry
 @njit(cache=True)
-def accelerations(e, w, anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf, de, dw):
+def accelerations(e, w, anchored, locked, ws, de, dw):
     """Equations of motion between events: de/dt = w x e, dw/dt = 3 P (torque).
 
-    Solves the hinge forces and lock multipliers (x) for the current locked set and
-    anchors; returns the number of redundant rows dropped.
+    Solves the hinge forces and lock multipliers (``ws.x``) for the current locked set
+    and anchors (``ws``: the ``state.Work`` bundle); returns the number of redundant rows
+    dropped.
     """
     n = e.shape[0]
+    J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
     if rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
         ndrop = factor4(e, anchored, kind, nrow, S, G, drop)
         solve4(nrow, S, G, rhs, x)
@@ -1182,11 +1156,15 @@ def constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs):
 
 
 @njit(cache=True)
-def project_state(e, w, anchored, locked, lock_cos, anchor_pos, J, kind, nrow, S, G, drop, rhs,
-                  x, gf, pts, vel, tol, iters):
-    """Remove constraint drift: normalise, then Gauss-Newton on anchor positions and
-    locked angles (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.
-    Returns the largest position residual before projection."""
+def project_state(chain, ws, tol, iters):
+    """Remove constraint drift from the state of ``chain`` (``state.Chain``): normalise,
+    then Gauss-Newton on anchor positions and locked angles
+    (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.  Returns the largest
+    position residual before projection."""
+    e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
+    lock_cos, anchor_pos = chain.lock_cos, chain.anchor_pos
+    J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
+    pts, vel = ws.pts, ws.vel
     normalize_state(e, w, anchored)
     fits = constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs)
     res0 = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)

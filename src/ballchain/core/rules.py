@@ -1,12 +1,14 @@
 """The rules of the nonsmooth model, each stated once (docs/model.md, "Events").
 
-Everything the event handler and the integrator decide about limits, the floor and
-event functions comes from here; the kernels in ``dynamics`` and ``impacts`` act on
-the masks these rules produce.  Nondimensional units (m = b = g = 1).
+Everything the methods decide about limits and event functions comes from here (what
+the floor watches and what a touch creates: the floor models, ``ballchain.floors``);
+the kernels in ``dynamics`` and ``impacts`` act on the masks these rules produce.  Nondimensional units (m = b = g = 1).
 
 * which hinge limits are in force: ``limit_in_force``;
-* what a floor model lets touch the floor, and the event function that watches it:
-  ``floor_watched``, ``floor_value``, ``floor_contacts``;
+* the lock function of a hinge (``bend_gap``, ``hinge_gap``), the height of a point
+  (``point_height``), which segments have landed (``is_landed``, ``landed_or_landing``);
+* when the fall ends (``fall_ended``);
+* the event kinds of the log (``EVENT_KINDS``, ``EVENT_CODES``, ``EVENT_MEANINGS``);
 * the thresholds that say when a constraint is *at* its limit, when an approach is an
   impact rather than a touch, and when a series of impacts is taken to its limit:
   ``GAP_TOL``, ``RATE_TOL``, ``Z_TOL``, ``ZERO_BAND`` and the options
@@ -23,9 +25,19 @@ import math
 
 from .jit import njit
 
-# floor models (ChainParams.floor)
-FLOOR_ALL, FLOOR_PIVOT = 0, 1
-FLOOR_CODES = {"all": FLOOR_ALL, "pivot": FLOOR_PIVOT}
+from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a plain module)
+    EVENT_CODES,
+    EVENT_KINDS,
+    EVENT_MEANINGS,
+    LOG_ANCHOR,
+    LOG_HOLD,
+    LOG_IMPULSE,
+    LOG_LANDING,
+    LOG_LOCK,
+    LOG_RELEASE,
+    LOG_TOP,
+    LOG_UNLOCK,
+)
 
 GAP_TOL = 1e-9  # |g| below this: the hinge is at its limit
 RATE_TOL = 1e-8  # |dg/dt| below this (sqrt(g/b)): a touch, not an impact
@@ -64,8 +76,53 @@ def arm_state(f):
 
 
 @njit(cache=True, inline="always")
-def _landed_or_landing(anchored, i):
+def is_landed(anchored, i):
+    """Segment i has landed: both its ends are anchored (an anchor marked 2 is being made
+    in the current impact: the segments next to it still move until the impulse has
+    stopped them)."""
+    return anchored[i] == 1 and anchored[i + 1] == 1
+
+
+@njit(cache=True, inline="always")
+def landed_or_landing(anchored, i):
+    """Segment i has landed or lands in the current impact (both ends anchored or
+    being anchored)."""
     return anchored[i] != 0 and anchored[i + 1] != 0
+
+
+@njit(cache=True, inline="always")
+def bend_gap(ax, ay, az, cx, cy, cz, cos_alpha):
+    """The lock function g = e_a . e_c / (|e_a| |e_c|) - cos(alpha) of two segment axes
+    (need not be unit length): g > 0 inside the limit, g = 0 at it."""
+    d = ax * cx + ay * cy + az * cz
+    return d / math.sqrt((ax * ax + ay * ay + az * az) * (cx * cx + cy * cy + cz * cz)) - cos_alpha
+
+
+@njit(cache=True, inline="always")
+def hinge_gap(e, k, cos_alpha):
+    """g_k = bend_gap(e_k, e_{k+1}) of hinge k."""
+    return bend_gap(e[k, 0], e[k, 1], e[k, 2], e[k + 1, 0], e[k + 1, 1], e[k + 1, 2], cos_alpha)
+
+
+@njit(cache=True, inline="always")
+def point_height(e, j):
+    """z_j = 2 sum_{i>=j} e_i,z: the height of point j (units b; point N at the origin)."""
+    z = 0.0
+    for i in range(j, e.shape[0]):
+        z += 2.0 * e[i, 2]
+    return z
+
+
+@njit(cache=True)
+def fall_ended(books, t, top_reached, top_anchored):
+    """The t_fall rule: the fall ends when the top end first reaches the floor, either as
+    an event of its own (``top_reached``, floor models with a top event) or when it is
+    anchored (``top_anchored``); the first of these sets t_fall.  Returns whether t_fall
+    was set now."""
+    if math.isnan(books.t_fall[0]) and (top_reached or top_anchored):
+        books.t_fall[0] = t
+        return True
+    return False
 
 
 @njit(cache=True)
@@ -80,8 +137,8 @@ def limit_in_force(anchored, k, cone, alpha):
     segments, never."""
     if alpha >= math.pi:
         return False
-    la = _landed_or_landing(anchored, k)
-    lc = _landed_or_landing(anchored, k + 1)
+    la = landed_or_landing(anchored, k)
+    lc = landed_or_landing(anchored, k + 1)
     if not la and not lc:
         return not (anchored[k] != 0 and anchored[k + 2] != 0)
     return cone and (la != lc)
@@ -97,66 +154,3 @@ def bottom_airborne(anchored):
     return -1
 
 
-@njit(cache=True)
-def floor_watched(floor, anchored, j):
-    """Is floor event function j watched?  ``all``: point j, for every free point;
-    ``pivot``: the upper end j of the bottom airborne segment (it anchors when that
-    segment lies flat)."""
-    if anchored[j] != 0:
-        return False
-    if floor == FLOOR_ALL:
-        return True
-    return j == bottom_airborne(anchored)
-
-
-@njit(cache=True)
-def floor_value(floor, e, j):
-    """Floor event function j of axes e (need not be unit length): ``all``: the height
-    of point j, z_j = 2 sum_{i>=j} e_i,z (units b); ``pivot``: e_j,z / |e_j| of the
-    segment whose upper end is point j."""
-    if floor == FLOOR_ALL:
-        z = 0.0
-        for i in range(j, e.shape[0]):
-            z += 2.0 * e[i, 2]
-        return z
-    return e[j, 2] / math.sqrt(e[j, 0] ** 2 + e[j, 1] ** 2 + e[j, 2] ** 2)
-
-
-@njit(cache=True)
-def floor_values(floor, e, anchored, out):
-    """out[j] = floor_value(floor, e, j) for every watched j (others: inf), in O(N)."""
-    n = e.shape[0]
-    z = 0.0
-    m = bottom_airborne(anchored) if floor == FLOOR_PIVOT else -1
-    out[n] = math.inf
-    for j in range(n - 1, -1, -1):
-        z += 2.0 * e[j, 2]
-        if anchored[j] != 0:
-            out[j] = math.inf
-        elif floor == FLOOR_ALL:
-            out[j] = z
-        else:
-            out[j] = floor_value(floor, e, j) if j == m else math.inf
-    return out
-
-
-@njit(cache=True)
-def floor_contacts(floor, e, pts, pv, anchored, landing_event, out):
-    """Points that the floor anchors at this instant; returns their number (in out).
-    ``all``: every free point at z <= Z_TOL that is not moving up (dz/dt <= RATE_TOL).
-    ``pivot`` (after a landing event): the upper end of the bottom airborne segment
-    once it lies flat (e_z <= Z_TOL), cascading up while the next one does too."""
-    n = e.shape[0]
-    na = 0
-    if floor == FLOOR_ALL:
-        for j in range(n):
-            if anchored[j] == 0 and pts[j, 2] <= Z_TOL and pv[j, 2] <= RATE_TOL:
-                out[na] = j
-                na += 1
-    elif landing_event:
-        m = bottom_airborne(anchored)
-        while m >= 0 and floor_value(floor, e, m) <= Z_TOL:
-            out[na] = m
-            na += 1
-            m -= 1
-    return na

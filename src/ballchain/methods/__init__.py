@@ -1,1 +1,25 @@
-"""methods"""
+"""The integration methods over the compiled core, by name (plain data: importable
+without the compiled kernels).
+
+A method is a module with ``run(setup, progress, stop) -> RunOutput`` (see
+``methods/outputs.py``): it advances the chain from ``setup`` to the end of the fall and
+fills the shared outputs (frames, trace, event log, books) from which ``engine``
+builds the ``Result``.  To add one: a module (or sub-package) and a line here.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+# name -> (module path relative to this package, what it is)
+METHODS = {
+    "event": ("event_driven.driver", "event-driven: Dormand-Prince 5(4) between events located to "
+                                     "event_xtol, an exact impact and lock set at each event instant"),
+}
+METHOD_NAMES = tuple(METHODS)
+
+
+def method_runner(name: str):
+    """The ``run`` function of the method ``name`` (imported on first use)."""
+    module, _ = METHODS[name]
+    return importlib.import_module(f"{__name__}.{module}").run

@@ -14,22 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.kinds import EVENT_CODES, EVENT_KINDS, EVENT_MEANINGS  # noqa: F401  (re-exported)
 from ..model import ChainParams, InitialCondition, SolverOptions
-
-# The event log's kinds (one row per constraint that acted at an event instant).
-EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top", 5: "impulse", 6: "release", 7: "hold",
-               8: "anchor"}
-EVENT_MEANINGS = {
-    "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
-    "unlock": "a locked hinge's multiplier crosses zero in smooth motion and it unlocks; no impulse",
-    "landing": "a point reaches the floor and is anchored; impulse: the floor's on the chain at that point",
-    "top": "floor pivot only: the top end reaches z = 0 (t_fall); no change of state",
-    "impulse": "a hinge locked before the instant takes an impulse (Lambda, 0, 0) and stays locked",
-    "release": "a hinge at its limit (locked, or locking at this instant) leaves it at an impact",
-    "hold": "a hinge held at its limit by the accumulation rule; impulse (Lambda, 0, 0) of either sign",
-    "anchor": "a point anchored before the instant takes an impulse of the floor at an impact",
-}
-EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 
 # field -> physical quantity; files.py turns these into unit strings
 QUANTITY = {

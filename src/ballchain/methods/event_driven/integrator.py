@@ -33,27 +33,37 @@ within round-off of its zero.
 
 The step error is the largest component error over the state (a max norm), so its
 meaning does not change with N.
+
+``advance`` is the loop over the steps: ``_why_stop`` (a reason to return first),
+``_try_step`` (one step and its error), ``_detect_events`` (each kind of event function
+in turn), ``_emit_frames`` (frames up to the step's end or the event), then
+``_stop_at_event`` or ``_accept_step`` (projection, re-arming, the trace).  Its state
+travels in named bundles: ``core.state`` (Model, Chain, Work, Books, Frames, Trace),
+``watch.Watch`` and this module's buffers, ``Stepper``.
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from fractions import Fraction as Fr
 
 import numpy as np
-from ...core.jit import njit
 
 from ...core.dynamics import (
     accelerations,
     anchor_force_total,
-    pile_pull,
     kinetic_energy,
     lock_multipliers,
+    pile_pull,
     potential_energy,
     project_state,
     reuse_factors,
 )
-from ...core.rules import ARMED, DEPARTING, OFF, ZERO_BAND, floor_value, floor_values
+from ...core.jit import njit
+from ...core.rules import ARMED, OFF, ZERO_BAND, bend_gap, hinge_gap, landed_or_landing, point_height
+from ...floors.dispatch import floor_value, floor_values
+from .watch import EV_LANDING, EV_LOCK, EV_TOP, EV_UNLOCK, arm_departed
 
 # Dormand-Prince 5(4) (Hairer's DOPRI5; the coefficients of scipy's RK45)
 C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
@@ -105,17 +115,49 @@ def _hermite_birkhoff_inverse(sa, sb):
 HB_NODES = np.array([1 / 3, 2 / 3])
 HB_MINV = _hermite_birkhoff_inverse(Fr(1, 3), Fr(2, 3))
 
-EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP = 1, 2, 3, 4
 ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0, 1, 2, 3, 4, 5
+ADV_GO = -1  # (internal) no reason to return: take the step
 
 NSCAN = 16  # samples per step for a triggered departing function
 PROJ_TOL = 1e-12  # constraint drift tolerated before projection
 
+Stepper = namedtuple(
+    "Stepper",
+    [
+        "K",  # (7, 2, N, 3): the stages of the step (K[0] = f(Y), K[6] = f(Y1))
+        "K2",  # (7, 2, N, 3): f at the nodes of the event-state quintic
+        "Y1",  # (2, N, 3): the step's 5th-order end
+        "Ytmp",  # (2, N, 3): scratch state (stages, the midpoint, dense output)
+        "dYtmp",  # (2, N, 3): scratch derivative
+        "lam",  # lock multipliers (scratch of event_value)
+        "lam1",  # lock multipliers at the step's end
+        "F",  # (7, 3): the anchors' total force at the stages of K
+        "F2",  # (7, 3): the same at the stages of K2
+        "fsal",  # (1,) int64: 1 when K[0], F[0] hold f(Y) of a step to redo (after ADV_BUFFER)
+        "fv_mid",  # (N+1,): floor event functions at the step's midpoint
+        "fv_end",  # (N+1,): and at its end
+        "fpart",  # (3,): the floor's impulse from the step's start to a frame
+        "ev_kind",  # found events: kind (watch.EV_*)
+        "ev_idx",  # hinge or point
+        "ev_theta",  # where in the step (theta in [0, 1]; after _stop_at_event: the absolute time, inf if not)
+        "n_found",  # (1,) int64: events found in the last step
+    ],
+)
+
+
+def new_stepper(n: int) -> Stepper:
+    """The integrator's buffers for an N-segment chain."""
+    nh = max(n - 1, 1)
+    m = 3 * n + 4
+    return Stepper(np.zeros((7, 2, n, 3)), np.zeros((7, 2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)),
+                   np.zeros((2, n, 3)), np.zeros(nh), np.zeros(nh), np.zeros((7, 3)), np.zeros((7, 3)),
+                   np.zeros(1, np.int64), np.zeros(n + 1), np.zeros(n + 1), np.zeros(3), np.zeros(m, np.int64),
+                   np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
+
 
 @njit(cache=True)
 def _rhs(Y, anchored, locked, ws, dY):
-    J, kind, nrow, S, G, drop, rhs, x, gf = ws
-    return accelerations(Y[0], Y[1], anchored, locked, J, kind, nrow, S, G, drop, rhs, x, gf, dY[0], dY[1])
+    return accelerations(Y[0], Y[1], anchored, locked, ws, dY[0], dY[1])
 
 
 @njit(cache=True, inline="always")
@@ -158,13 +200,15 @@ def _dense_e(Y0, K, b, i, q):
 def _stage_rhs(Y, anchored, locked, ws, dY, F):
     """dY = f(Y) and F = the anchors' total force on the chain at Y."""
     _rhs(Y, anchored, locked, ws, dY)
-    anchor_force_total(ws[1], ws[2], ws[7], F)
+    anchor_force_total(ws.kind, ws.nrow, ws.x, F)
 
 
 @njit(cache=True)
-def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F):
-    """Stages 2..7 of a Dormand-Prince step of size h from Y (K[0] = f(Y), F[0] given);
-    Y1 = the 5th-order solution, K[6] = f(Y1); F[s] the anchors' force at stage s."""
+def _rk_stages(Y, h, st, anchored, locked, ws):
+    """Stages 2..7 of a Dormand-Prince step of size h from Y (st.K[0] = f(Y), st.F[0]
+    given); st.Y1 = the 5th-order solution, st.K[6] = f(Y1); st.F[s] the anchors' force
+    at stage s."""
+    K, Ytmp, Y1, F = st.K, st.Ytmp, st.Y1, st.F
     n = Y.shape[1]
     for s in range(1, 7):
         for a in range(2):
@@ -189,18 +233,19 @@ def _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F):
 
 
 @njit(cache=True)
-def _event_state(Y, K, K2, F, F2, Y1, Ytmp, h, theta, anchored, locked, ws, n_landed, fint):
-    """Y <- the state at t0 + theta h of the step from Y (stages K, F; Y1 its 5th-order
-    end, K[6] = f(Y1)), fint advanced to that time.  The quintic p(s), s in [0, 1], with
-    p(0) = y0, p'(0) = h f0, p(1) = y1, p'(1) = h f(y1) and p'(s_r) = h f(y(s_r)) at the
-    nodes s_r = 1/3, 2/3, y(s_r) from the 4th-order continuous extension: two
-    evaluations (K2[1:3], F2[1:3]), against five for a new step to t0 + theta h, and a
-    local error of the step's own order, O(h^6) (the data's errors enter times h), a
-    few times the full step's (tests/test_event_state.py).
+def _event_state(Y, st, h, theta, anchored, locked, ws, n_landed, fint):
+    """Y <- the state at t0 + theta h of the step from Y (stages st.K, st.F; st.Y1 its
+    5th-order end, K[6] = f(Y1)), fint advanced to that time.  The quintic p(s), s in
+    [0, 1], with p(0) = y0, p'(0) = h f0, p(1) = y1, p'(1) = h f(y1) and p'(s_r) = h
+    f(y(s_r)) at the nodes s_r = 1/3, 2/3, y(s_r) from the 4th-order continuous
+    extension: two evaluations (K2[1:3], F2[1:3]), against five for a new step to
+    t0 + theta h, and a local error of the step's own order, O(h^6) (the data's errors
+    enter times h), a few times the full step's (tests/test_event_state.py).
     With c = M^-T (theta^2 .. theta^5) (``HB_MINV``):
       p(theta) = y0 + theta h f0 + c0 (y1 - y0 - h f0) + c1 h (f1 - f0)
                  + c2 h (f(y(1/3)) - f0) + c3 h (f(y(2/3)) - f0).
     The floor's impulse, the integral of F (an extra state J' = F), the same way."""
+    K, K2, F, F2, Y1, Ytmp = st.K, st.K2, st.F, st.F2, st.Y1, st.Ytmp
     n = Y.shape[1]
     for r in range(2):
         _dense(Y, K, h, HB_NODES[r], Ytmp)
@@ -275,64 +320,37 @@ def _dense_axes(Y0, K, b, out):
             out[i, q] = _dense_e(Y0, K, b, i, q)
 
 
-@njit(cache=True, inline="always")
-def _gap(e, k, cos_alpha):
-    """g_k of unit-normalised axes."""
-    d = 0.0
-    na = 0.0
-    nc = 0.0
-    for q in range(3):
-        d += e[k, q] * e[k + 1, q]
-        na += e[k, q] * e[k, q]
-        nc += e[k + 1, q] * e[k + 1, q]
-    return d / math.sqrt(na * nc) - cos_alpha
-
-
 @njit(cache=True)
-def _zpoint(e, j):
-    z = 0.0
-    for i in range(j, e.shape[0]):
-        z += 2.0 * e[i, 2]
-    return z
-
-
-@njit(cache=True)
-def event_value(kind, idx, theta, Y0, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam):
-    """Value of event function (kind, idx) at t0 + theta h on the dense output."""
+def event_value(kind, idx, theta, h, model, chain, ws, st):
+    """Value of event function (kind, idx) at t0 + theta h on the dense output of the
+    step of size h from chain.Y (stages st.K)."""
+    Y0, K, Yt = chain.Y, st.K, st.Ytmp
     b = np.empty(7)
     _dense_weights(h, theta, b)
     if kind == EV_LOCK:
-        acc = 0.0
-        na = 0.0
-        nc = 0.0
-        for q in range(3):
-            ea = _dense_e(Y0, K, b, idx, q)
-            ec = _dense_e(Y0, K, b, idx + 1, q)
-            acc += ea * ec
-            na += ea * ea
-            nc += ec * ec
-        # normalise: the dense output is not exactly unit length
-        return acc / math.sqrt(na * nc) - cos_alpha
+        # normalised by bend_gap: the dense output is not exactly unit length
+        return bend_gap(_dense_e(Y0, K, b, idx, 0), _dense_e(Y0, K, b, idx, 1), _dense_e(Y0, K, b, idx, 2),
+                        _dense_e(Y0, K, b, idx + 1, 0), _dense_e(Y0, K, b, idx + 1, 1),
+                        _dense_e(Y0, K, b, idx + 1, 2), model.cos_alpha)
     if kind == EV_LANDING:
         _dense_axes(Y0, K, b, Yt[0])
-        return floor_value(floor, Yt[0], idx)
+        return floor_value(model.floor, Yt[0], idx)
     if kind == EV_TOP:
         _dense_axes(Y0, K, b, Yt[0])
-        return _zpoint(Yt[0], 0)
+        return point_height(Yt[0], 0)
     # EV_UNLOCK: lambda_k at the interpolated state
     _dense(Y0, K, h, theta, Yt)
-    _rhs(Yt, anchored, locked, ws, dYt)
-    J, kind_, nrow, S, G, drop, rhs, x, gf = ws
-    lock_multipliers(kind_, nrow, x, lam)
-    return lam[idx]
+    _rhs(Yt, chain.anchored, chain.locked, ws, st.dYtmp)
+    lock_multipliers(ws.kind, ws.nrow, ws.x, st.lam)
+    return st.lam[idx]
 
 
 @njit(cache=True)
-def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt,
-           lam):
+def _brent(kind, idx, off, a, b, fa, fb, h, model, chain, ws, st):
     """Root of f + off on [a, b] (theta units) with fa > 0 >= fb (the values of f + off
     there) by Brent's method; returns a theta at which f + off <= 0 (the crossing, to
-    xtol)."""
+    model.xtol)."""
+    xtol = model.xtol / h
     c, fc = a, fa
     d = b - a
     e_ = d
@@ -375,7 +393,7 @@ def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, ancho
             b += d
         else:
             b += tol1 if xm > 0 else -tol1
-        fb = event_value(kind, idx, b, Y0, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam) + off
+        fb = event_value(kind, idx, b, h, model, chain, ws, st) + off
     # return the end of the bracket on the far side of the crossing
     if fb <= 0.0:
         return b
@@ -383,26 +401,29 @@ def _brent(kind, idx, off, a, b, fa, fb, xtol, Y0, K, h, cos_alpha, floor, ancho
 
 
 @njit(cache=True)
-def _locate(kd, ix, mode, ref, tha, fmid, fend, Y, K, h, xtol, cos_alpha, floor, anchored, locked, ws, Yt, dYt,
-            lam):
+def _locate_armed(kd, ix, fmid, fend, h, model, chain, ws, st):
+    """Where an ARMED function fires in the step (theta), or 2.0: its first crossing of
+    zero, bracketed by the start, the midpoint (fmid; inf: unknown) and the end."""
+    f0 = event_value(kd, ix, 0.0, h, model, chain, ws, st)
+    if f0 <= 0.0:
+        return 0.0
+    if fmid <= 0.0:
+        return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, h, model, chain, ws, st)
+    if fend <= 0.0:
+        if fmid == math.inf:
+            return _brent(kd, ix, 0.0, 0.0, 1.0, f0, fend, h, model, chain, ws, st)
+        return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, h, model, chain, ws, st)
+    return 2.0
+
+
+@njit(cache=True)
+def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, chain, ws, st):
     """Where in the step (theta in [0, 1]) event function (kd, ix) fires, or 2.0 if it
     does not (module docstring).  ``fmid``, ``fend``: its values at the midpoint and the
     end (fmid = inf: unknown); ``tha``: the predicted apex of a departing function, in
     theta units (outside (0, 1): none in this step)."""
     if mode == ARMED:
-        f0 = event_value(kd, ix, 0.0, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
-        if f0 <= 0.0:
-            return 0.0
-        if fmid <= 0.0:
-            return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
-                          ws, Yt, dYt, lam)
-        if fend <= 0.0:
-            if fmid == math.inf:
-                return _brent(kd, ix, 0.0, 0.0, 1.0, f0, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
-                              ws, Yt, dYt, lam)
-            return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, xtol, Y, K, h, cos_alpha, floor, anchored, locked,
-                          ws, Yt, dYt, lam)
-        return 2.0
+        return _locate_armed(kd, ix, fmid, fend, h, model, chain, ws, st)
     # DEPARTING: it fires when it returns to zero after a sample above ZERO_BAND, or,
     # never having been there, when it sinks below ref - ZERO_BAND
     nscan = NSCAN if kd != EV_UNLOCK else 2  # lambda costs an evaluation per sample
@@ -417,7 +438,7 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, Y, K, h, xtol, cos_alpha, floor,
         if not apex_done and tha < th:  # the predicted apex comes first
             th = tha
             apex_done = True
-            f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
+            f = event_value(kd, ix, th, h, model, chain, ws, st)
         else:
             s += 1
             if th == 1.0:
@@ -425,19 +446,17 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, Y, K, h, xtol, cos_alpha, floor,
             elif th == 0.5 and fmid != math.inf:
                 f = fmid
             else:
-                f = event_value(kd, ix, th, Y, K, h, cos_alpha, floor, anchored, locked, ws, Yt, dYt, lam)
+                f = event_value(kd, ix, th, h, model, chain, ws, st)
         if f > ZERO_BAND:
             thp = th
             fp = f
         elif thp >= 0.0 and f <= 0.0:
-            return _brent(kd, ix, 0.0, thp, th, fp, f, xtol, Y, K, h, cos_alpha, floor, anchored, locked, ws,
-                          Yt, dYt, lam)
+            return _brent(kd, ix, 0.0, thp, th, fp, f, h, model, chain, ws, st)
         elif f < ref - ZERO_BAND:
             sink = ZERO_BAND - ref
             if th == 0.0 or fq + sink <= 0.0:
                 return thq
-            return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, xtol, Y, K, h, cos_alpha, floor, anchored,
-                          locked, ws, Yt, dYt, lam)
+            return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, h, model, chain, ws, st)
         thq = th
         fq = f
     return 2.0
@@ -461,73 +480,277 @@ def _step_error(Y, Y1, K, h, rtol, atol):
     return err
 
 
-@njit(cache=True)
-def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_pos,
-            arm_lock, arm_land, arm_unlock, arm_top, ref_lock, ref_land, ref_unlock, ref_top, apex_lock, apex_land,
-            rtol, atol, xtol, ws, K, K2, Y1, Ytmp, dYtmp, lam, lam1, F, F2, fint, fsal,
-            frame_dt, frame_next, frame_cap, fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_count,
-            fr_pull, fr_scale, fr_fimp,
-            tr_t, tr_z, tr_count, ev_kind, ev_idx, ev_theta, pts, vel, counters, max_steps, stats):
-    """Integrate from t until t_stop or the first event.
+@njit(cache=True, inline="always")
+def _found(st, nev, kind, idx, theta):
+    st.ev_kind[nev] = kind
+    st.ev_idx[nev] = idx
+    st.ev_theta[nev] = theta
+    return nev + 1
 
-    Returns (code, t, h).  On ADV_EVENT, ``Y`` holds the state at the event time t,
-    and ``ev_kind/ev_idx/ev_theta`` (``counters[2]`` rows) the triggered events with
-    their located times (absolute; inf: not confirmed).  ``counters``: [0] steps,
-    [1] evaluations, [2] events found.  ``stats[0]``: lowest point seen (max depth is
-    -stats[0]).  ``arm_*``, ``ref_*``: how each event function is watched (module
-    docstring).  ``F``, ``F2``: the anchors' force at the stages of K, K2; ``fint``
-    (4,): the floor's continuous impulse so far (x, y, z, and its z part that holds
-    up the landed segments), advanced by each step's quadrature (``floor_impulse_step``).
-    Frames fill the buffers up to ``frame_cap``; a step with more frames than fit
-    returns ADV_BUFFER before it is accepted (the caller empties the buffers and calls
-    again: the step is redone from the same state and goes on where the frames stopped).
-    ``fsal[0]`` = 1 on an ADV_BUFFER return: K[0], F[0] still hold f(Y) of the step
-    in progress, and the next call starts from them (so buffer sizes change no number).
-    """
-    n = Y.shape[1]
-    nh = n - 1
-    cos_alpha = math.cos(alpha)
-    fr_k = fr_count[0]
-    tr_k = tr_count[0]
-    fv_mid = np.empty(n + 1)
-    fv_end = np.empty(n + 1)
-    fpart = np.empty(3)
-    # int64, not literal constants: a literal argument to a compiled callee compiles
-    # it once more for that value (the whole callee tree again)
-    kd_lock, kd_unlock, kd_landing = np.int64(EV_LOCK), np.int64(EV_UNLOCK), np.int64(EV_LANDING)
-    kd_top, ix_top = np.int64(EV_TOP), np.int64(0)
-    n_landed = np.int64(0)
+
+@njit(cache=True)
+def _detect_locks(nev, t, h, model, chain, watch, ws, st):
+    """Unlocked hinges whose lock function g_k reaches zero in the step (checked at its
+    midpoint st.Ytmp and end st.Y1, then located); returns the count of found events."""
+    for k in range(chain.locked.shape[0]):
+        if watch.arm_lock[k] == OFF or chain.locked[k]:
+            continue
+        fm = hinge_gap(st.Ytmp[0], k, model.cos_alpha)
+        fe = hinge_gap(st.Y1[0], k, model.cos_alpha)
+        if fm <= 0.0 or fe <= 0.0:
+            th = _locate(EV_LOCK, k, watch.arm_lock[k], watch.ref_lock[k], (watch.apex_lock[k] - t) / h, fm, fe, h,
+                         model, chain, ws, st)
+            nev = _found(st, nev, EV_LOCK, k, th)
+    return nev
+
+
+@njit(cache=True)
+def _detect_unlocks(nev, t, h, model, chain, watch, ws, st):
+    """Locked hinges whose multiplier reaches zero in the step (checked at its end,
+    st.lam1, then located); each costs evaluations."""
+    for k in range(chain.locked.shape[0]):
+        if watch.arm_unlock[k] == OFF or not chain.locked[k]:
+            continue
+        if st.lam1[k] <= 0.0:
+            th = _locate(EV_UNLOCK, k, watch.arm_unlock[k], watch.ref_unlock[k], 2.0, math.inf, st.lam1[k], h,
+                         model, chain, ws, st)
+            nev = _found(st, nev, EV_UNLOCK, k, th)
+    return nev
+
+
+@njit(cache=True)
+def _detect_landings(nev, t, h, model, chain, watch, ws, st):
+    """Watched points whose floor function reaches zero in the step (the floor model's
+    values at the midpoint and the end, then located)."""
+    floor_values(model.floor, st.Ytmp[0], chain.anchored, st.fv_mid)
+    floor_values(model.floor, st.Y1[0], chain.anchored, st.fv_end)
+    for j in range(chain.anchored.shape[0]):
+        if watch.arm_land[j] == OFF:
+            continue
+        fm = st.fv_mid[j]
+        fe = st.fv_end[j]
+        if fm <= 0.0 or fe <= 0.0:
+            th = _locate(EV_LANDING, j, watch.arm_land[j], watch.ref_land[j], (watch.apex_land[j] - t) / h, fm, fe,
+                         h, model, chain, ws, st)
+            nev = _found(st, nev, EV_LANDING, j, th)
+            _dense(chain.Y, st.K, h, 0.5, st.Ytmp)  # (the locating used Ytmp)
+    return nev
+
+
+@njit(cache=True)
+def _detect_top(nev, t, h, model, chain, watch, ws, st):
+    """The top end's height reaching zero (floor models with a top event)."""
+    if watch.arm_top[0] != OFF:
+        fm = point_height(st.Ytmp[0], 0)
+        fe = point_height(st.Y1[0], 0)
+        if fm <= 0.0 or fe <= 0.0:
+            th = _locate(EV_TOP, 0, watch.arm_top[0], watch.ref_top[0], 2.0, fm, fe, h, model, chain, ws, st)
+            nev = _found(st, nev, EV_TOP, 0, th)
+    return nev
+
+
+@njit(cache=True)
+def _detect_events(t, h, model, chain, watch, ws, st, books):
+    """Every event function that fires in the step, kind by kind (watch.EVENT_FUNCTIONS
+    order), into st.ev_*; returns (theta of the first, whether any fires)."""
+    _dense(chain.Y, st.K, h, 0.5, st.Ytmp)  # midpoint state, for the midpoint checks
+    nev = 0
+    for kd in range(EV_LOCK, EV_TOP + 1):
+        if kd == EV_LOCK:
+            nev = _detect_locks(nev, t, h, model, chain, watch, ws, st)
+        elif kd == EV_UNLOCK:
+            n0 = nev
+            nev = _detect_unlocks(nev, t, h, model, chain, watch, ws, st)
+            books.n_evals[0] += 2 * (nev - n0)
+            if nev > 0:
+                _dense(chain.Y, st.K, h, 0.5, st.Ytmp)  # (the locating may have used Ytmp)
+        elif kd == EV_LANDING:
+            nev = _detect_landings(nev, t, h, model, chain, watch, ws, st)
+        else:
+            nev = _detect_top(nev, t, h, model, chain, watch, ws, st)
+    st.n_found[0] = nev
+    theta_stop = 1.0
+    fire = False
+    for r in range(nev):
+        theta_stop = min(theta_stop, st.ev_theta[r])
+        fire = fire or st.ev_theta[r] <= 1.0
+    return theta_stop, fire
+
+
+@njit(cache=True)
+def _record_frame(Yt, tf, n_landed, chain, ws, st, frames):
+    """Frame frames.count[0] at time tf from the state Yt: the state, the anchors' force
+    on the airborne chain, the pile's pull (``pile_pull``), the vertical force a scale
+    under the floor reads (anchors' z force + the weight of the landed segments),
+    energies."""
+    k = frames.count[0]
+    n = Yt.shape[1]
+    frames.t[k] = tf
     for i in range(n):
-        if anchored[i] != 0 and anchored[i + 1] != 0:
+        for q in range(3):
+            frames.e[k, i, q] = Yt[0, i, q]
+            frames.omega[k, i, q] = Yt[1, i, q]
+    for j in range(n + 1):
+        frames.anchored[k, j] = chain.anchored[j]
+    for j in range(n - 1):
+        frames.locked[k, j] = chain.locked[j]
+    _rhs(Yt, chain.anchored, chain.locked, ws, st.dYtmp)
+    anchor_force_total(ws.kind, ws.nrow, ws.x, frames.floor_force[k])
+    pile_pull(chain.anchored, ws.kind, ws.nrow, ws.x, frames.pile_pull[k])
+    frames.scale_force[k] = frames.floor_force[k, 2] + n_landed
+    frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], ws.pts, ws.vel)
+    frames.potential[k] = potential_energy(Yt[0])
+
+
+@njit(cache=True)
+def _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
+    """The frames due up to t_end, from the step's dense output; False if the buffers
+    filled first (the caller returns ADV_BUFFER and redoes the step once they are
+    emptied)."""
+    cap = frames.t.shape[0]
+    while frames.next[0] <= t_end + 1e-300:
+        if frames.count[0] >= cap:
+            return False
+        th = (frames.next[0] - t) / h
+        _dense(chain.Y, st.K, h, th, st.Ytmp)
+        _record_frame(st.Ytmp, frames.next[0], n_landed, chain, ws, st, frames)
+        floor_impulse_dense(h, th, st.F, n_landed, st.fpart)
+        for q in range(3):
+            frames.floor_impulse[frames.count[0], q] = books.floor_flow[q] + st.fpart[q]
+        books.n_evals[0] += 1
+        frames.count[0] += 1
+        frames.next[0] += frames.dt
+    return True
+
+
+@njit(cache=True, inline="always")
+def _trace_point(trace, t, e):
+    k = trace.count[0]
+    trace.t[k] = t
+    trace.z[k] = point_height(e, 0)
+    trace.count[0] = k + 1
+
+
+@njit(cache=True)
+def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
+    """End the step at its first event: the state at the event time to the step's order
+    (the 4th-order interpolant is good enough to locate the event, not to restart
+    from), the floor's impulse to that time, the found events' absolute times (inf: not
+    confirmed in this step); returns the event time."""
+    Y = chain.Y
+    if theta_stop < 1.0:
+        if theta_stop > 0.0:
+            _event_state(Y, st, h, theta_stop, chain.anchored, chain.locked, ws, n_landed, books.floor_flow)
+            books.n_evals[0] += 2
+    else:
+        floor_impulse_step(h, st.F, n_landed, books.floor_flow)
+        Y[:] = st.Y1
+    for r in range(st.n_found[0]):
+        st.ev_theta[r] = t + st.ev_theta[r] * h if st.ev_theta[r] <= 1.0 else math.inf
+    t_event = t + theta_stop * h
+    _trace_point(trace, t_event, Y[0])
+    return t_event
+
+
+@njit(cache=True)
+def _lowest_point(e, books):
+    """books.lowest <- the lowest point height seen (for the max depth)."""
+    zlow = 0.0
+    zacc = 0.0
+    for j in range(e.shape[0] - 1, -1, -1):
+        zacc += 2.0 * e[j, 2]
+        if zacc < zlow:
+            zlow = zacc
+    if zlow < books.lowest[0]:
+        books.lowest[0] = zlow
+
+
+@njit(cache=True)
+def _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace):
+    """Accept the full step: the state at its end, the floor's impulse, the projection
+    onto the constraints (f(Y) recomputed if it moved the state, else the last stage
+    reused), departing functions armed, the lowest point and the trace."""
+    Y = chain.Y
+    floor_impulse_step(h, st.F, n_landed, books.floor_flow)
+    Y[:] = st.Y1
+    res = project_state(chain, ws, PROJ_TOL, np.int64(3))
+    if res > PROJ_TOL:
+        _stage_rhs(Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
+        books.n_evals[0] += 1
+    else:
+        st.K[0] = st.K[6]
+        st.F[0] = st.F[6]
+    arm_departed(model, chain, watch, st.lam1, st.fv_end)
+    _lowest_point(Y[0], books)
+    _trace_point(trace, t_end, Y[0])
+
+
+@njit(cache=True)
+def _count_landed(anchored):
+    """Segments whose both ends are anchored (the floor holds up their weight)."""
+    n_landed = np.int64(0)
+    for i in range(anchored.shape[0] - 1):
+        if landed_or_landing(anchored, i):
             n_landed += 1
-    # FSAL: derivative at the current state (kept across an ADV_BUFFER return)
-    if fsal[0] == 0:
-        _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
-        counters[1] += 1
-    fsal[0] = 0
-    reuse_factors(ws[3], np.bool_(False))  # the steps have new axes at every stage
+    return n_landed
+
+
+@njit(cache=True)
+def _why_stop(t, h, model, st, books, trace):
+    """A reason to return before the next step (ADV_*), or ADV_GO."""
+    if books.n_steps[0] >= model.max_steps:
+        return ADV_MAX_STEPS
+    if trace.count[0] >= trace.t.shape[0] - 2:
+        st.fsal[0] = 1
+        return ADV_BUFFER
+    if t >= model.t_stop:
+        return ADV_STOP
+    if min(h, model.t_stop - t) < 1e-14 * max(1.0, abs(t)):
+        return ADV_FAIL_STEP
+    return ADV_GO
+
+
+@njit(cache=True)
+def _try_step(t, h, model, chain, ws, st, books):
+    """One Dormand-Prince step of size h (st.Y1, st.K, st.F); returns its error in units
+    of the tolerance (inf: non-finite) and the lock multipliers at its end (st.lam1)."""
+    _rk_stages(chain.Y, h, st, chain.anchored, chain.locked, ws)
+    books.n_evals[0] += 6
+    err = _step_error(chain.Y, st.Y1, st.K, h, model.rtol, model.rtol)
+    if not math.isfinite(err) or _nonfinite(st.Y1):
+        return math.inf
+    lock_multipliers(ws.kind, ws.nrow, ws.x, st.lam1)  # lambda at Y1 (last stage)
+    return err
+
+
+@njit(cache=True)
+def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
+    """Integrate from t until model.t_stop or the first event.
+
+    Returns (code, t, h).  On ADV_EVENT, chain.Y holds the state at the event time t,
+    and st.ev_kind/ev_idx/ev_theta (st.n_found[0] rows) the triggered events with their
+    located times (absolute; inf: not confirmed).  books: steps, evaluations, the lowest
+    point, the floor's continuous impulse (``floor_impulse_step``).  Frames fill the
+    buffers; a step with more frames than fit returns ADV_BUFFER before it is accepted
+    (the caller empties the buffers and calls again: the step is redone from the same
+    state and goes on where the frames stopped); st.fsal[0] = 1 then: st.K[0], st.F[0]
+    still hold f(Y) of the step in progress, and the next call starts from them (so
+    buffer sizes change no number).
+    """
+    n_landed = _count_landed(chain.anchored)
+    if st.fsal[0] == 0:  # FSAL: derivative at the current state (kept across an ADV_BUFFER return)
+        _stage_rhs(chain.Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
+        books.n_evals[0] += 1
+    st.fsal[0] = 0
+    reuse_factors(ws.S, np.bool_(False))  # the steps have new axes at every stage
     nfail = 0
     while True:
-        if counters[0] >= max_steps:
-            return ADV_MAX_STEPS, t, h
-        if tr_k >= tr_t.shape[0] - 2:
-            fr_count[0] = fr_k
-            tr_count[0] = tr_k
-            fsal[0] = 1
-            return ADV_BUFFER, t, h
-        if t >= t_stop:
-            fr_count[0] = fr_k
-            tr_count[0] = tr_k
-            return ADV_STOP, t, h
-        if h > t_stop - t:
-            h = t_stop - t
-        if h < 1e-14 * max(1.0, abs(t)):
-            return ADV_FAIL_STEP, t, h
-        # --- one Dormand-Prince step
-        _rk_stages(Y, h, K, Ytmp, Y1, anchored, locked, ws, F)
-        counters[1] += 6
-        err = _step_error(Y, Y1, K, h, rtol, atol)
-        if not math.isfinite(err) or _nonfinite(Y1):
+        code = _why_stop(t, h, model, st, books, trace)
+        if code != ADV_GO:
+            return code, t, h
+        h = min(h, model.t_stop - t)
+        err = _try_step(t, h, model, chain, ws, st, books)
+        if err == math.inf:
             nfail += 1
             if nfail > 20:
                 return ADV_FAIL_NAN, t, h
@@ -537,175 +760,15 @@ def advance(Y, t, h, t_stop, alpha, floor, anchored, locked, lock_cos, anchor_po
             h *= max(0.2, 0.9 * err ** -0.2)
             continue
         nfail = 0
-        J, kind_, nrow, S, G, drop, rhs, x, gf = ws
-        lock_multipliers(kind_, nrow, x, lam1)  # lambda at Y1 (last stage)
-        # --- event detection at the end and the midpoint of the step
-        nev = 0
-        _dense(Y, K, h, 0.5, Ytmp)  # midpoint state, for the midpoint checks
-        for k in range(nh):
-            if arm_lock[k] == OFF or locked[k]:
-                continue
-            fm = _gap(Ytmp[0], k, cos_alpha)
-            fe = _gap(Y1[0], k, cos_alpha)
-            if fm <= 0.0 or fe <= 0.0:
-                ev_kind[nev] = EV_LOCK
-                ev_idx[nev] = k
-                ev_theta[nev] = _locate(kd_lock, k, arm_lock[k], ref_lock[k], (apex_lock[k] - t) / h, fm, fe, Y, K,
-                                        h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
-                nev += 1
-        for k in range(nh):
-            if arm_unlock[k] == OFF or not locked[k]:
-                continue
-            if lam1[k] <= 0.0:
-                ev_kind[nev] = EV_UNLOCK
-                ev_idx[nev] = k
-                ev_theta[nev] = _locate(kd_unlock, k, arm_unlock[k], ref_unlock[k], 2.0, math.inf, lam1[k], Y, K,
-                                        h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
-                counters[1] += 2
-                nev += 1
-        if nev > 0:
-            _dense(Y, K, h, 0.5, Ytmp)  # (the locating above used Ytmp)
-        floor_values(floor, Ytmp[0], anchored, fv_mid)
-        floor_values(floor, Y1[0], anchored, fv_end)
-        for j in range(n + 1):
-            if arm_land[j] == OFF:
-                continue
-            fm = fv_mid[j]
-            fe = fv_end[j]
-            if fm <= 0.0 or fe <= 0.0:
-                ev_kind[nev] = EV_LANDING
-                ev_idx[nev] = j
-                ev_theta[nev] = _locate(kd_landing, j, arm_land[j], ref_land[j], (apex_land[j] - t) / h, fm, fe, Y,
-                                        K, h, xtol / h, cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
-                nev += 1
-                _dense(Y, K, h, 0.5, Ytmp)
-        if arm_top[0] != OFF:
-            fm = _zpoint(Ytmp[0], 0)
-            fe = _zpoint(Y1[0], 0)
-            if fm <= 0.0 or fe <= 0.0:
-                ev_kind[nev] = EV_TOP
-                ev_idx[nev] = 0
-                ev_theta[nev] = _locate(kd_top, ix_top, arm_top[0], ref_top[0], 2.0, fm, fe, Y, K, h, xtol / h,
-                                        cos_alpha, floor, anchored, locked, ws, Ytmp, dYtmp, lam)
-                nev += 1
-        theta_stop = 1.0
-        for r in range(nev):
-            if ev_theta[r] < theta_stop:
-                theta_stop = ev_theta[r]
-        counters[0] += 1
-        fire = False
-        for r in range(nev):
-            if ev_theta[r] <= 1.0:
-                fire = True
-        # --- frames and trace up to the step end (or the event)
+        theta_stop, fire = _detect_events(t, h, model, chain, watch, ws, st, books)
+        books.n_steps[0] += 1
         t_end = t + theta_stop * h
-        while frame_next[0] <= t_end + 1e-300:
-            if fr_k >= frame_cap:  # buffers full: redo this step once they are emptied
-                counters[0] -= 1
-                fr_count[0] = fr_k
-                tr_count[0] = tr_k
-                fsal[0] = 1
-                return ADV_BUFFER, t, h
-            th = (frame_next[0] - t) / h
-            _dense(Y, K, h, th, Ytmp)
-            _record_frame(Ytmp, anchored, locked, ws, dYtmp, pts, vel, fr_k, frame_next[0],
-                          fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_pull, fr_scale, n_landed)
-            floor_impulse_dense(h, th, F, n_landed, fpart)
-            for q in range(3):
-                fr_fimp[fr_k, q] = fint[q] + fpart[q]
-            counters[1] += 1
-            fr_k += 1
-            frame_next[0] += frame_dt
+        if not _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
+            books.n_steps[0] -= 1  # buffers full: redo this step once they are emptied
+            st.fsal[0] = 1
+            return ADV_BUFFER, t, h
         if fire:
-            # the state at the event time to the step's order (the 4th-order interpolant
-            # is good enough to locate the event, not to restart from)
-            if theta_stop < 1.0:
-                if theta_stop > 0.0:
-                    _event_state(Y, K, K2, F, F2, Y1, Ytmp, h, theta_stop, anchored, locked, ws, n_landed, fint)
-                    counters[1] += 2
-            else:
-                floor_impulse_step(h, F, n_landed, fint)
-                for a in range(2):
-                    for i in range(n):
-                        for q in range(3):
-                            Y[a, i, q] = Y1[a, i, q]
-            for r in range(nev):
-                ev_theta[r] = t + ev_theta[r] * h if ev_theta[r] <= 1.0 else math.inf
-            counters[2] = nev
-            t = t_end
-            tr_t[tr_k] = t
-            tr_z[tr_k] = _zpoint(Y[0], 0)
-            tr_k += 1
-            fr_count[0] = fr_k
-            tr_count[0] = tr_k
-            return ADV_EVENT, t, h
-        # accept the full step
-        floor_impulse_step(h, F, n_landed, fint)
-        for a in range(2):
-            for i in range(n):
-                for q in range(3):
-                    Y[a, i, q] = Y1[a, i, q]
+            return ADV_EVENT, _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace), h
+        _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace)
         t = t_end
-        res = project_state(Y[0], Y[1], anchored, locked, lock_cos, anchor_pos, J, kind_, nrow, S, G, drop,
-                            rhs, x, gf, pts, vel, PROJ_TOL, np.int64(3))
-        if res > PROJ_TOL:
-            _stage_rhs(Y, anchored, locked, ws, K[0], F[0])
-            counters[1] += 1
-        else:
-            for a in range(2):
-                for i in range(n):
-                    for q in range(3):
-                        K[0, a, i, q] = K[6, a, i, q]
-            for q in range(3):
-                F[0, q] = F[6, q]
-        # departing functions that have left their zero are armed
-        for k in range(nh):
-            if arm_lock[k] == DEPARTING and not locked[k] and _gap(Y[0], k, cos_alpha) > ZERO_BAND:
-                arm_lock[k] = ARMED
-            if arm_unlock[k] == DEPARTING and locked[k] and lam1[k] > ZERO_BAND:
-                arm_unlock[k] = ARMED
-        floor_values(floor, Y[0], anchored, fv_end)
-        for j in range(n + 1):
-            if arm_land[j] == DEPARTING and fv_end[j] > ZERO_BAND:
-                arm_land[j] = ARMED
-        if arm_top[0] == DEPARTING and _zpoint(Y[0], 0) > ZERO_BAND:
-            arm_top[0] = ARMED
-        zlow = 0.0
-        zacc = 0.0
-        for j in range(n - 1, -1, -1):
-            zacc += 2.0 * Y[0, j, 2]
-            if zacc < zlow:
-                zlow = zacc
-        if zlow < stats[0]:
-            stats[0] = zlow
-        tr_t[tr_k] = t
-        tr_z[tr_k] = _zpoint(Y[0], 0)
-        tr_k += 1
-        # next step size
-        fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
-        h *= fac
-
-
-@njit(cache=True)
-def _record_frame(Yt, anchored, locked, ws, dYt, pts, vel, k, tf,
-                  fr_t, fr_e, fr_w, fr_anch, fr_lock, fr_force, fr_kin, fr_pot, fr_pull, fr_scale, n_landed):
-    """Frame k at time tf from the state Yt: the state, the anchors' force on the
-    airborne chain, the pile's pull (``pile_pull``), the vertical force a scale under
-    the floor reads (anchors' z force + the weight of the landed segments), energies."""
-    n = Yt.shape[1]
-    fr_t[k] = tf
-    for i in range(n):
-        for q in range(3):
-            fr_e[k, i, q] = Yt[0, i, q]
-            fr_w[k, i, q] = Yt[1, i, q]
-    for j in range(n + 1):
-        fr_anch[k, j] = anchored[j]
-    for j in range(n - 1):
-        fr_lock[k, j] = locked[j]
-    _rhs(Yt, anchored, locked, ws, dYt)
-    J, kind_, nrow, S, G, drop, rhs, x, gf = ws
-    anchor_force_total(kind_, nrow, x, fr_force[k])
-    pile_pull(anchored, kind_, nrow, x, fr_pull[k])
-    fr_scale[k] = fr_force[k, 2] + n_landed
-    fr_kin[k] = kinetic_energy(Yt[0], Yt[1], pts, vel)
-    fr_pot[k] = potential_energy(Yt[0])
+        h *= 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))

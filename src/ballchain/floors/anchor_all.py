@@ -1,0 +1,52 @@
+"""Floor model ``all``: every free point that reaches the floor is stopped and anchored there.
+
+Watched: every free point j, by its height z_j = 2 sum_{i>=j} e_i,z (units b).  A touch
+(z_j <= Z_TOL, not moving up) anchors the point for good (``registry.CONTACT_FIXED``).
+The fall ends (t_fall) when the top end, point 0, is anchored.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..core.jit import njit
+from ..core.rules import RATE_TOL, Z_TOL, point_height
+
+CONTACT = 0  # registry.CONTACT_FIXED
+TOP_EVENT = False  # t_fall comes from the top end's anchoring, not from an event of its own
+
+
+@njit(cache=True)
+def watched(anchored, j):
+    """Every free point is watched."""
+    return anchored[j] == 0
+
+
+@njit(cache=True)
+def value(e, j):
+    """The height of point j."""
+    return point_height(e, j)
+
+
+@njit(cache=True)
+def values(e, anchored, out):
+    """out[j] = the height of every free point j (others: inf), in O(N)."""
+    n = e.shape[0]
+    z = 0.0
+    out[n] = math.inf
+    for j in range(n - 1, -1, -1):
+        z += 2.0 * e[j, 2]
+        out[j] = math.inf if anchored[j] != 0 else z
+    return out
+
+
+@njit(cache=True)
+def contacts(e, pts, pv, anchored, landing_event, out):
+    """Every free point at z <= Z_TOL that is not moving up (dz/dt <= RATE_TOL); their
+    number (indices in out)."""
+    na = 0
+    for j in range(e.shape[0]):
+        if anchored[j] == 0 and pts[j, 2] <= Z_TOL and pv[j, 2] <= RATE_TOL:
+            out[na] = j
+            na += 1
+    return na

@@ -1,0 +1,55 @@
+"""Floor model ``pivot`` (the paper read literally): only the bottom airborne segment meets the floor.
+
+Watched: the upper end j of the bottom airborne segment, by e_j,z / |e_j| (the segment
+turns about its lower end on the floor).  When it lies flat (e_z <= Z_TOL) its upper end
+anchors for good (``registry.CONTACT_FIXED``), cascading up while the next segment lies
+flat too.  The top end reaching z = 0 is an event of its own (t_fall), with no change of
+state.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..core.jit import njit
+from ..core.rules import Z_TOL, bottom_airborne
+
+CONTACT = 0  # registry.CONTACT_FIXED
+TOP_EVENT = True  # t_fall: the top end's height crossing zero is watched
+
+
+@njit(cache=True)
+def watched(anchored, j):
+    """Only the upper end of the bottom airborne segment."""
+    return anchored[j] == 0 and j == bottom_airborne(anchored)
+
+
+@njit(cache=True)
+def value(e, j):
+    """e_j,z / |e_j| of the segment whose upper end is point j (e need not be unit)."""
+    return e[j, 2] / math.sqrt(e[j, 0] ** 2 + e[j, 1] ** 2 + e[j, 2] ** 2)
+
+
+@njit(cache=True)
+def values(e, anchored, out):
+    """out[j] = value(e, j) for the watched point (others: inf)."""
+    m = bottom_airborne(anchored)
+    for j in range(out.shape[0]):
+        out[j] = math.inf
+    if m >= 0 and anchored[m] == 0:
+        out[m] = value(e, m)
+    return out
+
+
+@njit(cache=True)
+def contacts(e, pts, pv, anchored, landing_event, out):
+    """After a landing event: the upper end of the bottom airborne segment once it lies
+    flat, cascading up while the next one does too; their number (indices in out)."""
+    na = 0
+    if landing_event:
+        m = bottom_airborne(anchored)
+        while m >= 0 and value(e, m) <= Z_TOL:
+            out[na] = m
+            na += 1
+            m -= 1
+    return na

@@ -1,0 +1,117 @@
+"""One run of the event-driven method, driven from Python: the bundles allocated, the
+compiled loop (``events.run_events``) called until the fall ends, its codes turned into
+a status and a message.  The compiled loop returns here every ``RETURN_EVERY`` event
+instants (progress, a stop request), when a buffer fills, or at the end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...core.impacts import hinge_gaps
+from ...core.state import new_books, new_chain, new_model, new_work
+from ...floors.registry import FLOOR_CODES
+from ..outputs import FrameBuffer, LogBuffer, RunOutput, SimulationError, TraceBuffer
+from .events import (
+    ERR_ENERGY,
+    ERR_IMPACT_LCP,
+    ERR_LOCK_LCP,
+    ERR_MAX_EVENTS,
+    ERR_ZENO,
+    EV_LANDED,
+    EV_RETURN,
+    ZENO_EVENTS,
+    log_room,
+    new_instant,
+    run_events,
+)
+from .integrator import ADV_BUFFER, ADV_FAIL_NAN, ADV_FAIL_STEP, ADV_MAX_STEPS, ADV_STOP, new_stepper
+from .watch import arm_functions, new_watch
+
+LOOSE_RTOL = 1e-7  # an impact that fails above this tolerance gets a hint to tighten it
+RETURN_EVERY = 256  # events handled in compiled code between returns to Python (progress)
+ZENO_WINDOW = 1e-9  # in units of t_ff: ZENO_EVENTS event instants within it stop the run
+H0 = 1e-3  # first step size tried (sqrt(b/g))
+
+ERROR_MESSAGES = {
+    ERR_IMPACT_LCP: "impact LCP did not converge",
+    ERR_ENERGY: "an impact raised the kinetic energy",
+    ERR_LOCK_LCP: "lock-set LCP did not converge",
+}
+
+
+def _failure(code: int, t: float, h: float, t_ff: float, options) -> str | None:
+    """The message of a code that ends the run in failure (None: not a failure)."""
+    at = f"at t/t_ff = {t / t_ff:.6f}"
+    if code == ADV_FAIL_NAN:
+        return f"non-finite state (blow-up) {at}"
+    if code == ADV_FAIL_STEP:
+        return f"step size underflow (h = {h:.3g}) {at}"
+    if code == ADV_MAX_STEPS:
+        return f"more than max_steps = {options.max_steps} steps {at}"
+    if code == ERR_ZENO:
+        return f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff before t/t_ff = " \
+               f"{t / t_ff:.6f} (Zeno); stopping"
+    if code == ERR_MAX_EVENTS:
+        return f"more than max_events = {options.max_events} events; stopping"
+    if code in ERROR_MESSAGES:
+        hint = (f" (rtol = {options.rtol:g} is loose: the state reaching the impact is not accurate "
+                f"enough; tighten it, e.g. --rtol 1e-9)" if options.rtol > LOOSE_RTOL else "")
+        return f"{ERROR_MESSAGES[code]} at t = {t:.17g}{hint}"
+    return None
+
+
+def _arm(model, chain, watch, sc, books) -> None:
+    """Arm the event functions of the starting state."""
+    hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
+    arm_functions(model, chain, watch, sc.gaps, np.zeros_like(sc.lam), not math.isnan(books.t_fall[0]),
+                  np.zeros(chain.anchored.shape[0]))
+
+
+def run(setup, progress, stop) -> RunOutput:
+    """The fall of ``setup`` (``engine.Setup``) by the event-driven method.  ``progress(t,
+    chain, log, books)`` is called on each return from compiled code; ``stop.reason``
+    (not None) asks the run to stop there (status ``interrupted``)."""
+    p, o, n = setup.params, setup.options, setup.params.segments
+    model = new_model(p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, ZENO_WINDOW * setup.t_ff,
+                      RETURN_EVERY)
+    chain = new_chain(setup.e0, setup.w0, p.alpha)
+    watch, ws, st, sc, books = new_watch(n), new_work(n), new_stepper(n), new_instant(n), new_books()
+    frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
+    trace, log = TraceBuffer(setup.z0), LogBuffer()
+    _arm(model, chain, watch, sc, books)
+    t, h = 0.0, H0
+    status, message = "landed", ""
+    try:
+        while True:
+            if stop.reason is not None:
+                status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
+                break
+            log.reserve(4 * log_room(n))
+            code, t, h = run_events(t, h, model, chain, watch, ws, st, sc, books, frames.compiled, trace.compiled,
+                                    log.compiled)
+            stop.started = True
+            if code == ADV_BUFFER:
+                trace.flush()
+                frames.flush()
+                continue
+            if code == EV_LANDED:
+                break
+            failure = _failure(code, t, h, setup.t_ff, o)
+            if failure is not None:
+                raise SimulationError(failure)
+            if code == ADV_STOP:
+                status = "until" if o.until is not None else "max_time"
+                message = f"not all segments landed by t = {o.max_time} t_ff" if status == "max_time" else ""
+                break
+            if code != EV_RETURN:  # pragma: no cover - every code is handled above
+                raise SimulationError(f"unknown code {code} from the compiled loop")
+            progress(t, chain, log, books)
+    except SimulationError as exc:
+        status, message = "error", str(exc)
+    except MemoryError:
+        status = "error"
+        message = (f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {frames.written()} frames "
+                   f"(lower --frames-per-tff or --until)")
+    return RunOutput(status, message, t, chain, books, frames, trace, log)

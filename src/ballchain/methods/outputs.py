@@ -1,0 +1,113 @@
+"""The outputs every method fills, on the Python side: frames in fixed-size buffers
+emptied into chunks, the trace (z_top at every step) and the event log in growable
+arrays, and what a method hands back (``RunOutput``).  The compiled side of each is a
+``core.state`` bundle (``Frames``, ``Trace``, ``Log``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.state import FRAME_FIELDS, Books, Chain, new_frames, new_log, new_trace
+
+FRAME_CHUNK_BYTES = 32 << 20  # frame buffers are emptied into the result this often
+
+
+def frame_bytes(n: int) -> int:
+    """Bytes one output frame of an N-segment chain takes in memory."""
+    return 8 * (2 * 3 * n) + (n + 1) + max(n - 1, 0) + 8 * 14
+
+
+class FrameBuffer:
+    """Output frames in fixed-size buffers that the compiled loop fills (a method returns
+    when they are full); ``flush`` moves them into chunks, so a run holds what it has
+    written, never what it might write."""
+
+    def __init__(self, n: int, frame_dt: float, frames_wanted: float):
+        cap = int(max(16, min(frames_wanted + 2, FRAME_CHUNK_BYTES // frame_bytes(n))))
+        self.compiled = new_frames(n, frame_dt, cap)
+        self.chunks = {name: [] for name in FRAME_FIELDS}
+
+    def flush(self) -> None:
+        fr = self.compiled
+        k = int(fr.count[0])
+        if k:
+            for name in FRAME_FIELDS:
+                self.chunks[name].append(getattr(fr, name)[:k].copy())
+        fr.count[0] = 0
+        fr.fill[0] = 0
+
+    def written(self) -> int:
+        """Frames written so far."""
+        return sum(map(len, self.chunks["t"])) + int(self.compiled.count[0])
+
+    def arrays(self) -> dict:
+        self.flush()
+        return {name: np.concatenate(self.chunks[name]) if self.chunks[name] else getattr(self.compiled, name)[:0]
+                for name in FRAME_FIELDS}
+
+
+class TraceBuffer:
+    """z_top at every step and event, in a fixed-size buffer emptied into chunks."""
+
+    def __init__(self, z0: float):
+        self.compiled = new_trace()
+        self.t_chunks = [np.zeros(1)]
+        self.z_chunks = [np.array([z0])]
+
+    def flush(self) -> None:
+        tr = self.compiled
+        k = int(tr.count[0])
+        self.t_chunks.append(tr.t[:k].copy())
+        self.z_chunks.append(tr.z[:k].copy())
+        tr.count[0] = 0
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        self.flush()
+        return np.concatenate(self.t_chunks), np.concatenate(self.z_chunks)
+
+
+class LogBuffer:
+    """The event log in growable arrays (written by the compiled handler in place)."""
+
+    def __init__(self, cap: int = 4096):
+        self.compiled = new_log(cap)
+
+    def reserve(self, rows: int) -> None:
+        """Make room for ``rows`` more rows (capacity doubles)."""
+        old = self.compiled
+        cap = old.t.shape[0]
+        k = int(old.n[0])
+        if cap - k < rows:
+            new = new_log(max(2 * cap, k + rows), n_rows=old.n)
+            for a_new, a_old in zip(new[:-1], old[:-1]):
+                a_new[:k] = a_old[:k]
+            self.compiled = new
+
+    def __len__(self) -> int:
+        return int(self.compiled.n[0])
+
+    def view(self):
+        """(t, kind, index, impulse, energy, position) of the rows written so far."""
+        k = len(self)
+        return tuple(a[:k] for a in self.compiled[:-1])
+
+
+class SimulationError(RuntimeError):
+    """A run that cannot go on (blow-up, event accumulation, singular configuration)."""
+
+
+@dataclass
+class RunOutput:
+    """What a method hands back to ``engine``: how the run ended, its final state and its
+    outputs (nondimensional)."""
+
+    status: str
+    message: str
+    t: float
+    chain: Chain
+    books: Books
+    frames: FrameBuffer
+    trace: TraceBuffer
+    log: LogBuffer
