@@ -39,7 +39,10 @@ CASES = [
     ("pi/2 N=32 random first lock", dict(segments=32, alpha=math.pi / 2), dict(kind="random", seed=5), dict(), True),
     ("pi/4 N=32 pivot first lock", dict(segments=32, alpha=math.pi / 4, floor="pivot"), dict(), dict(), True),
     ("pi/3 N=8 short", dict(segments=8, alpha=math.pi / 3), dict(eps=0.1), dict(until=0.2), False),
+    # chaotic (thousands of lock events): equal only where the arithmetic is unchanged; reported, not judged
+    ("pi/4 N=128 whole fall (chaotic)", dict(segments=128, alpha=math.pi / 4), dict(), dict(), False),
 ]
+CHAOTIC = "(chaotic)"
 
 RUNNER = r"""
 import json, sys
@@ -106,10 +109,11 @@ def main() -> None:
     for name, *_ in CASES:
         for key in base[name]:
             d = max_rel(base[name][key], head[name][key])
-            worst = max(worst, d)
+            if CHAOTIC not in name:
+                worst = max(worst, d)
             show = (lambda v: f"{v:.12g}" if isinstance(v, float) else ("[...]" if isinstance(v, list) else str(v)))
             print(f"| {name} | {key} | {show(base[name][key])} | {show(head[name][key])} | {d:.2e} | "
-                  f"{'yes' if d <= args.tol else 'NO'} |")
+                  f"{'yes' if d <= args.tol else ('NO' if CHAOTIC not in name else '(not judged)')} |")
     print(f"\nlargest difference: {worst:.2e} ({'within' if worst <= args.tol else 'OUTSIDE'} {args.tol:g})")
     sys.exit(0 if worst <= args.tol else 1)
 

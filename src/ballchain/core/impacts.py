@@ -48,7 +48,7 @@ from .dynamics import (
     torques4,
     W_W,
 )
-from .rules import RATE_TOL, hinge_gap
+from .rules import RATE_TOL, unit_hinge_gap
 from .state import MAXR
 
 MULT_TOL = 1e-11  # absolute floor of the complementarity tolerances
@@ -70,9 +70,9 @@ def new_impact_work(n: int) -> ImpactWork:
 @entry
 @njit(cache=True)
 def hinge_gaps(e, cos_alpha, out):
-    """out[k] = g_k of every hinge (``rules.hinge_gap``)."""
+    """out[k] = g_k of every hinge of unit axes e (``rules.unit_hinge_gap``)."""
     for k in range(out.shape[0]):
-        out[k] = hinge_gap(e, k, cos_alpha)
+        out[k] = unit_hinge_gap(e, k, cos_alpha)
 
 
 @njit(cache=True)

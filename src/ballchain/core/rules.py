@@ -105,6 +105,13 @@ def hinge_gap(e, k, cos_alpha):
 
 
 @njit(cache=True, inline="always")
+def unit_hinge_gap(e, k, cos_alpha):
+    """``hinge_gap`` of axes known to be unit length (|e_k| = |e_{k+1}| = 1: the state at
+    an event instant, normalised by the projection): g_k = e_k . e_{k+1} - cos(alpha)."""
+    return e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - cos_alpha
+
+
+@njit(cache=True, inline="always")
 def point_height(e, j):
     """z_j = 2 sum_{i>=j} e_i,z: the height of point j (units b; point N at the origin)."""
     z = 0.0

@@ -302,6 +302,15 @@ def floor_impulse_dense(h, theta, F, n_landed, out):
     out[2] += theta * h * n_landed
 
 
+@njit(cache=True, inline="always")
+def _copy_state(dst, src):
+    """dst[...] = src for (2, N, 3) states (an explicit loop: cheaper than a slice copy)."""
+    for a in range(2):
+        for i in range(src.shape[1]):
+            for q in range(3):
+                dst[a, i, q] = src[a, i, q]
+
+
 @njit(cache=True)
 def _nonfinite(Y):
     for a in range(2):
@@ -488,7 +497,7 @@ def _found(st, nev, kind, idx, theta):
     return nev + 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _detect_locks(nev, t, h, model, chain, watch, ws, st):
     """Unlocked hinges whose lock function g_k reaches zero in the step (checked at its
     midpoint st.Ytmp and end st.Y1, then located); returns the count of found events."""
@@ -504,7 +513,7 @@ def _detect_locks(nev, t, h, model, chain, watch, ws, st):
     return nev
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _detect_unlocks(nev, t, h, model, chain, watch, ws, st):
     """Locked hinges whose multiplier reaches zero in the step (checked at its end,
     st.lam1, then located); each costs evaluations."""
@@ -518,7 +527,7 @@ def _detect_unlocks(nev, t, h, model, chain, watch, ws, st):
     return nev
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _detect_landings(nev, t, h, model, chain, watch, ws, st):
     """Watched points whose floor function reaches zero in the step (the floor model's
     values at the midpoint and the end, then located)."""
@@ -537,7 +546,7 @@ def _detect_landings(nev, t, h, model, chain, watch, ws, st):
     return nev
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _detect_top(nev, t, h, model, chain, watch, ws, st):
     """The top end's height reaching zero (floor models with a top event)."""
     if watch.arm_top[0] != OFF:
@@ -549,7 +558,7 @@ def _detect_top(nev, t, h, model, chain, watch, ws, st):
     return nev
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _detect_events(t, h, model, chain, watch, ws, st, books):
     """Every event function that fires in the step, kind by kind (watch.EVENT_FUNCTIONS
     order), into st.ev_*; returns (theta of the first, whether any fires)."""
@@ -602,7 +611,7 @@ def _record_frame(Yt, tf, n_landed, chain, ws, st, frames):
     frames.potential[k] = potential_energy(Yt[0])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
     """The frames due up to t_end, from the step's dense output; False if the buffers
     filled first (the caller returns ADV_BUFFER and redoes the step once they are
@@ -631,7 +640,7 @@ def _trace_point(trace, t, e):
     trace.count[0] = k + 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
     """End the step at its first event: the state at the event time to the step's order
     (the 4th-order interpolant is good enough to locate the event, not to restart
@@ -644,7 +653,7 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
             books.n_evals[0] += 2
     else:
         floor_impulse_step(h, st.F, n_landed, books.floor_flow)
-        Y[:] = st.Y1
+        _copy_state(Y, st.Y1)
     for r in range(st.n_found[0]):
         st.ev_theta[r] = t + st.ev_theta[r] * h if st.ev_theta[r] <= 1.0 else math.inf
     t_event = t + theta_stop * h
@@ -652,7 +661,7 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
     return t_event
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _lowest_point(e, books):
     """books.lowest <- the lowest point height seen (for the max depth)."""
     zlow = 0.0
@@ -665,27 +674,28 @@ def _lowest_point(e, books):
         books.lowest[0] = zlow
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace):
     """Accept the full step: the state at its end, the floor's impulse, the projection
     onto the constraints (f(Y) recomputed if it moved the state, else the last stage
     reused), departing functions armed, the lowest point and the trace."""
     Y = chain.Y
     floor_impulse_step(h, st.F, n_landed, books.floor_flow)
-    Y[:] = st.Y1
+    _copy_state(Y, st.Y1)
     res = project_state(chain, ws, PROJ_TOL, np.int64(3))
     if res > PROJ_TOL:
         _stage_rhs(Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
         books.n_evals[0] += 1
     else:
-        st.K[0] = st.K[6]
-        st.F[0] = st.F[6]
+        _copy_state(st.K[0], st.K[6])
+        for q in range(3):
+            st.F[0, q] = st.F[6, q]
     arm_departed(model, chain, watch, st.lam1, st.fv_end)
     _lowest_point(Y[0], books)
     _trace_point(trace, t_end, Y[0])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _count_landed(anchored):
     """Segments whose both ends are anchored (the floor holds up their weight)."""
     n_landed = np.int64(0)
@@ -695,7 +705,7 @@ def _count_landed(anchored):
     return n_landed
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _why_stop(t, h, model, st, books, trace):
     """A reason to return before the next step (ADV_*), or ADV_GO."""
     if books.n_steps[0] >= model.max_steps:
@@ -710,7 +720,7 @@ def _why_stop(t, h, model, st, books, trace):
     return ADV_GO
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _try_step(t, h, model, chain, ws, st, books):
     """One Dormand-Prince step of size h (st.Y1, st.K, st.F); returns its error in units
     of the tolerance (inf: non-finite) and the lock multipliers at its end (st.lam1)."""
