@@ -155,7 +155,7 @@ def new_stepper(n: int) -> Stepper:
                    np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rhs(Y, anchored, locked, ws, dY):
     return accelerations(Y[0], Y[1], anchored, locked, ws, dY[0], dY[1])
 
@@ -196,7 +196,7 @@ def _dense_e(Y0, K, b, i, q):
     return v
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _stage_rhs(Y, anchored, locked, ws, dY, F):
     """dY = f(Y) and F = the anchors' total force on the chain at Y."""
     _rhs(Y, anchored, locked, ws, dY)
