@@ -1156,15 +1156,15 @@ def constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs):
 
 
 @njit(cache=True)
-def project_state(chain, ws, tol, iters):
-    """Remove constraint drift from the state of ``chain`` (``state.Chain``): normalise,
+def project_state(chain, ws, pts, vel, tol, iters):
+    """Remove constraint drift from the state of ``chain`` (``state.Chain``; ``pts``,
+    ``vel``: scratch of the points' positions and the centres' velocities): normalise,
     then Gauss-Newton on anchor positions and locked angles
     (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.  Returns the largest
     position residual before projection."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
     lock_cos, anchor_pos = chain.lock_cos, chain.anchor_pos
     J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
-    pts, vel = ws.pts, ws.vel
     normalize_state(e, w, anchored)
     fits = constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs)
     res0 = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)

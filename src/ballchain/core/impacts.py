@@ -56,15 +56,17 @@ MULT_RTOL = 1e-10  # tolerance relative to the largest multiplier / acceleration
 
 # What an impact computes besides the new velocities: the constraint rates before it (jv),
 # the post-impact w of a trial (w_plus), the hinge rates after it (rates_after), the lock
-# impulses, the floor's impulse per point, and the energy lost (to locking, to landing).
-ImpactWork = namedtuple("ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split"])
+# impulses, the floor's impulse per point, and the energy lost (to locking, to landing);
+# pv, vel: scratch of the point and centre velocities.
+ImpactWork = namedtuple("ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split", "pv",
+                                       "vel"])
 
 
 def new_impact_work(n: int) -> ImpactWork:
     """Scratch of ``velocity_impact`` for an N-segment chain."""
     nh = max(n - 1, 0)
     return ImpactWork(np.zeros((n + 1, MAXR)), np.zeros((n, 3)), np.zeros(nh), np.zeros(nh), np.zeros((n + 1, 3)),
-                      np.zeros(2))
+                      np.zeros(2), np.zeros((n + 1, 3)), np.zeros((n, 3)))
 
 
 @entry
@@ -185,9 +187,9 @@ def _impact_trial(e, w, anchored, active, ws, iw):
             w_plus[i, q] = w[i, q]
     fits = constraint_rows(e, w, anchored, active, J, kind, nrow, rhs)
     if fits:
-        constraint_rates4(e, w, anchored, kind, nrow, ws.pv, ws.vel, jv_minus)
+        constraint_rates4(e, w, anchored, kind, nrow, iw.pv, iw.vel, jv_minus)
     else:
-        constraint_velocities(e, w, J, nrow, ws.pv, ws.vel, jv_minus)
+        constraint_velocities(e, w, J, nrow, iw.pv, iw.vel, jv_minus)
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
             rhs[j, r] = -jv_minus[j, r]

@@ -111,7 +111,7 @@ def unit_hinge_gap(e, k, cos_alpha):
     return e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - cos_alpha
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def point_height(e, j):
     """z_j = 2 sum_{i>=j} e_i,z: the height of point j (units b; point N at the origin)."""
     z = 0.0

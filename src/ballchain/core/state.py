@@ -5,8 +5,7 @@ The way MuJoCo splits a constant model (``mjModel``) from all mutable data (``mj
 * ``Model``: what does not change during a run (the bend limit, the floor model, the
   tolerances, the stop time);
 * ``Chain``: the mechanical state (axes and angular velocities, anchors, locks);
-* ``Work``: the O(N) solver's workspace (constraint rows, factors, multipliers, the
-  point positions and velocities it computes on the way);
+* ``Work``: the O(N) solver's workspace (constraint rows, factors, multipliers);
 * ``Books``: the run's accounts, shared by every method (energy lost, the floor's
   impulse, t_fall and t_landed, counts, the lowest point seen);
 * ``Frames``, ``Trace``, ``Log``: the outputs (frames at fixed times, z_top at every
@@ -106,9 +105,6 @@ Work = namedtuple(
         "rhs",  # (N+1, MAXR): right-hand sides
         "x",  # (N+1, MAXR): multipliers (forces, lock multipliers, impulses)
         "gf",  # (N, 6): force and torque of the multipliers on each segment
-        "pts",  # (N+1, 3): point positions (or velocities)
-        "pv",  # (N+1, 3): point velocities
-        "vel",  # (N, 3): centre velocities
     ],
 )
 
@@ -126,9 +122,6 @@ def new_work(n: int) -> Work:
         np.zeros((p, MAXR)),
         np.zeros((p, MAXR)),
         np.zeros((n, 6)),
-        np.zeros((p, 3)),
-        np.zeros((p, 3)),
-        np.zeros((n, 3)),
     )
 
 

@@ -64,8 +64,8 @@ def _failure(code: int, t: float, h: float, t_ff: float, options) -> str | None:
 
 def _arm(model, chain, watch, sc, books) -> None:
     """Arm the event functions of the starting state."""
-    hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
-    arm_functions(model, chain, watch, sc.gaps, np.zeros_like(sc.lam), not math.isnan(books.t_fall[0]),
+    hinge_gaps(chain.Y[0], model.cos_alpha, sc.hs.gaps)
+    arm_functions(model, chain, watch, sc.hs.gaps, np.zeros_like(sc.acc.lam), not math.isnan(books.t_fall[0]),
                   np.zeros(chain.anchored.shape[0]))
 
 

@@ -71,15 +71,13 @@ EV_RETURN = 11  # returned to Python for progress, log space or the trace buffer
 ERR_IMPACT_LCP, ERR_ENERGY, ERR_LOCK_LCP, ERR_ZENO, ERR_MAX_EVENTS = -1, -2, -3, -4, -5
 ZENO_EVENTS = 20000  # event instants within the model's zeno_window that stop the run
 
-Instant = namedtuple(
-    "Instant",
+# The event handler's scratch, in bundles by purpose (a step of the handler receives only
+# the bundles it uses):
+Hinges = namedtuple(
+    "Hinges",
     [
         "gaps",  # (N-1,): g_k of every hinge
         "rates",  # (N-1,): dg_k/dt
-        "de",  # (N, 3): de/dt at the lock set's accelerations
-        "dw",  # (N, 3)
-        "ddg",  # (N-1,): d2g_k/dt2
-        "lam",  # (N-1,): lock multipliers
         "exclude",  # (N-1,) uint8: unlocked in this instant (cannot re-lock in it)
         "cand",  # (N-1,) uint8: candidates of the complementarity problem
         "active",  # (N-1,) uint8: its active set
@@ -87,14 +85,45 @@ Instant = namedtuple(
         "new_lock",  # (N-1,) uint8: took an impulse in the first round without having been locked
         "in_force",  # (N-1,) uint8: the hinge's limit is in force (rules.limit_in_force)
         "forced",  # (N-1,) uint8: held at its limit by the accumulation rule
+        "imp_sum",  # (N-1,): each hinge's impulse, summed over the rounds
+        "lost_h",  # (N-1,): kinetic energy lost at each hinge
+    ],
+)
+Accel = namedtuple(
+    "Accel",
+    [
+        "de",  # (N, 3): de/dt at the lock set's accelerations
+        "dw",  # (N, 3)
+        "ddg",  # (N-1,): d2g_k/dt2
+        "lam",  # (N-1,): lock multipliers
+    ],
+)
+Contacts = namedtuple(
+    "Contacts",
+    [
         "new_anchor",  # (N+1,) int64: the points anchored at this instant
         "pre_v",  # (N+1, 3): their velocities before the impact
         "anchor_impulse",  # (N+1, 3): the floor's impulse per point, summed over the rounds
-        "imp_sum",  # (N-1,): each hinge's impulse, summed over the rounds
-        "lost_h",  # (N-1,): kinetic energy lost at each hinge
         "fv",  # (N+1,): scratch of the floor functions
-        "recent",  # (ZENO_EVENTS + 1,): ring of the latest event instants' times
+    ],
+)
+Points = namedtuple(
+    "Points",
+    [
+        "pts",  # (N+1, 3): point positions (they do not change at an instant)
+        "pv",  # (N+1, 3): point velocities
+        "vel",  # (N, 3): centre velocities
+    ],
+)
+Instant = namedtuple(
+    "Instant",
+    [
+        "hs",  # Hinges
+        "acc",  # Accel
+        "ct",  # Contacts
+        "pt",  # Points
         "iw",  # the impacts' scratch (impacts.ImpactWork)
+        "recent",  # (ZENO_EVENTS + 1,): ring of the latest event instants' times
     ],
 )
 
@@ -103,10 +132,11 @@ def new_instant(n: int) -> Instant:
     """The event handler's scratch for an N-segment chain."""
     nh = max(n - 1, 0)
     u8 = lambda: np.zeros(nh, np.uint8)  # noqa: E731
-    return Instant(np.zeros(nh), np.zeros(nh), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(nh), np.zeros(nh), u8(),
-                   u8(), u8(), u8(), u8(), u8(), u8(), np.zeros(n + 1, np.int64), np.zeros((n + 1, 3)),
-                   np.zeros((n + 1, 3)), np.zeros(nh), np.zeros(nh), np.zeros(n + 1), np.zeros(ZENO_EVENTS + 1),
-                   new_impact_work(n))
+    hs = Hinges(np.zeros(nh), np.zeros(nh), u8(), u8(), u8(), u8(), u8(), u8(), u8(), np.zeros(nh), np.zeros(nh))
+    acc = Accel(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(nh), np.zeros(nh))
+    ct = Contacts(np.zeros(n + 1, np.int64), np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros(n + 1))
+    pt = Points(np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n, 3)))
+    return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1))
 
 
 @njit(cache=True, inline="always")
@@ -127,103 +157,103 @@ def _log(log, t, kind, index, i0, i1, i2, energy, pts, j):
 
 
 @njit(cache=True)
-def _unlocks_and_top(t, model, chain, ws, sc, books, log, st):
+def _unlocks_and_top(t, model, chain, hs, pt, books, log, found):
     """Step 1: unlock the hinges whose multiplier crossed zero (they cannot re-lock in
     this instant); the top end reaching the floor (floor models with a top event) ends
     the fall.  Returns whether a landing event fired."""
-    for k in range(sc.exclude.shape[0]):
-        sc.exclude[k] = 0
+    for k in range(hs.exclude.shape[0]):
+        hs.exclude[k] = 0
     any_landing = np.bool_(False)
-    for i in range(st.n_found[0]):
-        if st.ev_theta[i] > t + 10.0 * model.xtol:
+    for i in range(found.n[0]):
+        if found.time[i] > t + 10.0 * model.xtol:
             continue
-        kd = st.ev_kind[i]
+        kd = found.kind[i]
         if kd == EV_UNLOCK:
-            k = st.ev_idx[i]
+            k = found.idx[i]
             if chain.locked[k]:
                 chain.locked[k] = 0
-                sc.exclude[k] = 1
-                _log(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, ws.pts, k + 1)
+                hs.exclude[k] = 1
+                _log(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, pt.pts, k + 1)
         elif kd == EV_TOP:
             if fall_ended(books, t, True, False):
-                _log(log, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, ws.pts, 0)
+                _log(log, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, pt.pts, 0)
         elif kd == EV_LANDING:
             any_landing = True
     return any_landing
 
 
 @njit(cache=True)
-def _anchor_contacts(t, model, chain, ws, sc, any_landing):
+def _anchor_contacts(t, model, chain, ct, pt, any_landing):
     """Step 2: the points the floor model lets touch the floor are anchored where they
     touched (marked 2: their neighbours still move during the impact); returns their
-    number (sc.new_anchor, their velocities before the impact in sc.pre_v)."""
+    number (ct.new_anchor, their velocities before the impact in ct.pre_v)."""
     e, w = chain.Y[0], chain.Y[1]
-    velocities(e, w, ws.pv, ws.vel)
-    na = floor_contacts(model.floor, e, ws.pts, ws.pv, chain.anchored, any_landing, sc.new_anchor)
+    velocities(e, w, pt.pv, pt.vel)
+    na = floor_contacts(model.floor, e, pt.pts, pt.pv, chain.anchored, any_landing, ct.new_anchor)
     for r in range(na):
-        j = sc.new_anchor[r]
+        j = ct.new_anchor[r]
         for q in range(3):
-            sc.pre_v[r, q] = ws.pv[j, q]
-            chain.anchor_pos[j, q] = ws.pts[j, q]  # held where it touched (|z| < Z_TOL)
+            ct.pre_v[r, q] = pt.pv[j, q]
+            chain.anchor_pos[j, q] = pt.pts[j, q]  # held where it touched (|z| < Z_TOL)
         chain.anchored[j] = 2
         chain.anchor_t[j] = t
     return na
 
 
 @njit(cache=True)
-def _impact_candidates(model, chain, sc):
+def _impact_candidates(model, chain, hs, ct):
     """The hinges the impact concerns: limits in force, at the limit or locked, not just
-    unlocked (sc.cand); the initial active set: locked or approaching (rate < -RATE_TOL).
+    unlocked (hs.cand); the initial active set: locked or approaching (rate < -RATE_TOL).
     Returns whether any candidate approaches (an impact, not a touch)."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
-    hinge_gaps(e, model.cos_alpha, sc.gaps)
-    hinge_rates(e, w, sc.rates)
+    hinge_gaps(e, model.cos_alpha, hs.gaps)
+    hinge_rates(e, w, hs.rates)
     any_approaching = False
     for k in range(locked.shape[0]):
-        sc.in_force[k] = 1 if limit_in_force(anchored, k, model.cone, model.alpha) else 0
-        if not sc.in_force[k]:
+        hs.in_force[k] = 1 if limit_in_force(anchored, k, model.cone, model.alpha) else 0
+        if not hs.in_force[k]:
             locked[k] = 0
-        sc.cand[k] = 1 if (sc.in_force[k] and (sc.gaps[k] <= GAP_TOL or locked[k] != 0) and sc.exclude[k] == 0) \
+        hs.cand[k] = 1 if (hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0) and hs.exclude[k] == 0) \
             else 0
-        approaching = sc.cand[k] != 0 and sc.rates[k] < -RATE_TOL
+        approaching = hs.cand[k] != 0 and hs.rates[k] < -RATE_TOL
         any_approaching = any_approaching or approaching
-        sc.was_locked[k] = locked[k]
-        sc.new_lock[k] = 0
-        sc.forced[k] = 0
-        sc.imp_sum[k] = 0.0
-        sc.lost_h[k] = 0.0
-        sc.active[k] = 1 if (locked[k] != 0 or approaching) else 0
-    sc.anchor_impulse[:] = 0.0
+        hs.was_locked[k] = locked[k]
+        hs.new_lock[k] = 0
+        hs.forced[k] = 0
+        hs.imp_sum[k] = 0.0
+        hs.lost_h[k] = 0.0
+        hs.active[k] = 1 if (locked[k] != 0 or approaching) else 0
+    ct.anchor_impulse[:] = 0.0
     return any_approaching
 
 
 @njit(cache=True)
-def _apply_impact(rnd, chain, ws, sc, books):
+def _apply_impact(rnd, chain, ws, hs, ct, iw, books):
     """Step 3: one Moreau impact over the new anchors and the candidates (impulses
     summed into the books, the hinge log and the floor's impulse); the hinges it keeps
     at their limit are locked.  Returns False if the impact problem failed."""
     e, w, locked = chain.Y[0], chain.Y[1], chain.locked
-    hinge_rates(e, w, sc.rates)
-    if velocity_impact(e, w, chain.anchored, sc.cand, sc.forced, sc.active, ws, sc.iw) < 0:
+    hinge_rates(e, w, hs.rates)
+    if velocity_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, ws, iw) < 0:
         return False
-    books.lost_locking[0] += sc.iw.split[0]
-    books.lost_landing[0] += sc.iw.split[1]
-    for j in range(sc.anchor_impulse.shape[0]):  # the floor's impulse on the chain: every anchor, new or old
+    books.lost_locking[0] += iw.split[0]
+    books.lost_landing[0] += iw.split[1]
+    for j in range(ct.anchor_impulse.shape[0]):  # the floor's impulse on the chain: every anchor, new or old
         for q in range(3):
-            sc.anchor_impulse[j, q] += sc.iw.anchor_impulse[j, q]
-            books.floor_impulse[q] += sc.iw.anchor_impulse[j, q]
+            ct.anchor_impulse[j, q] += iw.anchor_impulse[j, q]
+            books.floor_impulse[q] += iw.anchor_impulse[j, q]
     for k in range(locked.shape[0]):
-        sc.imp_sum[k] += sc.iw.impulse[k]
-        sc.lost_h[k] += -0.5 * sc.iw.impulse[k] * (sc.rates[k] + sc.iw.rates_after[k])
-        if rnd == 0 and sc.active[k] and not sc.was_locked[k]:
-            sc.new_lock[k] = 1
-        locked[k] = sc.active[k]  # hinges kept at the limit by the impact
-    hinge_rates(e, w, sc.rates)
+        hs.imp_sum[k] += iw.impulse[k]
+        hs.lost_h[k] += -0.5 * iw.impulse[k] * (hs.rates[k] + iw.rates_after[k])
+        if rnd == 0 and hs.active[k] and not hs.was_locked[k]:
+            hs.new_lock[k] = 1
+        locked[k] = hs.active[k]  # hinges kept at the limit by the impact
+    hinge_rates(e, w, hs.rates)
     return True
 
 
 @njit(cache=True)
-def _settle_anchors(model, chain, sc):
+def _settle_anchors(model, chain, hs):
     """After the first impact: the new anchors are made (2 -> 1), limits no longer in
     force are dropped, landed segments are at rest."""
     anchored, locked, w = chain.anchored, chain.locked, chain.Y[1]
@@ -231,8 +261,8 @@ def _settle_anchors(model, chain, sc):
         if anchored[j] == 2:
             anchored[j] = 1
     for k in range(locked.shape[0]):
-        sc.in_force[k] = 1 if limit_in_force(anchored, k, model.cone, model.alpha) else 0
-        if not sc.in_force[k]:
+        hs.in_force[k] = 1 if limit_in_force(anchored, k, model.cone, model.alpha) else 0
+        if not hs.in_force[k]:
             locked[k] = 0
     for i in range(w.shape[0]):
         if is_landed(anchored, i):
@@ -242,66 +272,66 @@ def _settle_anchors(model, chain, sc):
 
 
 @njit(cache=True)
-def _lock_set(chain, ws, sc):
+def _lock_set(chain, ws, hs, acc):
     """Step 4: which hinges at the limit (at rest there, or locked) stay locked, the
     acceleration-level LCP.  Returns False if it failed."""
     e, w, locked = chain.Y[0], chain.Y[1], chain.locked
     for k in range(locked.shape[0]):
-        c2 = (((sc.in_force[k] and sc.gaps[k] <= GAP_TOL and abs(sc.rates[k]) <= RATE_TOL) or locked[k] != 0)
-              and sc.exclude[k] == 0)
-        sc.cand[k] = 1 if c2 else 0
-        sc.active[k] = 1 if (locked[k] != 0 and c2) else 0
-    if lock_set(e, w, chain.anchored, sc.cand, sc.active, ws, sc.de, sc.dw, sc.ddg, sc.lam) < 0:
+        c2 = (((hs.in_force[k] and hs.gaps[k] <= GAP_TOL and abs(hs.rates[k]) <= RATE_TOL) or locked[k] != 0)
+              and hs.exclude[k] == 0)
+        hs.cand[k] = 1 if c2 else 0
+        hs.active[k] = 1 if (locked[k] != 0 and c2) else 0
+    if lock_set(e, w, chain.anchored, hs.cand, hs.active, ws, acc.de, acc.dw, acc.ddg, acc.lam) < 0:
         return False
     for k in range(locked.shape[0]):
-        locked[k] = sc.active[k]
+        locked[k] = hs.active[k]
     return True
 
 
 @njit(cache=True)
-def _hold_returning(model, chain, sc):
+def _hold_returning(model, chain, hs, acc):
     """The accumulation limit: a hinge this instant has released (it was locked, or took
     an impulse) that accelerates back to its limit and would return either slower than
-    hold_rate or after an excursion too small to resolve is held (sc.forced), and the
+    hold_rate or after an excursion too small to resolve is held (hs.forced), and the
     next round's candidates are set.  Returns the number newly held."""
     locked = chain.locked
     nh = locked.shape[0]
     nhold = 0
     for k in range(nh):
-        if (locked[k] or sc.forced[k] or not (sc.was_locked[k] or sc.new_lock[k]) or sc.exclude[k]
-                or sc.gaps[k] > GAP_TOL):
+        if (locked[k] or hs.forced[k] or not (hs.was_locked[k] or hs.new_lock[k]) or hs.exclude[k]
+                or hs.gaps[k] > GAP_TOL):
             continue
-        if must_hold(sc.rates[k], sc.ddg[k], model.hold_rate, model.hold_apex):
-            sc.forced[k] = 1
+        if must_hold(hs.rates[k], acc.ddg[k], model.hold_rate, model.hold_apex):
+            hs.forced[k] = 1
             nhold += 1
     if nhold > 0:
         for k in range(nh):
-            sc.cand[k] = 1 if ((sc.in_force[k] and (sc.gaps[k] <= GAP_TOL or locked[k] != 0 or sc.forced[k]))
-                               and not sc.exclude[k]) else 0
-            sc.active[k] = 1 if (locked[k] or sc.forced[k]) else 0
+            hs.cand[k] = 1 if ((hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0 or hs.forced[k]))
+                               and not hs.exclude[k]) else 0
+            hs.active[k] = 1 if (locked[k] or hs.forced[k]) else 0
     return nhold
 
 
 @njit(cache=True)
-def _log_instant(t, na, chain, ws, sc, log):
+def _log_instant(t, na, chain, hs, ct, pt, log):
     """The log: one row per constraint that acted (hinges, new anchors, old anchors that
     took an impulse)."""
-    locked, pts = chain.locked, ws.pts
+    locked, pts = chain.locked, pt.pts
     for k in range(locked.shape[0]):
-        was, new = sc.was_locked[k], sc.new_lock[k]
-        if sc.forced[k]:
-            _log(log, t, LOG_HOLD, k, sc.imp_sum[k], 0.0, 0.0, sc.lost_h[k], pts, k + 1)
-        elif sc.imp_sum[k] != 0.0 or new:
-            _log(log, t, LOG_IMPULSE if was else LOG_LOCK, k, sc.imp_sum[k], 0.0, 0.0, sc.lost_h[k], pts, k + 1)
+        was, new = hs.was_locked[k], hs.new_lock[k]
+        if hs.forced[k]:
+            _log(log, t, LOG_HOLD, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
+        elif hs.imp_sum[k] != 0.0 or new:
+            _log(log, t, LOG_IMPULSE if was else LOG_LOCK, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
         elif locked[k] and not was:  # a touch that locks
             _log(log, t, LOG_LOCK, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
-        if not locked[k] and (was or new or sc.forced[k]):
+        if not locked[k] and (was or new or hs.forced[k]):
             _log(log, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
-    aimp = sc.anchor_impulse
+    aimp = ct.anchor_impulse
     for r in range(na):
-        j = sc.new_anchor[r]
+        j = ct.new_anchor[r]
         i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
-        lost = -0.5 * (i0 * sc.pre_v[r, 0] + i1 * sc.pre_v[r, 1] + i2 * sc.pre_v[r, 2])
+        lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * ct.pre_v[r, 2])
         _log(log, t, LOG_LANDING, j, i0, i1, i2, lost, pts, j)
     for j in range(chain.anchored.shape[0]):  # impulses of the floor on points anchored before this instant
         if chain.anchored[j] != 0 and chain.anchor_t[j] != t:
@@ -317,42 +347,44 @@ def _finish_instant(t, model, chain, watch, ws, sc, books):
     or marked departing and the apex of each departing constraint is predicted."""
     e, w, locked = chain.Y[0], chain.Y[1], chain.locked
     for k in range(locked.shape[0]):
-        if sc.was_locked[k] == 0 and locked[k] != 0:
-            chain.lock_cos[k] = model.cos_alpha + sc.gaps[k]
-    velocities(e, w, ws.pv, ws.vel)
-    project_state(chain, ws, PROJ_TOL, np.int64(5))
-    hinge_gaps(e, model.cos_alpha, sc.gaps)
+        if sc.hs.was_locked[k] == 0 and locked[k] != 0:
+            chain.lock_cos[k] = model.cos_alpha + sc.hs.gaps[k]
+    velocities(e, w, sc.pt.pv, sc.pt.vel)
+    project_state(chain, ws, sc.pt.pts, sc.pt.vel, PROJ_TOL, np.int64(5))
+    hinge_gaps(e, model.cos_alpha, sc.hs.gaps)
     fall_ended(books, t, False, not top_event(model.floor) and chain.anchored[0] != 0)
-    arm_functions(model, chain, watch, sc.gaps, sc.lam, not math.isnan(books.t_fall[0]), sc.fv)
-    hinge_rates(e, w, sc.rates)
-    velocities(e, w, ws.pv, ws.vel)
-    apex_times(t, e, w, sc.de, sc.dw, watch, sc.rates, sc.ddg, ws.pv)
+    arm_functions(model, chain, watch, sc.hs.gaps, sc.acc.lam, not math.isnan(books.t_fall[0]), sc.ct.fv)
+    hinge_rates(e, w, sc.hs.rates)
+    velocities(e, w, sc.pt.pv, sc.pt.vel)
+    apex_times(t, e, w, sc.acc.de, sc.acc.dw, watch, sc.hs.rates, sc.acc.ddg, sc.pt.pv)
 
 
 @njit(cache=True)
-def handle_event(t, model, chain, watch, ws, sc, books, log, st):
+def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     """Apply everything that happens at the instant t (module docstring, steps 1-5) to
-    the events st found.  Returns EV_OK or a negative error code."""
+    the events the integrator found (``integrator.Found``).  Returns EV_OK or a negative
+    error code."""
     e, w = chain.Y[0], chain.Y[1]
+    hs, acc, ct, pt = sc.hs, sc.acc, sc.ct, sc.pt
     reuse_factors(ws.S, np.bool_(True))  # the axes stay (off after the next evaluation: integrator.advance)
-    point_positions(e, ws.pts)  # (positions do not change at an instant)
-    any_landing = _unlocks_and_top(t, model, chain, ws, sc, books, log, st)
-    na = _anchor_contacts(t, model, chain, ws, sc, any_landing)
-    impact = _impact_candidates(model, chain, sc) or na > 0
-    T0 = kinetic_energy(e, w, ws.pv, ws.vel)
+    point_positions(e, pt.pts)  # (positions do not change at an instant)
+    any_landing = _unlocks_and_top(t, model, chain, hs, pt, books, log, found)
+    na = _anchor_contacts(t, model, chain, ct, pt, any_landing)
+    impact = _impact_candidates(model, chain, hs, ct) or na > 0
+    T0 = kinetic_energy(e, w, pt.pv, pt.vel)
     for rnd in range(chain.locked.shape[0] + 1):  # each round holds at least one more hinge
-        if impact and not _apply_impact(rnd, chain, ws, sc, books):
+        if impact and not _apply_impact(rnd, chain, ws, hs, ct, sc.iw, books):
             return ERR_IMPACT_LCP
         if rnd == 0:
-            _settle_anchors(model, chain, sc)
-        if not _lock_set(chain, ws, sc):
+            _settle_anchors(model, chain, hs)
+        if not _lock_set(chain, ws, hs, acc):
             return ERR_LOCK_LCP
-        if _hold_returning(model, chain, sc) == 0:
+        if _hold_returning(model, chain, hs, acc) == 0:
             break
         impact = True
-    if kinetic_energy(e, w, ws.pv, ws.vel) > T0 * (1 + 1e-9) + 1e-12:
+    if kinetic_energy(e, w, pt.pv, pt.vel) > T0 * (1 + 1e-9) + 1e-12:
         return ERR_ENERGY
-    _log_instant(t, na, chain, ws, sc, log)
+    _log_instant(t, na, chain, hs, ct, pt, log)
     _finish_instant(t, model, chain, watch, ws, sc, books)
     return EV_OK
 
@@ -366,10 +398,9 @@ def _all_anchored(anchored):
 
 
 @njit(cache=True)
-def _count_instant(t, model, sc, books):
+def _count_instant(t, model, ring, books):
     """Count an event instant; the accumulation guard: ERR_ZENO if ZENO_EVENTS instants
     fell within model.zeno_window, ERR_MAX_EVENTS past model.max_events, else EV_OK."""
-    ring = sc.recent
     zcap = ring.shape[0]
     zk = books.n_instants[0]
     ring[zk % zcap] = t
@@ -399,10 +430,10 @@ def run_events(t, h, model, chain, watch, ws, st, sc, books, frames, trace, log)
         fill_frame_books(frames, books)
         if code != ADV_EVENT:
             return code, t, h
-        status = handle_event(t, model, chain, watch, ws, sc, books, log, st)
+        status = handle_event(t, model, chain, watch, ws, sc, books, log, st.found)
         if status < 0:
             return status, t, h
-        status = _count_instant(t, model, sc, books)
+        status = _count_instant(t, model, sc.recent, books)
         if status < 0:
             return status, t, h
         if _all_anchored(chain.anchored):

@@ -61,7 +61,7 @@ from ...core.dynamics import (
     reuse_factors,
 )
 from ...core.jit import njit
-from ...core.rules import ARMED, OFF, ZERO_BAND, bend_gap, hinge_gap, landed_or_landing, point_height
+from ...core.rules import ARMED, OFF, ZERO_BAND, hinge_gap, landed_or_landing, point_height
 from ...floors.dispatch import floor_value, floor_values
 from .watch import EV_LANDING, EV_LOCK, EV_TOP, EV_UNLOCK, arm_departed
 
@@ -121,6 +121,16 @@ ADV_GO = -1  # (internal) no reason to return: take the step
 NSCAN = 16  # samples per step for a triggered departing function
 PROJ_TOL = 1e-12  # constraint drift tolerated before projection
 
+Found = namedtuple(
+    "Found",
+    [
+        "kind",  # kind of each event found in the last step (watch.EV_*)
+        "idx",  # its hinge or point
+        "time",  # where in the step (theta in [0, 1]); after _stop_at_event: the absolute time, inf if not
+        "n",  # (1,) int64: events found
+    ],
+)
+
 Stepper = namedtuple(
     "Stepper",
     [
@@ -137,25 +147,30 @@ Stepper = namedtuple(
         "fv_mid",  # (N+1,): floor event functions at the step's midpoint
         "fv_end",  # (N+1,): and at its end
         "fpart",  # (3,): the floor's impulse from the step's start to a frame
-        "ev_kind",  # found events: kind (watch.EV_*)
-        "ev_idx",  # hinge or point
-        "ev_theta",  # where in the step (theta in [0, 1]; after _stop_at_event: the absolute time, inf if not)
-        "n_found",  # (1,) int64: events found in the last step
+        "pair",  # (2, 3): scratch, the two axes of a hinge on the dense output
+        "pts",  # (N+1, 3): scratch, point positions or velocities
+        "vel",  # (N, 3): scratch, centre velocities
+        "found",  # the events found in the last step (Found)
     ],
 )
+
+# What locating an event needs: the step's start Y and stages K (its dense output),
+# scratch (Yt, dYt, lam, pair) and the constraint state (for the lock multipliers).
+Dense = namedtuple("Dense", ["Y", "K", "Yt", "dYt", "lam", "pair", "anchored", "locked"])
 
 
 def new_stepper(n: int) -> Stepper:
     """The integrator's buffers for an N-segment chain."""
     nh = max(n - 1, 1)
     m = 3 * n + 4
+    found = Found(np.zeros(m, np.int64), np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
     return Stepper(np.zeros((7, 2, n, 3)), np.zeros((7, 2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)),
                    np.zeros((2, n, 3)), np.zeros(nh), np.zeros(nh), np.zeros((7, 3)), np.zeros((7, 3)),
-                   np.zeros(1, np.int64), np.zeros(n + 1), np.zeros(n + 1), np.zeros(3), np.zeros(m, np.int64),
-                   np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
+                   np.zeros(1, np.int64), np.zeros(n + 1), np.zeros(n + 1), np.zeros(3), np.zeros((2, 3)),
+                   np.zeros((n + 1, 3)), np.zeros((n, 3)), found)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _rhs(Y, anchored, locked, ws, dY):
     return accelerations(Y[0], Y[1], anchored, locked, ws, dY[0], dY[1])
 
@@ -196,7 +211,7 @@ def _dense_e(Y0, K, b, i, q):
     return v
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _stage_rhs(Y, anchored, locked, ws, dY, F):
     """dY = f(Y) and F = the anchors' total force on the chain at Y."""
     _rhs(Y, anchored, locked, ws, dY)
@@ -302,7 +317,7 @@ def floor_impulse_dense(h, theta, F, n_landed, out):
     out[2] += theta * h * n_landed
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _copy_state(dst, src):
     """dst[...] = src for (2, N, 3) states (an explicit loop: cheaper than a slice copy)."""
     for a in range(2):
@@ -330,17 +345,18 @@ def _dense_axes(Y0, K, b, out):
 
 
 @njit(cache=True)
-def event_value(kind, idx, theta, h, model, chain, ws, st):
+def event_value(kind, idx, theta, h, model, dense, ws):
     """Value of event function (kind, idx) at t0 + theta h on the dense output of the
-    step of size h from chain.Y (stages st.K)."""
-    Y0, K, Yt = chain.Y, st.K, st.Ytmp
+    step of size h from dense.Y (stages dense.K)."""
+    Y0, K, Yt = dense.Y, dense.K, dense.Yt
     b = np.empty(7)
     _dense_weights(h, theta, b)
     if kind == EV_LOCK:
-        # normalised by bend_gap: the dense output is not exactly unit length
-        return bend_gap(_dense_e(Y0, K, b, idx, 0), _dense_e(Y0, K, b, idx, 1), _dense_e(Y0, K, b, idx, 2),
-                        _dense_e(Y0, K, b, idx + 1, 0), _dense_e(Y0, K, b, idx + 1, 1),
-                        _dense_e(Y0, K, b, idx + 1, 2), model.cos_alpha)
+        pair = dense.pair  # the two axes of the hinge (hinge_gap normalises: the dense output is not unit length)
+        for r in range(2):
+            for q in range(3):
+                pair[r, q] = _dense_e(Y0, K, b, idx + r, q)
+        return hinge_gap(pair, 0, model.cos_alpha)
     if kind == EV_LANDING:
         _dense_axes(Y0, K, b, Yt[0])
         return floor_value(model.floor, Yt[0], idx)
@@ -349,13 +365,13 @@ def event_value(kind, idx, theta, h, model, chain, ws, st):
         return point_height(Yt[0], 0)
     # EV_UNLOCK: lambda_k at the interpolated state
     _dense(Y0, K, h, theta, Yt)
-    _rhs(Yt, chain.anchored, chain.locked, ws, st.dYtmp)
-    lock_multipliers(ws.kind, ws.nrow, ws.x, st.lam)
-    return st.lam[idx]
+    _rhs(Yt, dense.anchored, dense.locked, ws, dense.dYt)
+    lock_multipliers(ws.kind, ws.nrow, ws.x, dense.lam)
+    return dense.lam[idx]
 
 
 @njit(cache=True)
-def _brent(kind, idx, off, a, b, fa, fb, h, model, chain, ws, st):
+def _brent(kind, idx, off, a, b, fa, fb, h, model, dense, ws):
     """Root of f + off on [a, b] (theta units) with fa > 0 >= fb (the values of f + off
     there) by Brent's method; returns a theta at which f + off <= 0 (the crossing, to
     model.xtol)."""
@@ -402,7 +418,7 @@ def _brent(kind, idx, off, a, b, fa, fb, h, model, chain, ws, st):
             b += d
         else:
             b += tol1 if xm > 0 else -tol1
-        fb = event_value(kind, idx, b, h, model, chain, ws, st) + off
+        fb = event_value(kind, idx, b, h, model, dense, ws) + off
     # return the end of the bracket on the far side of the crossing
     if fb <= 0.0:
         return b
@@ -410,29 +426,29 @@ def _brent(kind, idx, off, a, b, fa, fb, h, model, chain, ws, st):
 
 
 @njit(cache=True)
-def _locate_armed(kd, ix, fmid, fend, h, model, chain, ws, st):
+def _locate_armed(kd, ix, fmid, fend, h, model, dense, ws):
     """Where an ARMED function fires in the step (theta), or 2.0: its first crossing of
     zero, bracketed by the start, the midpoint (fmid; inf: unknown) and the end."""
-    f0 = event_value(kd, ix, 0.0, h, model, chain, ws, st)
+    f0 = event_value(kd, ix, 0.0, h, model, dense, ws)
     if f0 <= 0.0:
         return 0.0
     if fmid <= 0.0:
-        return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, h, model, chain, ws, st)
+        return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, h, model, dense, ws)
     if fend <= 0.0:
         if fmid == math.inf:
-            return _brent(kd, ix, 0.0, 0.0, 1.0, f0, fend, h, model, chain, ws, st)
-        return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, h, model, chain, ws, st)
+            return _brent(kd, ix, 0.0, 0.0, 1.0, f0, fend, h, model, dense, ws)
+        return _brent(kd, ix, 0.0, 0.5, 1.0, fmid, fend, h, model, dense, ws)
     return 2.0
 
 
 @njit(cache=True)
-def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, chain, ws, st):
+def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, dense, ws):
     """Where in the step (theta in [0, 1]) event function (kd, ix) fires, or 2.0 if it
     does not (module docstring).  ``fmid``, ``fend``: its values at the midpoint and the
     end (fmid = inf: unknown); ``tha``: the predicted apex of a departing function, in
     theta units (outside (0, 1): none in this step)."""
     if mode == ARMED:
-        return _locate_armed(kd, ix, fmid, fend, h, model, chain, ws, st)
+        return _locate_armed(kd, ix, fmid, fend, h, model, dense, ws)
     # DEPARTING: it fires when it returns to zero after a sample above ZERO_BAND, or,
     # never having been there, when it sinks below ref - ZERO_BAND
     nscan = NSCAN if kd != EV_UNLOCK else 2  # lambda costs an evaluation per sample
@@ -447,7 +463,7 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, chain, ws, st):
         if not apex_done and tha < th:  # the predicted apex comes first
             th = tha
             apex_done = True
-            f = event_value(kd, ix, th, h, model, chain, ws, st)
+            f = event_value(kd, ix, th, h, model, dense, ws)
         else:
             s += 1
             if th == 1.0:
@@ -455,17 +471,17 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, chain, ws, st):
             elif th == 0.5 and fmid != math.inf:
                 f = fmid
             else:
-                f = event_value(kd, ix, th, h, model, chain, ws, st)
+                f = event_value(kd, ix, th, h, model, dense, ws)
         if f > ZERO_BAND:
             thp = th
             fp = f
         elif thp >= 0.0 and f <= 0.0:
-            return _brent(kd, ix, 0.0, thp, th, fp, f, h, model, chain, ws, st)
+            return _brent(kd, ix, 0.0, thp, th, fp, f, h, model, dense, ws)
         elif f < ref - ZERO_BAND:
             sink = ZERO_BAND - ref
             if th == 0.0 or fq + sink <= 0.0:
                 return thq
-            return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, h, model, chain, ws, st)
+            return _brent(kd, ix, sink, thq, th, fq + sink, f + sink, h, model, dense, ws)
         thq = th
         fq = f
     return 2.0
@@ -489,100 +505,69 @@ def _step_error(Y, Y1, K, h, rtol, atol):
     return err
 
 
-@njit(cache=True, inline="always")
-def _found(st, nev, kind, idx, theta):
-    st.ev_kind[nev] = kind
-    st.ev_idx[nev] = idx
-    st.ev_theta[nev] = theta
-    return nev + 1
-
-
-@njit(cache=True, inline="always")
-def _detect_locks(nev, t, h, model, chain, watch, ws, st):
-    """Unlocked hinges whose lock function g_k reaches zero in the step (checked at its
-    midpoint st.Ytmp and end st.Y1, then located); returns the count of found events."""
-    for k in range(chain.locked.shape[0]):
-        if watch.arm_lock[k] == OFF or chain.locked[k]:
-            continue
-        fm = hinge_gap(st.Ytmp[0], k, model.cos_alpha)
-        fe = hinge_gap(st.Y1[0], k, model.cos_alpha)
+@njit(cache=True)
+def _detect_kind(kd, nev, t, h, model, watch, dense, ws, st):
+    """The event functions of kind kd that fire in the step: each watched function is
+    checked at the step's midpoint (st.Ytmp) and end (st.Y1) and located where it
+    crossed (``_locate``); they are appended to st.found from row nev on.  Returns the
+    new count."""
+    found = st.found
+    nh = dense.locked.shape[0]
+    m = nh if kd == EV_LOCK or kd == EV_UNLOCK else (dense.anchored.shape[0] if kd == EV_LANDING else 1)
+    if kd == EV_LANDING:
+        floor_values(model.floor, st.Ytmp[0], dense.anchored, st.fv_mid)
+        floor_values(model.floor, st.Y1[0], dense.anchored, st.fv_end)
+    for i in range(m):
+        if kd == EV_LOCK:
+            if watch.arm_lock[i] == OFF or dense.locked[i]:
+                continue
+            mode, ref, tha = watch.arm_lock[i], watch.ref_lock[i], (watch.apex_lock[i] - t) / h
+            fm = hinge_gap(st.Ytmp[0], i, model.cos_alpha)
+            fe = hinge_gap(st.Y1[0], i, model.cos_alpha)
+        elif kd == EV_UNLOCK:  # the multiplier, known at the end only (each sample costs an evaluation)
+            if watch.arm_unlock[i] == OFF or not dense.locked[i]:
+                continue
+            mode, ref, tha = watch.arm_unlock[i], watch.ref_unlock[i], 2.0
+            fm, fe = math.inf, st.lam1[i]
+        elif kd == EV_LANDING:
+            if watch.arm_land[i] == OFF:
+                continue
+            mode, ref, tha = watch.arm_land[i], watch.ref_land[i], (watch.apex_land[i] - t) / h
+            fm, fe = st.fv_mid[i], st.fv_end[i]
+        else:
+            if watch.arm_top[0] == OFF:
+                continue
+            mode, ref, tha = watch.arm_top[0], watch.ref_top[0], 2.0
+            fm, fe = point_height(st.Ytmp[0], 0), point_height(st.Y1[0], 0)
         if fm <= 0.0 or fe <= 0.0:
-            th = _locate(EV_LOCK, k, watch.arm_lock[k], watch.ref_lock[k], (watch.apex_lock[k] - t) / h, fm, fe, h,
-                         model, chain, ws, st)
-            nev = _found(st, nev, EV_LOCK, k, th)
+            found.kind[nev] = kd
+            found.idx[nev] = i
+            found.time[nev] = _locate(kd, i, mode, ref, tha, fm, fe, h, model, dense, ws)
+            nev += 1
+            if kd == EV_LANDING:
+                _dense(dense.Y, dense.K, h, 0.5, st.Ytmp)  # (the locating used Ytmp)
     return nev
 
 
-@njit(cache=True, inline="always")
-def _detect_unlocks(nev, t, h, model, chain, watch, ws, st):
-    """Locked hinges whose multiplier reaches zero in the step (checked at its end,
-    st.lam1, then located); each costs evaluations."""
-    for k in range(chain.locked.shape[0]):
-        if watch.arm_unlock[k] == OFF or not chain.locked[k]:
-            continue
-        if st.lam1[k] <= 0.0:
-            th = _locate(EV_UNLOCK, k, watch.arm_unlock[k], watch.ref_unlock[k], 2.0, math.inf, st.lam1[k], h,
-                         model, chain, ws, st)
-            nev = _found(st, nev, EV_UNLOCK, k, th)
-    return nev
-
-
-@njit(cache=True, inline="always")
-def _detect_landings(nev, t, h, model, chain, watch, ws, st):
-    """Watched points whose floor function reaches zero in the step (the floor model's
-    values at the midpoint and the end, then located)."""
-    floor_values(model.floor, st.Ytmp[0], chain.anchored, st.fv_mid)
-    floor_values(model.floor, st.Y1[0], chain.anchored, st.fv_end)
-    for j in range(chain.anchored.shape[0]):
-        if watch.arm_land[j] == OFF:
-            continue
-        fm = st.fv_mid[j]
-        fe = st.fv_end[j]
-        if fm <= 0.0 or fe <= 0.0:
-            th = _locate(EV_LANDING, j, watch.arm_land[j], watch.ref_land[j], (watch.apex_land[j] - t) / h, fm, fe,
-                         h, model, chain, ws, st)
-            nev = _found(st, nev, EV_LANDING, j, th)
-            _dense(chain.Y, st.K, h, 0.5, st.Ytmp)  # (the locating used Ytmp)
-    return nev
-
-
-@njit(cache=True, inline="always")
-def _detect_top(nev, t, h, model, chain, watch, ws, st):
-    """The top end's height reaching zero (floor models with a top event)."""
-    if watch.arm_top[0] != OFF:
-        fm = point_height(st.Ytmp[0], 0)
-        fe = point_height(st.Y1[0], 0)
-        if fm <= 0.0 or fe <= 0.0:
-            th = _locate(EV_TOP, 0, watch.arm_top[0], watch.ref_top[0], 2.0, fm, fe, h, model, chain, ws, st)
-            nev = _found(st, nev, EV_TOP, 0, th)
-    return nev
-
-
-@njit(cache=True, inline="always")
-def _detect_events(t, h, model, chain, watch, ws, st, books):
+@njit(cache=True)
+def _detect_events(t, h, model, watch, dense, ws, st, books):
     """Every event function that fires in the step, kind by kind (watch.EVENT_FUNCTIONS
-    order), into st.ev_*; returns (theta of the first, whether any fires)."""
-    _dense(chain.Y, st.K, h, 0.5, st.Ytmp)  # midpoint state, for the midpoint checks
+    order), into st.found; returns (theta of the first, whether any fires)."""
+    _dense(dense.Y, dense.K, h, 0.5, st.Ytmp)  # midpoint state, for the midpoint checks
     nev = 0
     for kd in range(EV_LOCK, EV_TOP + 1):
-        if kd == EV_LOCK:
-            nev = _detect_locks(nev, t, h, model, chain, watch, ws, st)
-        elif kd == EV_UNLOCK:
-            n0 = nev
-            nev = _detect_unlocks(nev, t, h, model, chain, watch, ws, st)
+        n0 = nev
+        nev = _detect_kind(kd, nev, t, h, model, watch, dense, ws, st)
+        if kd == EV_UNLOCK:
             books.n_evals[0] += 2 * (nev - n0)
             if nev > 0:
-                _dense(chain.Y, st.K, h, 0.5, st.Ytmp)  # (the locating may have used Ytmp)
-        elif kd == EV_LANDING:
-            nev = _detect_landings(nev, t, h, model, chain, watch, ws, st)
-        else:
-            nev = _detect_top(nev, t, h, model, chain, watch, ws, st)
-    st.n_found[0] = nev
+                _dense(dense.Y, dense.K, h, 0.5, st.Ytmp)  # (the locating may have used Ytmp)
+    st.found.n[0] = nev
     theta_stop = 1.0
     fire = False
     for r in range(nev):
-        theta_stop = min(theta_stop, st.ev_theta[r])
-        fire = fire or st.ev_theta[r] <= 1.0
+        theta_stop = min(theta_stop, st.found.time[r])
+        fire = fire or st.found.time[r] <= 1.0
     return theta_stop, fire
 
 
@@ -607,11 +592,11 @@ def _record_frame(Yt, tf, n_landed, chain, ws, st, frames):
     anchor_force_total(ws.kind, ws.nrow, ws.x, frames.floor_force[k])
     pile_pull(chain.anchored, ws.kind, ws.nrow, ws.x, frames.pile_pull[k])
     frames.scale_force[k] = frames.floor_force[k, 2] + n_landed
-    frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], ws.pts, ws.vel)
+    frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], st.pts, st.vel)
     frames.potential[k] = potential_energy(Yt[0])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
     """The frames due up to t_end, from the step's dense output; False if the buffers
     filled first (the caller returns ADV_BUFFER and redoes the step once they are
@@ -632,7 +617,7 @@ def _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _trace_point(trace, t, e):
     k = trace.count[0]
     trace.t[k] = t
@@ -640,7 +625,7 @@ def _trace_point(trace, t, e):
     trace.count[0] = k + 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
     """End the step at its first event: the state at the event time to the step's order
     (the 4th-order interpolant is good enough to locate the event, not to restart
@@ -654,14 +639,15 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
     else:
         floor_impulse_step(h, st.F, n_landed, books.floor_flow)
         _copy_state(Y, st.Y1)
-    for r in range(st.n_found[0]):
-        st.ev_theta[r] = t + st.ev_theta[r] * h if st.ev_theta[r] <= 1.0 else math.inf
+    found = st.found
+    for r in range(found.n[0]):
+        found.time[r] = t + found.time[r] * h if found.time[r] <= 1.0 else math.inf
     t_event = t + theta_stop * h
     _trace_point(trace, t_event, Y[0])
     return t_event
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _lowest_point(e, books):
     """books.lowest <- the lowest point height seen (for the max depth)."""
     zlow = 0.0
@@ -674,7 +660,7 @@ def _lowest_point(e, books):
         books.lowest[0] = zlow
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace):
     """Accept the full step: the state at its end, the floor's impulse, the projection
     onto the constraints (f(Y) recomputed if it moved the state, else the last stage
@@ -682,7 +668,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace):
     Y = chain.Y
     floor_impulse_step(h, st.F, n_landed, books.floor_flow)
     _copy_state(Y, st.Y1)
-    res = project_state(chain, ws, PROJ_TOL, np.int64(3))
+    res = project_state(chain, ws, st.pts, st.vel, PROJ_TOL, np.int64(3))
     if res > PROJ_TOL:
         _stage_rhs(Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
         books.n_evals[0] += 1
@@ -695,7 +681,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace):
     _trace_point(trace, t_end, Y[0])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _count_landed(anchored):
     """Segments whose both ends are anchored (the floor holds up their weight)."""
     n_landed = np.int64(0)
@@ -705,13 +691,13 @@ def _count_landed(anchored):
     return n_landed
 
 
-@njit(cache=True, inline="always")
-def _why_stop(t, h, model, st, books, trace):
+@njit(cache=True)
+def _why_stop(t, h, model, fsal, books, trace):
     """A reason to return before the next step (ADV_*), or ADV_GO."""
     if books.n_steps[0] >= model.max_steps:
         return ADV_MAX_STEPS
     if trace.count[0] >= trace.t.shape[0] - 2:
-        st.fsal[0] = 1
+        fsal[0] = 1
         return ADV_BUFFER
     if t >= model.t_stop:
         return ADV_STOP
@@ -720,7 +706,7 @@ def _why_stop(t, h, model, st, books, trace):
     return ADV_GO
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _try_step(t, h, model, chain, ws, st, books):
     """One Dormand-Prince step of size h (st.Y1, st.K, st.F); returns its error in units
     of the tolerance (inf: non-finite) and the lock multipliers at its end (st.lam1)."""
@@ -738,8 +724,7 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
     """Integrate from t until model.t_stop or the first event.
 
     Returns (code, t, h).  On ADV_EVENT, chain.Y holds the state at the event time t,
-    and st.ev_kind/ev_idx/ev_theta (st.n_found[0] rows) the triggered events with their
-    located times (absolute; inf: not confirmed).  books: steps, evaluations, the lowest
+    and st.found (st.found.n[0] rows) the triggered events with their located times (absolute; inf: not confirmed).  books: steps, evaluations, the lowest
     point, the floor's continuous impulse (``floor_impulse_step``).  Frames fill the
     buffers; a step with more frames than fit returns ADV_BUFFER before it is accepted
     (the caller empties the buffers and calls again: the step is redone from the same
@@ -748,6 +733,7 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
     buffer sizes change no number).
     """
     n_landed = _count_landed(chain.anchored)
+    dense = Dense(chain.Y, st.K, st.Ytmp, st.dYtmp, st.lam, st.pair, chain.anchored, chain.locked)
     if st.fsal[0] == 0:  # FSAL: derivative at the current state (kept across an ADV_BUFFER return)
         _stage_rhs(chain.Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
         books.n_evals[0] += 1
@@ -755,7 +741,7 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
     reuse_factors(ws.S, np.bool_(False))  # the steps have new axes at every stage
     nfail = 0
     while True:
-        code = _why_stop(t, h, model, st, books, trace)
+        code = _why_stop(t, h, model, st.fsal, books, trace)
         if code != ADV_GO:
             return code, t, h
         h = min(h, model.t_stop - t)
@@ -770,7 +756,7 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
             h *= max(0.2, 0.9 * err ** -0.2)
             continue
         nfail = 0
-        theta_stop, fire = _detect_events(t, h, model, chain, watch, ws, st, books)
+        theta_stop, fire = _detect_events(t, h, model, watch, dense, ws, st, books)
         books.n_steps[0] += 1
         t_end = t + theta_stop * h
         if not _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):

@@ -102,7 +102,7 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
             apex_land[j] = t + pv[j, 2] / -az
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def arm_departed(model, chain, watch, lam1, fv):
     """After an accepted step: departing functions that have left their zero (above
     ZERO_BAND) are armed.  ``lam1``: the lock multipliers at the step's end."""
