@@ -3,8 +3,10 @@ numba's cheap pipeline, the kernel called from Python and ``entry`` kernels the 
 numbers are unchanged (every physics test runs with the policy in force)."""
 
 import os
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -135,3 +137,53 @@ def test_cheap_libraries_are_not_cached_and_compile_when_called_later(tmp_path):
     # middle was compiled as called from Python (self-contained, cached); leaf, compiled
     # under it, is cheap again and still not cached
     assert cached == ["probe_cache_mod.middle", "probe_cache_mod.outer"]
+
+
+def test_the_policy_and_the_cache_key_are_in_force():
+    """On the numba versions pyproject.toml admits, both wrappers of numba's private methods
+    install: if a numba release changes their shape, this fails loudly instead of the
+    package silently compiling slower or caching stale code."""
+    if os.environ.get("BALLCHAIN_OPTIMIZE_CALLEES", "") in ("", "0"):
+        assert jit.policy_active()
+    assert jit.cache_keyed()
+    from ballchain.core.impacts import hinge_gaps
+
+    locator = hinge_gaps._cache._impl.locator
+    assert type(locator).__name__.startswith("EngineKeyed")
+    from ballchain.provenance import engine_fingerprint
+
+    assert locator.get_source_stamp()[1] == engine_fingerprint()
+
+
+EDIT_PROBE = """
+import numpy as np
+from ballchain.core.impacts import hinge_gaps
+e = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8]])
+out = np.zeros(1)
+hinge_gaps(e, 0.5, out)
+print(repr(float(out[0])))
+"""
+
+
+def test_an_edited_callee_recompiles_its_callers(tmp_path):
+    """``impacts.hinge_gaps`` (cached next to impacts.py) calls ``rules.unit_hinge_gap``
+    (another file): after an edit of the callee alone, the next process must run the
+    edited code, not the cached machine code of the old one."""
+    shutil.copytree(Path(jit.__file__).resolve().parents[1], tmp_path / "ballchain",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    env = dict(os.environ, PYTHONPATH=str(tmp_path))
+    env.pop("NUMBA_CACHE_DIR", None)
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", EDIT_PROBE], env=env, capture_output=True, text=True,
+                             check=True, cwd=tmp_path)
+        return float(out.stdout.strip())
+
+    assert run() == pytest.approx(0.8 - 0.5, abs=1e-15)  # compiles and caches
+    assert list((tmp_path / "ballchain" / "core" / "__pycache__").glob("impacts.hinge_gaps*.nbi"))
+    rules = tmp_path / "ballchain" / "core" / "rules.py"
+    text = rules.read_text()
+    old = "e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - cos_alpha"
+    assert text.count(old) == 1
+    rules.write_text(text.replace(old, old + " - 1.0"))
+    assert run() == pytest.approx(0.8 - 0.5 - 1.0, abs=1e-15)

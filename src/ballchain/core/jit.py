@@ -29,7 +29,16 @@ the policy off.
 The policy is installed only where numba's private methods it wraps
 (``CPUCodeLibrary.finalize`` and ``_optimize_final_module``, and the cache's
 ``check_cachable``) still have the shape it was written for; elsewhere numba compiles as
-it always does (slower, same results).
+it always does (slower, same results).  ``pyproject.toml`` bounds numba to the versions
+checked, and ``tests/test_jit.py`` fails if the policy is not in force.
+
+The on-disk cache is keyed to every engine source, not only the kernel's own file:
+numba keys a cached kernel to a hash of the file that defines it, so a caller compiled
+against an old callee in another file would load stale machine code after an edit of
+that callee (or a package upgrade).  The cache locators of the package's kernels add
+``provenance.engine_fingerprint()`` (a hash of all the engine's sources) to that key
+(``_keyed_locator``): any edit recompiles every kernel once.  An index with another key
+is rewritten in place, so stale entries do not pile up.
 """
 
 from __future__ import annotations
@@ -42,7 +51,9 @@ from numba.core import codegen as _codegen
 from numba.core import config as _config
 from numba.core import event as _event
 
-__all__ = ["njit", "entry", "policy_active", "nested_depth", "cheap_libraries"]
+from ..provenance import PACKAGE_DIR, engine_fingerprint
+
+__all__ = ["njit", "entry", "policy_active", "nested_depth", "cheap_libraries", "cache_keyed"]
 
 _PACKAGE = __name__.partition(".")[0]  # "ballchain"
 
@@ -224,3 +235,51 @@ _ACTIVE = _install()
 def policy_active() -> bool:
     """Is the compile policy of this module in force (module docstring)?"""
     return _ACTIVE
+
+
+def _ours(py_file) -> bool:
+    """Is this source file part of the package?"""
+    try:
+        return os.path.commonpath([os.path.realpath(py_file), str(PACKAGE_DIR)]) == str(PACKAGE_DIR)
+    except ValueError:
+        return False
+
+
+def _keyed_locator(base):
+    """numba's cache locator ``base``, for the package's kernels only, with the engine's
+    fingerprint added to the key of every cached kernel (module docstring)."""
+
+    class EngineKeyed(base):
+        def get_source_stamp(self):
+            return (super().get_source_stamp(), engine_fingerprint())
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not _ours(py_file):
+                return None
+            return super().from_function(py_func, py_file)
+
+    EngineKeyed.__name__ = EngineKeyed.__qualname__ = f"EngineKeyed{base.__name__}"
+    return EngineKeyed
+
+
+def _install_cache_key() -> bool:
+    def find(name):  # numba < 0.62 names them with a leading underscore
+        return getattr(_caching, name, None) or getattr(_caching, "_" + name, None)
+
+    impl = find("CacheImpl")
+    bases = [find("UserProvidedCacheLocator"), find("InTreeCacheLocator")]
+    if impl is None or not isinstance(getattr(impl, "_locator_classes", None), list) or None in bases:
+        return False
+    if any(getattr(c, "__name__", "").startswith("EngineKeyed") for c in impl._locator_classes):
+        return True  # installed already (the module was reloaded)
+    impl._locator_classes[:0] = [_keyed_locator(b) for b in bases]
+    return True
+
+
+_CACHE_KEYED = _install_cache_key()
+
+
+def cache_keyed() -> bool:
+    """Are the package's cached kernels keyed to every engine source (module docstring)?"""
+    return _CACHE_KEYED
