@@ -76,6 +76,7 @@ def test_a_whip_is_resolved_only_to_the_frames():
     assert np.all(np.abs(fg.window_gamma[1:-1] + 0.5) < 0.03)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("floor", ["all", "pivot"])
 def test_measured_gamma_on_real_runs_obeys_the_momentum_theorem(floor):
     """The floor's removed momentum equals what the chain's state says it must be:

@@ -318,7 +318,7 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
     mod.kernels_cached = lambda: True
     mod.load_kernels = lambda: False
     monkeypatch.setitem(sys.modules, "ballchain.engine", mod)
-    p, i, o = cli.build_inputs(segments=3)
+    p, i, o = cli.build_inputs(dict(segments=3))
     r = cli._run_engine(p, i, o, show_progress=True)
     assert r.status == "landed" and callable(seen[0])
     assert "simulating" in buf.getvalue()  # rendered on the given console (stderr in real use)
@@ -352,7 +352,7 @@ def test_info_errors(tmp_path):
         f["x"] = np.arange(3)
     assert_one_line_error(run("info", str(foreign), "--json"), 2, "not a ballchain result")
     good = tmp_path / "good.h5"
-    p, i, o = cli.build_inputs(segments=4)
+    p, i, o = cli.build_inputs(dict(segments=4))
     save_result(fake_result(p, i, o), good)
     data = good.read_bytes()
     trunc = tmp_path / "trunc.h5"
@@ -406,3 +406,24 @@ def test_a_first_run_says_it_compiles_the_kernels_before_the_run(engine, monkeyp
     assert s["setup_compiled"] is False and s["wall_includes_compile"] is False
     res = run("simulate", "--segments", "4", "-q")
     assert "loaded in" in res.stdout
+
+
+@pytest.mark.parametrize("command", ["simulate", "sweep"])
+def test_cli_defaults_are_the_dataclasses_defaults(command):
+    """The options' defaults are read from the parameter dataclasses, not restated: a run
+    built from a command's defaults has the dataclasses' default parameters."""
+    import typer.main
+
+    cmd = typer.main.get_command(app).commands[command]
+    defaults = {p.name: p.default for p in cmd.params}
+    values = {k: defaults[k] for k in ("alpha", "floor", "eps", "rtol", "until", "frames_per_tff") if k in defaults}
+    for k in ("anchor_cone", "ic", "turns", "phase", "seed", "spawn_key"):
+        if command == "simulate":
+            values[k] = defaults[k]
+    p, i, o = cli.build_inputs(values)
+    assert (p.alpha, p.floor, p.anchor_cone) == (ChainParams().alpha, ChainParams().floor, ChainParams().anchor_cone)
+    assert (o.rtol, o.until, o.frames_per_tff) == (SolverOptions().rtol, SolverOptions().until,
+                                                   SolverOptions().frames_per_tff)
+    assert i.eps == InitialCondition().eps
+    if command == "simulate":
+        assert i == InitialCondition()

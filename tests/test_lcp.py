@@ -14,7 +14,7 @@ from ballchain.core.impacts import hinge_accels, lock_set
 from ballchain.core.lcp import _lemke
 from ballchain.core.rules import limit_in_force
 
-from test_reference import chain_directions
+from conftest import chain_directions
 
 DATA = Path(__file__).parent / "data"
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from ballchain.core import dynamics as dyn
+from conftest import chain_directions
 from oracle import reference as ref
 from ballchain.core.impacts import new_impact_work, velocity_impact
 from ballchain.core.state import new_work
@@ -69,34 +70,6 @@ def fast_impact(e, w, anchored_u8, cand):
 
 
 # ------------------------------------------------------------------ random states
-
-
-def _unit(v):
-    return v / np.linalg.norm(v)
-
-
-def _direction(rng, mode):
-    if mode == "arbitrary":
-        return _unit(rng.normal(size=3))
-    if mode == "vertical":  # near-vertical chain
-        return _unit(EZ + 0.05 * rng.normal(size=3))
-    return _unit(EZ + 0.4 * rng.normal(size=3))  # "tilted"
-
-
-def _at_angle(rng, e_below, alpha):
-    """A unit vector at exactly angle alpha from e_below, random azimuth."""
-    u = rng.normal(size=3)
-    u = _unit(u - (u @ e_below) * e_below)
-    return np.cos(alpha) * e_below + np.sin(alpha) * u
-
-
-def chain_directions(rng, n, mode, at_limit, alpha):
-    """Axes built from the bottom; hinges in ``at_limit`` exactly at angle alpha."""
-    e = np.zeros((n, 3))
-    e[n - 1] = _direction(rng, mode)
-    for k in range(n - 2, -1, -1):
-        e[k] = _at_angle(rng, e[k + 1], alpha) if at_limit[k] else _direction(rng, mode)
-    return e
 
 
 def random_anchors(rng, n, p):

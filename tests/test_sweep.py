@@ -138,6 +138,7 @@ def test_a_run_that_fails_is_a_row_and_the_sweep_goes_on(tmp_path):
     assert run_tasks([*good, bad], out, workers=1, progress=False, retry_errors=True).ran == 1
 
 
+@pytest.mark.slow
 def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
     out = tmp_path / "t.parquet"
     cmd = [sys.executable, "-m", "ballchain.cli", "sweep", "--segments", "8,12,16,24", "--alpha",

@@ -108,31 +108,37 @@ def _parse_spawn_key(text: str) -> tuple[int, ...]:
                              f"got {text!r}") from None
 
 
-def build_inputs(
-    *, segments: int = 128, alpha: str | float = "pi/4", floor: str = "all",
-    anchor_cone: bool = False, ic: str = "helix", eps: float = 0.02, turns: float = 1.0,
-    phase: str | float = "0", seed: int = 0, spawn_key: str = "", rtol: float = 1e-9, until: float | None = None,
-    frames_per_tff: float = 100.0, length: float | None = None, mass: float | None = None,
-    gravity: float | None = None,
-) -> tuple[ChainParams, InitialCondition, SolverOptions]:
-    """The CLI's parameters -> validated dataclasses (raises ParameterError)."""
-    a = _parse_angle("alpha", alpha)
-    chain_kw = dict(alpha=a, floor=floor, anchor_cone=anchor_cone)
+# the defaults of the options are those of the parameter dataclasses (stated once, there)
+_CHAIN, _START, _SOLVER = ChainParams(), InitialCondition(), SolverOptions()
+
+
+def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition, SolverOptions]:
+    """The CLI's option values (by the dataclasses' field names, plus ``ic`` for the start's
+    kind, ``spawn_key`` as text and ``length``/``mass``/``gravity`` for a chain in SI units;
+    a missing value takes the dataclass's default) -> validated dataclasses (raises
+    ParameterError)."""
+    v = dict(values)
+    chain_kw = dict(alpha=_parse_angle("alpha", v.get("alpha", _CHAIN.alpha)),
+                    floor=v.get("floor", _CHAIN.floor), anchor_cone=v.get("anchor_cone", _CHAIN.anchor_cone))
+    segments = v.get("segments", _CHAIN.segments)
+    length, mass, gravity = v.get("length"), v.get("mass"), v.get("gravity")
     if length is None and mass is None and gravity is None:
         params = ChainParams(segments=segments, **chain_kw)
     else:
-        missing = [n for n, v in (("--length", length), ("--mass", mass)) if v is None]
+        missing = [n for n, x in (("--length", length), ("--mass", mass)) if x is None]
         if missing:
             raise ParameterError(
                 f"{' and '.join(missing)} required: SI units (--length/--mass/--gravity) "
                 f"need the total length (m) and total mass (kg)")
         if isinstance(segments, int) and segments < 1:
             raise ParameterError(f"segments must be >= 1, got {segments}")
-        params = ChainParams.from_chain(segments, length, mass,
-                                        9.81 if gravity is None else gravity, **chain_kw)
-    init = InitialCondition(kind=ic, eps=eps, turns=turns, phase=_parse_angle("phase", phase),
-                            seed=seed, spawn_key=_parse_spawn_key(spawn_key))
-    options = SolverOptions(rtol=rtol, until=until, frames_per_tff=frames_per_tff)
+        params = ChainParams.from_chain(segments, length, mass, 9.81 if gravity is None else gravity, **chain_kw)
+    init = InitialCondition(kind=v.get("ic", _START.kind), eps=v.get("eps", _START.eps),
+                            turns=v.get("turns", _START.turns),
+                            phase=_parse_angle("phase", v.get("phase", _START.phase)), seed=v.get("seed", _START.seed),
+                            spawn_key=_parse_spawn_key(v.get("spawn_key", "")))
+    options = SolverOptions(rtol=v.get("rtol", _SOLVER.rtol), until=v.get("until", _SOLVER.until),
+                            frames_per_tff=v.get("frames_per_tff", _SOLVER.frames_per_tff))
     return params, init, options
 
 
@@ -144,20 +150,11 @@ def run_summary(result) -> dict:
     false for runs of the command line, which loads the kernels before the run), and
     from the command line ``setup_seconds`` (loading, or the first time compiling, the
     kernels before the run) and ``setup_compiled``."""
-    from .records.measures import floor_gamma
-    from .theory import gamma_from_time_ratio
+    from .records.measures import derived_measures
 
     s = result.summary()
-    try:
-        gm = floor_gamma(result).gamma
-    except Exception:  # noqa: BLE001 - a partial or odd result: no measurement
-        gm = math.nan
-    try:
-        gi = gamma_from_time_ratio(result.t_fall / result.t_ff)
-    except (ValueError, ZeroDivisionError):
-        gi = math.nan
-    s["gamma_measured"] = gm if math.isfinite(gm) else None
-    s["gamma_inferred"] = gi if math.isfinite(gi) else None
+    for key, value in derived_measures(result).items():
+        s[key] = value if math.isfinite(value) else None
     extra = getattr(result, "extra", {})
     s["wall_includes_compile"] = bool(extra.get("compiled_kernels", False))
     if "setup_seconds" in extra:
@@ -308,19 +305,19 @@ def _simulate_with_progress(simulate, params, init, options, show_progress: bool
 # --------------------------------------------------------------------------- commands
 @app.command()
 def simulate(
-    segments: Optional[int] = typer.Option(None, "--segments", "-N", help="Number of segments N (>= 1; default 128, or the rows of --initial)."),
-    alpha: str = typer.Option("pi/4", "--alpha", help="Critical bend angle in (0, pi]: 45deg, pi/4 or radians."),
-    floor: str = typer.Option("all", "--floor", help="Floor model: all (every point is stopped by the floor) or pivot (the paper read literally)."),
-    anchor_cone: bool = typer.Option(False, "--anchor-cone", help="Keep the hinge limit between a landed segment and the airborne one hinged to it (beware: a landed segment then acts as a cantilever that can hold a locked chain up)."),
-    ic: str = typer.Option("helix", "--ic", help="Initial condition family: helix, planar or random."),
-    eps: float = typer.Option(0.02, "--eps", help="Amplitude of the initial tilt (>= 0)."),
-    turns: float = typer.Option(1.0, "--turns", help="Turns q of the helix / wavenumber of the planar bend."),
-    phase: str = typer.Option("0", "--phase", help="Phase phi0 (radians, or 45deg, pi/4): rotates the chain about z."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the random initial condition (>= 0)."),
+    segments: Optional[int] = typer.Option(None, "--segments", "-N", help=f"Number of segments N (>= 1; default {_CHAIN.segments}, or the rows of --initial)."),
+    alpha: str = typer.Option(repr(_CHAIN.alpha), "--alpha", help="Critical bend angle in (0, pi]: 45deg, pi/4 or radians (default pi/4)."),
+    floor: str = typer.Option(_CHAIN.floor, "--floor", help="Floor model: all (every point is stopped by the floor) or pivot (the paper read literally)."),
+    anchor_cone: bool = typer.Option(_CHAIN.anchor_cone, "--anchor-cone", help="Keep the hinge limit between a landed segment and the airborne one hinged to it (beware: a landed segment then acts as a cantilever that can hold a locked chain up)."),
+    ic: str = typer.Option(_START.kind, "--ic", help="Initial condition family: helix, planar or random."),
+    eps: float = typer.Option(_START.eps, "--eps", help="Amplitude of the initial tilt (>= 0)."),
+    turns: float = typer.Option(_START.turns, "--turns", help="Turns q of the helix / wavenumber of the planar bend."),
+    phase: str = typer.Option(repr(_START.phase), "--phase", help="Phase phi0 (radians, or 45deg, pi/4): rotates the chain about z."),
+    seed: int = typer.Option(_START.seed, "--seed", help="Seed of the random initial condition (>= 0)."),
     spawn_key: str = typer.Option("", "--spawn-key", help="Spawn key of the random start's SeedSequence (run k of a sweep: k)."),
-    rtol: float = typer.Option(1e-9, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
+    rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
     until: Optional[float] = typer.Option(None, "--until", help="Stop at this time, in units of t_ff (default: until every segment has landed)."),
-    frames_per_tff: float = typer.Option(100.0, "--frames-per-tff", help="Output frames per t_ff."),
+    frames_per_tff: float = typer.Option(_SOLVER.frames_per_tff, "--frames-per-tff", help="Output frames per t_ff (what is written: frames sample the steps' dense output and do not change the fall)."),
     output: Optional[str] = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (the run's summary) on stdout."),
@@ -341,10 +338,10 @@ def simulate(
                 raise ParameterError(f"--segments {segments} disagrees with the {e0.shape[0]} rows of {initial!r}")
             segments = e0.shape[0]
             state = (e0, w0)
-        params, init, options = build_inputs(
-            segments=128 if segments is None else segments, alpha=alpha, floor=floor, anchor_cone=anchor_cone, ic=ic,
-            eps=eps, turns=turns, phase=phase, seed=seed, spawn_key=spawn_key, rtol=rtol, until=until,
-            frames_per_tff=frames_per_tff, length=length, mass=mass, gravity=gravity)
+        params, init, options = build_inputs(dict(
+            segments=_CHAIN.segments if segments is None else segments, alpha=alpha, floor=floor,
+            anchor_cone=anchor_cone, ic=ic, eps=eps, turns=turns, phase=phase, seed=seed, spawn_key=spawn_key,
+            rtol=rtol, until=until, frames_per_tff=frames_per_tff, length=length, mass=mass, gravity=gravity))
         if output is not None:
             check_writable(output, force)
     except (ParameterError, ResultFileError, FileExistsError) as e:
@@ -451,8 +448,8 @@ def paper(
     segments: int = typer.Option(128, "--segments", "-N", help="N of the main chain (Figs. 2-4, 6)."),
     alpha: str = typer.Option("pi/4", "--alpha", help="alpha of the main chain."),
     floor: str = typer.Option("all", "--floor", help="Floor model: all or pivot."),
-    ic: str = typer.Option("helix", "--ic", help="Initial condition family: helix, planar or random."),
-    eps: float = typer.Option(0.02, "--eps", help="Largest initial tilt."),
+    ic: str = typer.Option(_START.kind, "--ic", help="Initial condition family: helix, planar or random."),
+    eps: float = typer.Option(_START.eps, "--eps", help="Largest initial tilt."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random initial condition."),
     alpha_segments: int = typer.Option(256, "--alpha-segments", help="N of the alpha series (Fig. 5)."),
     alphas: str = typer.Option("30deg,45deg,60deg,90deg,180deg", "--alphas", help="alpha values of Fig. 5."),
@@ -541,15 +538,15 @@ def animate(
 @app.command()
 def sweep(
     segments: str = typer.Option("64", "--segments", "-N", help="N values: a list (64,128) or range start:stop:step."),
-    alpha: str = typer.Option("pi/4", "--alpha", help="alpha values: a list (30deg,pi/4) or range (10deg:120deg:10deg), in (0, pi]."),
-    floor: str = typer.Option("all", "--floor", help="Floor models: all, pivot or all,pivot."),
+    alpha: str = typer.Option(repr(_CHAIN.alpha), "--alpha", help="alpha values: a list (30deg,pi/4) or range (10deg:120deg:10deg), in (0, pi]."),
+    floor: str = typer.Option(_CHAIN.floor, "--floor", help="Floor models: all, pivot or all,pivot."),
     ic: str = typer.Option("random", "--ic", help="Initial-condition families (random; helix and planar with --runs 1)."),
     runs: int = typer.Option(1, "--runs", help="Initial conditions per point (independent streams of --seed)."),
     seed: int = typer.Option(0, "--seed", help="Entropy of numpy.random.SeedSequence; run k uses its k-th spawned child."),
-    eps: float = typer.Option(0.02, "--eps", help="Largest initial tilt."),
-    rtol: float = typer.Option(1e-9, "--rtol", help="Relative tolerance of the integrator."),
+    eps: float = typer.Option(_START.eps, "--eps", help="Largest initial tilt."),
+    rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator."),
     until: Optional[float] = typer.Option(None, "--until", help="Stop each run at this time in t_ff (default: until landed)."),
-    frames_per_tff: float = typer.Option(100.0, "--frames-per-tff", help="Output frames per t_ff (as simulate; the frames set the step sequence, so a run rebuilds exactly with the same value)."),
+    frames_per_tff: float = typer.Option(_SOLVER.frames_per_tff, "--frames-per-tff", help="Output frames per t_ff (as simulate: what is written; the falls do not depend on it)."),
     out: str = typer.Option("sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786) instead of a local cluster."),

@@ -28,14 +28,14 @@ class PaperSetup:
     """What the figures are drawn for: the main chain (Figs. 2-4, 6), the alpha series
     (Fig. 5, also placed on Fig. 6) and the solver options."""
 
-    segments: int = 128
-    alpha: float = math.pi / 4
-    floor: str = "all"
+    segments: int = ChainParams.segments
+    alpha: float = ChainParams.alpha
+    floor: str = ChainParams.floor
     ic: InitialCondition = InitialCondition()
     alpha_segments: int = 256
     alphas: tuple = (math.pi / 6, math.pi / 4, math.pi / 3, math.pi / 2, math.pi)
-    rtol: float = 1e-9
-    frames_per_tff: float = 100.0
+    rtol: float = SolverOptions.rtol
+    frames_per_tff: float = SolverOptions.frames_per_tff
     rod_grid: int = 41
 
     def __post_init__(self):

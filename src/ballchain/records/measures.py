@@ -114,3 +114,22 @@ def floor_gamma(r, windows: int = 8, velocities: np.ndarray | None = None) -> Fl
             wg[k] = (removed_at(edges[k + 1]) - removed_at(edges[k])) / c
     return FloorGamma(gamma=removed / carried if carried > 0 else math.nan, removed=removed,
                       carried=carried, landed=int(s_i.size), window_edges=edges / r.t_ff, window_gamma=wg)
+
+
+def derived_measures(result) -> dict[str, float]:
+    """The measures derived from a run, computed in this one place for the summary,
+    ``--json`` and the sweep table: ``gamma_measured`` (``floor_gamma``: the Hamm-Geminard
+    gamma of the floor's momentum record) and ``gamma_inferred`` (the gamma whose fall
+    time is t_fall/t_ff, ``theory.gamma_from_time_ratio``).  NaN where a run does not
+    define them (a partial run, a ratio outside the theory's range)."""
+    from ..theory import gamma_from_time_ratio
+
+    try:
+        measured = float(floor_gamma(result).gamma)
+    except Exception:  # noqa: BLE001 - a partial or odd result: no measurement
+        measured = math.nan
+    try:
+        inferred = float(gamma_from_time_ratio(result.t_fall / result.t_ff))
+    except (ValueError, ZeroDivisionError):
+        inferred = math.nan
+    return {"gamma_measured": measured, "gamma_inferred": inferred}

@@ -123,10 +123,10 @@ class SweepSpec:
     ics: tuple[str, ...] = ("random",)
     runs: int = 1
     seed: int = 0
-    eps: float = 0.02
-    rtol: float = 1e-9
-    until: float | None = None
-    frames_per_tff: float = 100.0
+    eps: float = InitialCondition.eps
+    rtol: float = SolverOptions.rtol
+    until: float | None = SolverOptions.until
+    frames_per_tff: float = SolverOptions.frames_per_tff
     save_runs: str | None = None
     options: SolverOptions = field(init=False, repr=False, compare=False)
 

@@ -100,24 +100,6 @@ def _num(x) -> float:
     return x
 
 
-def _gamma(ratio: float) -> float:
-    from ..theory import gamma_from_time_ratio
-
-    try:
-        return gamma_from_time_ratio(ratio)
-    except ValueError:
-        return math.nan
-
-
-def _measured_gamma(result) -> float:
-    from ..records.measures import floor_gamma
-
-    try:
-        return float(floor_gamma(result).gamma)
-    except Exception:  # noqa: BLE001 - a partial result: no measurement
-        return math.nan
-
-
 def input_row(task) -> dict:
     """The columns a run's inputs fill (also for a run that never started)."""
     p, ic, o = task.params, task.ic, task.options
@@ -132,6 +114,8 @@ def input_row(task) -> dict:
 
 def result_row(task, result, worker: str = "") -> dict:
     """One row from a finished (or failed) run's Result."""
+    from ..records.measures import derived_measures
+
     s = result.summary()
     row = input_row(task)
     fi = np.asarray(result.floor_impulse, dtype=float)
@@ -147,8 +131,7 @@ def result_row(task, result, worker: str = "") -> dict:
                                                                 "imbalance")},
         "floor_impulse_x": fi[0], "floor_impulse_y": fi[1], "floor_impulse_z": fi[2],
         "floor_impulse_total_x": ft[0], "floor_impulse_total_y": ft[1], "floor_impulse_total_z": ft[2],
-        "max_depth": _num(result.max_depth), "gamma_inferred": _gamma(ratio) if math.isfinite(ratio) else math.nan,
-        "gamma_measured": _measured_gamma(result),
+        "max_depth": _num(result.max_depth), **derived_measures(result),
         "wall_seconds": _num(result.wall_seconds), "n_steps": int(result.n_steps), "n_evals": int(result.n_evals),
         "worker": worker,
     })
