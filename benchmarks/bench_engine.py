@@ -37,7 +37,7 @@ def random_state(n: int, rng, locked_fraction: float = 0.3):
     return e, w, anchored, locked
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _compiled_loop():
     """A compiled loop calling the kernel k times (no Python call overhead per call)."""
     from numba import njit
@@ -87,8 +87,11 @@ def bench_evals(sizes, repeats=7, quiet=False) -> list[tuple[int, float, float, 
         medc = statistics.median(times)
         rows.append((n, med * 1e6, med / n * 1e6, medc / n * 1e6))
         if not quiet:
-            print(f"  eval N={n:6d}: {med * 1e6:10.2f} us  ({med / n * 1e9:7.1f} ns/segment; "
-                  f"in a compiled loop {medc / n * 1e9:7.1f} ns/segment)", flush=True)
+            print(
+                f"  eval N={n:6d}: {med * 1e6:10.2f} us  ({med / n * 1e9:7.1f} ns/segment; "
+                f"in a compiled loop {medc / n * 1e9:7.1f} ns/segment)",
+                flush=True,
+            )
     return rows
 
 
@@ -105,22 +108,40 @@ def bench_interval(n: int, until: float, frames_per_tff: float, alpha: str = "pi
     import tempfile
 
     from ballchain.engine import simulate
-    from ballchain.records.files import save_result
     from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
+    from ballchain.records.files import save_result
 
-    r = simulate(ChainParams(segments=n, alpha=parse_angle(alpha)), InitialCondition(),
-                 SolverOptions(until=until, frames_per_tff=frames_per_tff))
+    r = simulate(
+        ChainParams(segments=n, alpha=parse_angle(alpha)),
+        InitialCondition(),
+        SolverOptions(until=until, frames_per_tff=frames_per_tff),
+    )
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "run.h5")
         save_result(r, path)
         size = os.path.getsize(path)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # MiB (Linux: kB)
     c = r.event_counts()
-    row = (n, alpha, until, frames_per_tff, r.wall_seconds, r.n_steps, r.n_evals, c["lock"], len(r.frame_t),
-           size / 2**20, rss, r.status)
-    print(f"  interval N={n} alpha={alpha} until={until} t_ff: {r.wall_seconds:.1f} s, steps={r.n_steps}, "
-          f"evals={r.n_evals}, locks={c['lock']}, frames={len(r.frame_t)}, file {size / 2**20:.1f} MiB, "
-          f"peak RSS {rss:.0f} MiB", flush=True)
+    row = (
+        n,
+        alpha,
+        until,
+        frames_per_tff,
+        r.wall_seconds,
+        r.n_steps,
+        r.n_evals,
+        c["lock"],
+        len(r.frame_t),
+        size / 2**20,
+        rss,
+        r.status,
+    )
+    print(
+        f"  interval N={n} alpha={alpha} until={until} t_ff: {r.wall_seconds:.1f} s, steps={r.n_steps}, "
+        f"evals={r.n_evals}, locks={c['lock']}, frames={len(r.frame_t)}, file {size / 2**20:.1f} MiB, "
+        f"peak RSS {rss:.0f} MiB",
+        flush=True,
+    )
     return row
 
 
@@ -139,13 +160,29 @@ def bench_falls(sizes, alphas, repeats=3):
             c = r.event_counts()
             instants = r.n_instants
             eval_s = r.n_evals * eval_cost_us(n) * 1e-6  # the evaluations' share of the wall time
-            row = (n, a, statistics.median(walls), r.ratio, r.t_landed / r.t_ff, c["lock"], c["unlock"], r.n_steps,
-                   r.n_evals, r.energy["imbalance"] / r.energy["initial"], r.status, instants,
-                   eval_s / statistics.median(walls), c["hold"])
+            row = (
+                n,
+                a,
+                statistics.median(walls),
+                r.ratio,
+                r.t_landed / r.t_ff,
+                c["lock"],
+                c["unlock"],
+                r.n_steps,
+                r.n_evals,
+                r.energy["imbalance"] / r.energy["initial"],
+                r.status,
+                instants,
+                eval_s / statistics.median(walls),
+                c["hold"],
+            )
             rows.append(row)
-            print(f"  fall N={n:5d} alpha={a:5s}: {row[2]:8.2f} s  t_fall/t_ff={row[3]:.4f} "
-                  f"locks={row[5]} holds={row[13]} steps={row[7]} evals={row[8]} event instants={row[11]} "
-                  f"evaluations {100 * row[12]:.0f}% of wall, imbalance={row[9]:.1e} {row[10]}", flush=True)
+            print(
+                f"  fall N={n:5d} alpha={a:5s}: {row[2]:8.2f} s  t_fall/t_ff={row[3]:.4f} "
+                f"locks={row[5]} holds={row[13]} steps={row[7]} evals={row[8]} event instants={row[11]} "
+                f"evaluations {100 * row[12]:.0f}% of wall, imbalance={row[9]:.1e} {row[10]}",
+                flush=True,
+            )
     return rows
 
 
@@ -155,8 +192,11 @@ def main(argv=None):
     ap.add_argument("--falls", default="16,32,64,128,512")
     ap.add_argument("--alphas", default="pi/4,pi")
     ap.add_argument("--evals-only", action="store_true")
-    ap.add_argument("--interval", default="16384:0.05",
-                    help="N:T, a fixed interval of T t_ff at size N with 10 frames per t_ff ('' to skip)")
+    ap.add_argument(
+        "--interval",
+        default="16384:0.05",
+        help="N:T, a fixed interval of T t_ff at size N with 10 frames per t_ff ('' to skip)",
+    )
     ap.add_argument("--output", default=None, help="markdown file to write (default: print only)")
     a = ap.parse_args(argv)
     info = machine_info()
@@ -169,45 +209,75 @@ def main(argv=None):
         n_i, t_i = a.interval.split(":")
         intervals.append(bench_interval(int(n_i), float(t_i), 10.0))
     if a.output:
-        lines = [f"Command: `{cmd.strip()}`", "", info, "", "One evaluation of the equations of motion "
-                 "(hinge forces with ~30% of hinges locked; median of 7 repeats; called from Python, and in a "
-                 "compiled loop as the integrator calls it):", "",
-                 "| N | us per evaluation | ns per segment | ns per segment, compiled loop |", "|---:|---:|---:|---:|"]
+        lines = [
+            f"Command: `{cmd.strip()}`",
+            "",
+            info,
+            "",
+            "One evaluation of the equations of motion "
+            "(hinge forces with ~30% of hinges locked; median of 7 repeats; called from Python, and in a "
+            "compiled loop as the integrator calls it):",
+            "",
+            "| N | us per evaluation | ns per segment | ns per segment, compiled loop |",
+            "|---:|---:|---:|---:|",
+        ]
         lines += [f"| {n} | {us:.2f} | {per * 1e3:.1f} | {perc * 1e3:.1f} |" for n, us, per, perc in ev]
         if falls:
-            lines += ["", "Whole falls (helix eps = 0.02, floor = all, rtol = 1e-9; wall: median of 3 runs for "
-                      "N <= 128, one run above):", "",
-                      "| N | alpha | wall s | t_fall/t_ff | t_landed/t_ff | locks | unlocks | holds | event instants "
-                      "| steps | evaluations | evaluations' share of wall | energy imbalance / E0 | status |",
-                      "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
-            lines += [f"| {r[0]} | {r[1]} | {r[2]:.2f} | {r[3]:.4f} | {r[4]:.4f} | {r[5]} | {r[6]} | {r[13]} | {r[11]} "
-                      f"| {r[7]} | {r[8]} | {100 * r[12]:.0f}% | {r[9]:.1e} | {r[10]} |" for r in falls]
+            lines += [
+                "",
+                "Whole falls (helix eps = 0.02, floor = all, rtol = 1e-9; wall: median of 3 runs for "
+                "N <= 128, one run above):",
+                "",
+                "| N | alpha | wall s | t_fall/t_ff | t_landed/t_ff | locks | unlocks | holds | event instants "
+                "| steps | evaluations | evaluations' share of wall | energy imbalance / E0 | status |",
+                "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+            ]
+            lines += [
+                f"| {r[0]} | {r[1]} | {r[2]:.2f} | {r[3]:.4f} | {r[4]:.4f} | {r[5]} | {r[6]} | {r[13]} | {r[11]} "
+                f"| {r[7]} | {r[8]} | {100 * r[12]:.0f}% | {r[9]:.1e} | {r[10]} |"
+                for r in falls
+            ]
             by = {(r[0], r[1]): r for r in falls}
             al = a.alphas.split(",")
             if len(al) >= 2:
-                lines += ["", f"A fall at alpha = {al[0]} against the same chain at alpha = {al[1]} (no locking), "
-                          "measured in the same run: the ratio of wall times, of evaluations, and of the "
-                          f"evaluations that the alpha = {al[0]} fall needs whatever the treatment of its events "
-                          "(with this integrator and tolerance): 6 for each Dormand-Prince step that ends at no "
-                          "event (steps - event instants; sized by the error control where the motion is smooth), "
-                          "and 7 for each event instant (the step that contains it, which must be integrated to "
-                          "find it, and the derivative at the restart), counting nothing for locating the events, "
-                          "the state at the event, the impact and lock-set solves or the projection.", "",
-                          "| N | wall ratio | evaluations ratio | unavoidable evaluations ratio |",
-                          "|---:|---:|---:|---:|"]
+                lines += [
+                    "",
+                    f"A fall at alpha = {al[0]} against the same chain at alpha = {al[1]} (no locking), "
+                    "measured in the same run: the ratio of wall times, of evaluations, and of the "
+                    f"evaluations that the alpha = {al[0]} fall needs whatever the treatment of its events "
+                    "(with this integrator and tolerance): 6 for each Dormand-Prince step that ends at no "
+                    "event (steps - event instants; sized by the error control where the motion is smooth), "
+                    "and 7 for each event instant (the step that contains it, which must be integrated to "
+                    "find it, and the derivative at the restart), counting nothing for locating the events, "
+                    "the state at the event, the impact and lock-set solves or the projection.",
+                    "",
+                    "| N | wall ratio | evaluations ratio | unavoidable evaluations ratio |",
+                    "|---:|---:|---:|---:|",
+                ]
                 for n in sorted({r[0] for r in falls}):
                     if (n, al[0]) in by and (n, al[1]) in by:
                         f0, f1 = by[(n, al[0])], by[(n, al[1])]
                         unavoidable = 6 * (f0[7] - f0[11]) + 7 * f0[11]
                         lines.append(f"| {n} | {f0[2] / f1[2]:.1f} | {f0[8] / f1[8]:.1f} | {unavoidable / f1[8]:.1f} |")
-            lines += ["", "The evaluations' share is (evaluations x the median cost of one evaluation at that N) / "
-                      "wall time; the rest is event location, impact and lock-set solves, projection and output."]
+            lines += [
+                "",
+                "The evaluations' share is (evaluations x the median cost of one evaluation at that N) / "
+                "wall time; the rest is event location, impact and lock-set solves, projection and output.",
+            ]
         if intervals:
-            lines += ["", "Fixed interval at large N (helix, floor = all, 10 frames per t_ff):", "",
-                      "| N | alpha | until (t_ff) | frames per t_ff | wall s | steps | evaluations | locks | frames "
-                      "| result file MiB | peak RSS MiB | status |", "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
-            lines += [f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.0f} | {r[4]:.1f} | {r[5]} | {r[6]} | {r[7]} | {r[8]} "
-                      f"| {r[9]:.1f} | {r[10]:.0f} | {r[11]} |" for r in intervals]
+            lines += [
+                "",
+                "Fixed interval at large N (helix, floor = all, 10 frames per t_ff):",
+                "",
+                "| N | alpha | until (t_ff) | frames per t_ff | wall s | steps | evaluations | locks | frames "
+                "| result file MiB | peak RSS MiB | status |",
+                "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+            ]
+            lines += [
+                f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.0f} | {r[4]:.1f} | {r[5]} | {r[6]} | {r[7]} | {r[8]} "
+                f"| {r[9]:.1f} | {r[10]:.0f} | {r[11]} |"
+                for r in intervals
+            ]
         with open(a.output, "w") as f:
             f.write("\n".join(lines) + "\n")
         print(f"wrote {a.output}")

@@ -41,11 +41,17 @@ def main(argv=None):
     def progress(frac, info):
         if frac - last[0] >= 0.02:
             last[0] = frac
-            say(f"{time.perf_counter() - t0:9.1f} s  t/t_ff = {info.get('t_over_tff', math.nan):.4f}  "
-                f"landed {info.get('landed')}  event rows {info.get('events')}")
+            say(
+                f"{time.perf_counter() - t0:9.1f} s  t/t_ff = {info.get('t_over_tff', math.nan):.4f}  "
+                f"landed {info.get('landed')}  event rows {info.get('events')}"
+            )
 
-    r = simulate(ChainParams(segments=a.segments, alpha=parse_angle(a.alpha)), InitialCondition(),
-                 SolverOptions(frames_per_tff=a.frames_per_tff), progress=progress)
+    r = simulate(
+        ChainParams(segments=a.segments, alpha=parse_angle(a.alpha)),
+        InitialCondition(),
+        SolverOptions(frames_per_tff=a.frames_per_tff),
+        progress=progress,
+    )
     say(json.dumps(r.summary()))
 
 

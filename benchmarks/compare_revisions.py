@@ -46,8 +46,7 @@ def base_worktree(rev: str):
     """The revision ``rev`` checked out as a git worktree in a temporary directory (its
     path), removed on exit."""
     wt = Path(tempfile.mkdtemp(prefix="ballchain-base-")) / "tree"
-    subprocess.run(["git", "worktree", "add", "--detach", str(wt), rev], cwd=ROOT, check=True,
-                   capture_output=True)
+    subprocess.run(["git", "worktree", "add", "--detach", str(wt), rev], cwd=ROOT, check=True, capture_output=True)
     try:
         yield wt
     finally:
@@ -58,8 +57,21 @@ def fall(src: Path, args: list[str]) -> dict:
     """One fall in a fresh process importing ballchain from ``src``; its JSON summary."""
     env = dict(os.environ, PYTHONPATH=str(src))
     with tempfile.TemporaryDirectory() as tmp:
-        out = subprocess.run([sys.executable, "-m", "ballchain.cli", "simulate", *args, "--output",
-                              str(Path(tmp) / "fall.h5"), "--json"], env=env, capture_output=True, text=True)
+        out = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "ballchain.cli",
+                "simulate",
+                *args,
+                "--output",
+                str(Path(tmp) / "fall.h5"),
+                "--json",
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
     if out.returncode != 0:
         raise SystemExit(f"fall failed ({src}): {out.stderr.strip().splitlines()[-1:]}")
     r = json.loads(out.stdout)
@@ -79,16 +91,21 @@ def main() -> None:
     args = ap.parse_args()
     if args.reps < 1:
         ap.error("--reps must be >= 1")
-    rev = subprocess.run(["git", "rev-parse", "--short", args.base], cwd=ROOT, capture_output=True, text=True,
-                         check=True).stdout.strip()
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                          check=True).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "src"], cwd=ROOT, capture_output=True,
-                           text=True).stdout.strip()
+    rev = subprocess.run(
+        ["git", "rev-parse", "--short", args.base], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.strip()
+    head = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.strip()
+    dirty = subprocess.run(
+        ["git", "status", "--porcelain", "src"], cwd=ROOT, capture_output=True, text=True
+    ).stdout.strip()
     print(machine_info())
-    print(f"base {rev}, head {head}{' + uncommitted changes' if dirty else ''}; alpha {args.alpha}, "
-          f"floor {args.floor}, {'helix start' if args.helix else 'random starts ' + args.seeds}, "
-          f"shortest of {args.reps} run(s) each")
+    print(
+        f"base {rev}, head {head}{' + uncommitted changes' if dirty else ''}; alpha {args.alpha}, "
+        f"floor {args.floor}, {'helix start' if args.helix else 'random starts ' + args.seeds}, "
+        f"shortest of {args.reps} run(s) each"
+    )
     with base_worktree(args.base) as wt:
         sides = {"base": wt / "src", "head": ROOT / "src"}
         for src in sides.values():  # compile (or load) each side's kernels, untimed
@@ -96,7 +113,7 @@ def main() -> None:
         rows = []
         for n in [int(s) for s in args.segments.split(",")]:
             res = {"base": [], "head": []}
-            for seed in ([None] if args.helix else seeds(args.seeds)):
+            for seed in [None] if args.helix else seeds(args.seeds):
                 start = ["--ic", "helix"] if seed is None else ["--ic", "random", "--seed", str(seed)]
                 best = {}
                 for _ in range(args.reps):
@@ -106,14 +123,18 @@ def main() -> None:
                             best[side] = r
                 for side, r in best.items():
                     res[side].append(r)
-                    print(f"  N={n} {'helix' if seed is None else f'seed={seed}'} {side}: {r['wall_seconds']:.2f} s, "
-                          f"t_fall/t_ff {r['ratio']:.4f}, {r['n_evals']} evaluations, {r['n_instants']} instants",
-                          flush=True)
+                    print(
+                        f"  N={n} {'helix' if seed is None else f'seed={seed}'} {side}: {r['wall_seconds']:.2f} s, "
+                        f"t_fall/t_ff {r['ratio']:.4f}, {r['n_evals']} evaluations, {r['n_instants']} instants",
+                        flush=True,
+                    )
             rows.append((n, res))
         print()
-        print("| N | starts | median wall base (s) | median wall head (s) | head / base | "
-              "median us per evaluation base / head | median instants base / head | "
-              "us per instant base / head | evaluations per instant base / head |")
+        print(
+            "| N | starts | median wall base (s) | median wall head (s) | head / base | "
+            "median us per evaluation base / head | median instants base / head | "
+            "us per instant base / head | evaluations per instant base / head |"
+        )
         print("|---|---|---|---|---|---|---|---|---|")
         for n, res in rows:
             wb = statistics.median(r["wall_seconds"] for r in res["base"])
@@ -125,11 +146,15 @@ def main() -> None:
             per = {}
             for side in ("base", "head"):
                 inst = sum(r["n_instants"] for r in res[side])
-                per[side] = (1e6 * sum(r["wall_seconds"] for r in res[side]) / inst,
-                             sum(r["n_evals"] for r in res[side]) / inst)
-            print(f"| {n} | {len(res['base'])} | {wb:.2f} | {wh:.2f} | {wh / wb:.2f} | {eb:.1f} / {eh:.1f} | "
-                  f"{ib:.0f} / {ih:.0f} | {per['base'][0]:.0f} / {per['head'][0]:.0f} | "
-                  f"{per['base'][1]:.1f} / {per['head'][1]:.1f} |")
+                per[side] = (
+                    1e6 * sum(r["wall_seconds"] for r in res[side]) / inst,
+                    sum(r["n_evals"] for r in res[side]) / inst,
+                )
+            print(
+                f"| {n} | {len(res['base'])} | {wb:.2f} | {wh:.2f} | {wh / wb:.2f} | {eb:.1f} / {eh:.1f} | "
+                f"{ib:.0f} / {ih:.0f} | {per['base'][0]:.0f} / {per['head'][0]:.0f} | "
+                f"{per['base'][1]:.1f} / {per['head'][1]:.1f} |"
+            )
 
 
 if __name__ == "__main__":

@@ -64,7 +64,8 @@ print(json.dumps({"wall": time.perf_counter() - t0, "cpu": r.ru_utime + r.ru_sti
 """
 
 
-BREAKDOWN = """
+BREAKDOWN = (
+    """
 import collections, time
 import numba.core.codegen as cg
 import ballchain.core.jit  # its policy wraps numba's methods first: time them as installed
@@ -78,7 +79,9 @@ def timed(self):  # link, optimise and emit machine code: numba's LLVM work per 
         llvm[self.name] += time.perf_counter() - t
         count[self.name] += 1
 cg.CPUCodeLibrary.finalize = timed
-""" + PROBE + """
+"""
+    + PROBE
+    + """
 from ballchain.core import jit
 cheap = set(jit.cheap_libraries()) if hasattr(jit, "cheap_libraries") else set()
 print(f"wall {time.perf_counter() - t0:.1f} s; LLVM (finalize) {sum(llvm.values()):.1f} s over "
@@ -86,9 +89,11 @@ print(f"wall {time.perf_counter() - t0:.1f} s; LLVM (finalize) {sum(llvm.values(
 for name, sec in sorted(llvm.items(), key=lambda kv: -kv[1])[:12]:
     print(f"  {sec:6.2f} s  {count[name]:3d}x  {name}  ({'cheap' if name in cheap else 'full'} pipeline)")
 """
+)
 
 
-FUNCTIONS = """
+FUNCTIONS = (
+    """
 import collections, time
 from numba.core import event
 class Compiles(event.Listener):  # numba's compile events nest: a callee inside its caller
@@ -108,7 +113,9 @@ class Compiles(event.Listener):  # numba's compile events nest: a callee inside 
             self.stack[-1][2] += dt
 c = Compiles()
 event.register("numba:compile", c)
-""" + PROBE + """
+"""
+    + PROBE
+    + """
 work = sum(c.excl.values())
 def chain(name):  # the compiles that must follow one another down to this one, innermost first
     out = []
@@ -126,6 +133,7 @@ print(f"longest chain of compiles that must follow one another: {span:.1f} s "
 print(f"no split over two processes compiles faster than max(that chain, half the work) = "
       f"{max(span, work / 2):.1f} s, before starting the processes and compiling shared callees twice")
 """
+)
 
 
 def cold_compile(src: Path, extra_env: dict) -> dict:
@@ -144,10 +152,13 @@ def cold_compile(src: Path, extra_env: dict) -> dict:
 def default_fall(cache: str, extra_env: dict) -> dict:
     """The default ``ballchain simulate`` in a fresh process with the given numba cache."""
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), NUMBA_CACHE_DIR=cache, **extra_env)
-    code = ("import sys; from ballchain.cli import app; "
-            "sys.argv = ['ballchain', 'simulate', '--json', '--output', sys.argv[1], '--force']; app()")
-    out = subprocess.run([sys.executable, "-c", code, str(Path(cache) / "fall.h5")], env=env,
-                         capture_output=True, text=True)
+    code = (
+        "import sys; from ballchain.cli import app; "
+        "sys.argv = ['ballchain', 'simulate', '--json', '--output', sys.argv[1], '--force']; app()"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(Path(cache) / "fall.h5")], env=env, capture_output=True, text=True
+    )
     if out.returncode != 0:
         raise SystemExit(f"the default fall failed: {out.stderr.strip().splitlines()[-3:]}")
     return json.loads(out.stdout)
@@ -163,8 +174,7 @@ def run_pairs(pairs: int) -> None:
         caches = {"policy off": off, "policy on": on}
         for name, env in sides.items():
             rec = default_fall(caches[name], env)  # compiles
-            print(f"  {name}: compiled; t_fall/t_ff {rec['ratio']:.4f}, "
-                  f"{rec['n_evals']} evaluations", flush=True)
+            print(f"  {name}: compiled; t_fall/t_ff {rec['ratio']:.4f}, {rec['n_evals']} evaluations", flush=True)
         ratios, walls = [], {name: [] for name in sides}
         for i in range(pairs):
             order = list(sides) if i % 2 == 0 else list(sides)[::-1]
@@ -172,24 +182,36 @@ def run_pairs(pairs: int) -> None:
             for name in sides:
                 walls[name].append(wall[name])
             ratios.append(wall["policy on"] / wall["policy off"])
-            print(f"  pair {i + 1}: off {wall['policy off']:.2f} s, on {wall['policy on']:.2f} s, "
-                  f"ratio {ratios[-1]:.3f}", flush=True)
-    print(f"\nmedian wall: off {statistics.median(walls['policy off']):.2f} s, "
-          f"on {statistics.median(walls['policy on']):.2f} s; ratios (on / off) "
-          f"{min(ratios):.2f} to {max(ratios):.2f}, median {statistics.median(ratios):.3f}")
+            print(
+                f"  pair {i + 1}: off {wall['policy off']:.2f} s, on {wall['policy on']:.2f} s, ratio {ratios[-1]:.3f}",
+                flush=True,
+            )
+    print(
+        f"\nmedian wall: off {statistics.median(walls['policy off']):.2f} s, "
+        f"on {statistics.median(walls['policy on']):.2f} s; ratios (on / off) "
+        f"{min(ratios):.2f} to {max(ratios):.2f}, median {statistics.median(ratios):.3f}"
+    )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", help="git revision to compare with this checkout (default: the policy off vs on)")
     ap.add_argument("--reps", type=int, default=3, help="cold compiles per side (alternating)")
-    ap.add_argument("--breakdown", action="store_true",
-                    help="one cold compile of this checkout: LLVM seconds per library, the rest")
-    ap.add_argument("--functions", action="store_true",
-                    help="one cold compile of this checkout: compile seconds per kernel, and the least a "
-                         "compile split over two processes could take")
-    ap.add_argument("--run-pairs", type=int, metavar="P",
-                    help="instead: P pairs of default falls compiled with the policy off and on")
+    ap.add_argument(
+        "--breakdown", action="store_true", help="one cold compile of this checkout: LLVM seconds per library, the rest"
+    )
+    ap.add_argument(
+        "--functions",
+        action="store_true",
+        help="one cold compile of this checkout: compile seconds per kernel, and the least a "
+        "compile split over two processes could take",
+    )
+    ap.add_argument(
+        "--run-pairs",
+        type=int,
+        metavar="P",
+        help="instead: P pairs of default falls compiled with the policy off and on",
+    )
     args = ap.parse_args()
     print(machine_info())
     if args.run_pairs:
@@ -212,8 +234,11 @@ def main() -> None:
             for name, src, env in sides:
                 rec = cold_compile(src, env)
                 times[name].append(rec)
-                print(f"  rep {rep + 1}  {name:<24} wall {rec['wall']:6.1f} s   cpu {rec['cpu']:6.1f} s"
-                      f"   policy {'on' if rec['policy'] else 'off'}", flush=True)
+                print(
+                    f"  rep {rep + 1}  {name:<24} wall {rec['wall']:6.1f} s   cpu {rec['cpu']:6.1f} s"
+                    f"   policy {'on' if rec['policy'] else 'off'}",
+                    flush=True,
+                )
     print("\n| side | median wall (s) | median CPU (s) | compiles |\n|---|---|---|---|")
     med = {}
     for name, recs in times.items():

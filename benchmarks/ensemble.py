@@ -20,12 +20,26 @@ def one(args):
     from ballchain.engine import simulate
     from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
 
-    r = simulate(ChainParams(segments=n, alpha=parse_angle(alpha), floor=floor),
-                 InitialCondition(kind=kind, seed=seed, eps=eps), SolverOptions(rtol=rtol))
+    r = simulate(
+        ChainParams(segments=n, alpha=parse_angle(alpha), floor=floor),
+        InitialCondition(kind=kind, seed=seed, eps=eps),
+        SolverOptions(rtol=rtol),
+    )
     s = r.summary()
-    return {k: s[k] for k in ("segments", "alpha", "floor", "status", "ratio", "landed_ratio", "events",
-                              "max_depth", "wall_seconds")} | {
-        "ic": kind, "seed": seed, "imbalance_rel": r.energy["imbalance"] / r.energy["initial"]}
+    return {
+        k: s[k]
+        for k in (
+            "segments",
+            "alpha",
+            "floor",
+            "status",
+            "ratio",
+            "landed_ratio",
+            "events",
+            "max_depth",
+            "wall_seconds",
+        )
+    } | {"ic": kind, "seed": seed, "imbalance_rel": r.energy["imbalance"] / r.energy["initial"]}
 
 
 def main(argv=None):
@@ -50,12 +64,17 @@ def main(argv=None):
         print(json.dumps(r), flush=True)
     for floor in a.floors.split(","):
         x = [r["ratio"] for r in rows if r["floor"] == floor and r["ic"] == "random" and r["ratio"] is not None]
-        y = [r["landed_ratio"] for r in rows if r["floor"] == floor and r["ic"] == "random"
-             and r["landed_ratio"] is not None]
+        y = [
+            r["landed_ratio"]
+            for r in rows
+            if r["floor"] == floor and r["ic"] == "random" and r["landed_ratio"] is not None
+        ]
         if len(x) > 1:
-            print(f"floor={floor}: t_fall/t_ff = {statistics.mean(x):.4f} +- {statistics.stdev(x) / math.sqrt(len(x)):.4f}"
-                  f" (n={len(x)}), t_landed/t_ff = {statistics.mean(y):.4f} +- "
-                  f"{statistics.stdev(y) / math.sqrt(len(y)):.4f}")
+            print(
+                f"floor={floor}: t_fall/t_ff = {statistics.mean(x):.4f} +- {statistics.stdev(x) / math.sqrt(len(x)):.4f}"
+                f" (n={len(x)}), t_landed/t_ff = {statistics.mean(y):.4f} +- "
+                f"{statistics.stdev(y) / math.sqrt(len(y)):.4f}"
+            )
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ import math
 import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -111,9 +110,11 @@ def main() -> None:
             d = max_rel(base[name][key], head[name][key])
             if CHAOTIC not in name:
                 worst = max(worst, d)
-            show = (lambda v: f"{v:.12g}" if isinstance(v, float) else ("[...]" if isinstance(v, list) else str(v)))
-            print(f"| {name} | {key} | {show(base[name][key])} | {show(head[name][key])} | {d:.2e} | "
-                  f"{'yes' if d <= args.tol else ('NO' if CHAOTIC not in name else '(not judged)')} |")
+            show = lambda v: f"{v:.12g}" if isinstance(v, float) else ("[...]" if isinstance(v, list) else str(v))
+            print(
+                f"| {name} | {key} | {show(base[name][key])} | {show(head[name][key])} | {d:.2e} | "
+                f"{'yes' if d <= args.tol else ('NO' if CHAOTIC not in name else '(not judged)')} |"
+            )
     print(f"\nlargest difference: {worst:.2e} ({'within' if worst <= args.tol else 'OUTSIDE'} {args.tol:g})")
     sys.exit(0 if worst <= args.tol else 1)
 

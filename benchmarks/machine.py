@@ -24,5 +24,7 @@ def machine_info(modules=("numpy", "numba", "scipy", "ballchain")) -> str:
     for name in modules:
         mod = importlib.import_module(name)
         versions.append(f"{name} {getattr(mod, '__version__', '?')}")
-    return (f"machine: {cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-            f"python {platform.python_version()}, " + ", ".join(versions))
+    return (
+        f"machine: {cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
+        f"python {platform.python_version()}, " + ", ".join(versions)
+    )

@@ -79,6 +79,7 @@ def measures(path: str) -> dict:
 
     def coil(sel):
         return abs(float(np.sum(turn[sel]))) / (2 * math.pi) * 10.0 / max(1, int(np.sum(sel)))
+
     dev = z - (1.0 - tau**2)
     off = np.flatnonzero(np.abs(dev) > THRESH)
     off5 = np.flatnonzero(np.abs(dev) > 0.05)
@@ -114,18 +115,44 @@ def main() -> None:
     for _, r in df.iterrows():
         path = os.path.join(args.runs, r["run_id"] + ".h5")
         if os.path.exists(path):
-            rows.append({"segments": r["segments"], "alpha_deg": round(r["alpha_deg"], 6), "floor": r["floor"],
-                         "run_index": r["run_index"], "ratio": r["ratio"], **measures(path)})
+            rows.append(
+                {
+                    "segments": r["segments"],
+                    "alpha_deg": round(r["alpha_deg"], 6),
+                    "floor": r["floor"],
+                    "run_index": r["run_index"],
+                    "ratio": r["ratio"],
+                    **measures(path),
+                }
+            )
     if not rows:
         sys.exit("no saved runs of the table found in " + args.runs)
     m = pd.DataFrame(rows)
-    cols = ["ratio", "departure", "departure5", "lag06", "lock_z95", "lock_below_0.1", "pull_down", "pull_mean",
-            "depth", "depth_fall", "coil_before", "coil_after"]
+    cols = [
+        "ratio",
+        "departure",
+        "departure5",
+        "lag06",
+        "lock_z95",
+        "lock_below_0.1",
+        "pull_down",
+        "pull_mean",
+        "depth",
+        "depth_fall",
+        "coil_before",
+        "coil_after",
+    ]
     out = []
     for key, g in m.groupby(["segments", "alpha_deg", "floor"]):
-        out.append({"segments": int(key[0]), "alpha_deg": key[1], "floor": key[2], "runs": int(len(g)),
-                    **{c: {"mean": float(g[c].mean()), "min": float(g[c].min()), "max": float(g[c].max())}
-                       for c in cols}})
+        out.append(
+            {
+                "segments": int(key[0]),
+                "alpha_deg": key[1],
+                "floor": key[2],
+                "runs": int(len(g)),
+                **{c: {"mean": float(g[c].mean()), "min": float(g[c].min()), "max": float(g[c].max())} for c in cols},
+            }
+        )
     paired = []
     if args.paired:
         for (n, a), g in df.groupby(["segments", "alpha_deg"]):
@@ -133,8 +160,15 @@ def main() -> None:
             if {"all", "pivot"} <= set(p.columns):
                 dlt = (p["pivot"] - p["all"]).dropna()
                 if len(dlt) > 1:
-                    paired.append({"segments": int(n), "alpha_deg": round(float(a), 6), "pairs": int(len(dlt)),
-                                   "mean_diff": float(dlt.mean()), "se": float(dlt.std(ddof=1) / math.sqrt(len(dlt)))})
+                    paired.append(
+                        {
+                            "segments": int(n),
+                            "alpha_deg": round(float(a), 6),
+                            "pairs": int(len(dlt)),
+                            "mean_diff": float(dlt.mean()),
+                            "se": float(dlt.std(ddof=1) / math.sqrt(len(dlt))),
+                        }
+                    )
     if args.json:
         print(json.dumps({"groups": out, "paired": paired}))
         return

@@ -30,20 +30,26 @@ def main() -> None:
         sys.exit(__doc__)
     res = table_stats(sys.argv[1])
     print(f"{res['rows']} runs: " + ", ".join(f"{v} {k}" for k, v in res["status"].items()) + "\n")
-    print("| N | alpha (deg) | floor | runs | t_fall/t_ff mean [95%] | median | t_landed/t_ff mean | "
-          "faster than free fall [95%] |")
+    print(
+        "| N | alpha (deg) | floor | runs | t_fall/t_ff mean [95%] | median | t_landed/t_ff mean | "
+        "faster than free fall [95%] |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for p in res["points"]:
-        r, l, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
-        print(f"| {p['segments']} | {p['alpha_deg']:.4g} | {p['floor']} | {p['n_runs']} | {f(r['mean'])} "
-              f"[{f(r['ci_low'])}, {f(r['ci_high'])}] | {f(r['median'])} | {f(l['mean'])} | "
-              f"{fa['k']}/{fa['n']} [{f(fa['ci_low'], '.2f')}, {f(fa['ci_high'], '.2f')}] |")
+        r, lr, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
+        print(
+            f"| {p['segments']} | {p['alpha_deg']:.4g} | {p['floor']} | {p['n_runs']} | {f(r['mean'])} "
+            f"[{f(r['ci_low'])}, {f(r['ci_high'])}] | {f(r['median'])} | {f(lr['mean'])} | "
+            f"{fa['k']}/{fa['n']} [{f(fa['ci_low'], '.2f')}, {f(fa['ci_high'], '.2f')}] |"
+        )
     print("\n| N | floor | alphas | optimal alpha (deg) [95%] | mean t_fall/t_ff there | share of resamples |")
     print("|---|---|---|---|---|---|")
     for o in res["optimal_alpha"]:
         if o["n_alpha"] > 1 and o["alpha_deg"] is not None:
-            print(f"| {o['segments']} | {o['floor']} | {o['n_alpha']} | {o['alpha_deg']:.4g} "
-                  f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}] | {o['mean']:.3f} | {o['share_best']:.2f} |")
+            print(
+                f"| {o['segments']} | {o['floor']} | {o['n_alpha']} | {o['alpha_deg']:.4g} "
+                f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}] | {o['mean']:.3f} | {o['share_best']:.2f} |"
+            )
     print("\n| alpha (deg) | floor | N measured | crossover N (mean t_fall/t_ff = 1) | 95% interval |")
     print("|---|---|---|---|---|")
     df = pd.read_parquet(sys.argv[1])
@@ -63,8 +69,12 @@ def main() -> None:
             cell, ci = "not bracketed", "-"
         else:
             cell = f"{best:.0f}"
-            ci = (f"[{np.quantile(boot, 0.025):.0f}, {np.quantile(boot, 0.975):.0f}] "
-                  f"({boot.size / 20:.0f}% of resamples cross)" if boot.size else "-")
+            ci = (
+                f"[{np.quantile(boot, 0.025):.0f}, {np.quantile(boot, 0.975):.0f}] "
+                f"({boot.size / 20:.0f}% of resamples cross)"
+                if boot.size
+                else "-"
+            )
         print(f"| {a:.4g} | {fl} | {', '.join(str(n) for n in sizes)} | {cell} | {ci} |")
 
 

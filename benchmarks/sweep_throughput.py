@@ -38,8 +38,7 @@ def main() -> None:
 
     print(machine_info(("numpy", "numba", "scipy", "dask", "distributed", "pyarrow", "ballchain")))
     warm_kernels()
-    spec = SweepSpec(segments=(args.segments,), alphas=tuple(parse_alphas(args.alpha)), runs=args.runs,
-                     seed=args.seed)
+    spec = SweepSpec(segments=(args.segments,), alphas=tuple(parse_alphas(args.alpha)), runs=args.runs, seed=args.seed)
     tasks = spec.tasks()
     t0 = time.perf_counter()
     single = [simulate(t.params, t.ic, t.options) for t in tasks]
@@ -52,9 +51,11 @@ def main() -> None:
             assert rep.ran == len(tasks) and rep.failed == 0
             rows.append((f"sweep, {w} worker{'s' if w > 1 else ''}", time.perf_counter() - t0))
     ratios = [r.ratio for r in single]
-    print(f"N = {args.segments}, alpha = {args.alpha}, {len(tasks)} random starts (seed {args.seed}); "
-          f"t_fall/t_ff mean {statistics.mean(ratios):.4f}; per-run wall: median "
-          f"{statistics.median(r.wall_seconds for r in single):.2f} s")
+    print(
+        f"N = {args.segments}, alpha = {args.alpha}, {len(tasks)} random starts (seed {args.seed}); "
+        f"t_fall/t_ff mean {statistics.mean(ratios):.4f}; per-run wall: median "
+        f"{statistics.median(r.wall_seconds for r in single):.2f} s"
+    )
     print("\n| how | wall (s) | runs per hour | vs one by one |\n|---|---|---|---|")
     for name, wall in rows:
         print(f"| {name} | {wall:.1f} | {len(tasks) * 3600 / wall:.0f} | {wall / one_by_one:.2f}x |")

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from ballchain.records.measures import floor_gamma, landing_times, momentum, touch_times
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.records.measures import floor_gamma, landing_times, momentum, touch_times
 
 
 def hamm_geminard_record(gamma: float, n: int, frames: int = 4000):
@@ -29,8 +29,7 @@ def hamm_geminard_record(gamma: float, n: int, frames: int = 4000):
 
     hit = lambda t, y: y[0] - 1e-4 * z0  # noqa: E731  (the top lands; z = 0 is singular for gamma < 1)
     hit.terminal = True
-    sol = solve_ivp(rhs, (0, 10 * math.sqrt(z0)), [z0, 0.0], rtol=1e-12, atol=1e-12 * z0, dense_output=True,
-                    events=hit)
+    sol = solve_ivp(rhs, (0, 10 * math.sqrt(z0)), [z0, 0.0], rtol=1e-12, atol=1e-12 * z0, dense_output=True, events=hit)
     t_end = float(sol.t_events[0][0])
     t_ff = math.sqrt(2 * z0)
     ft = np.linspace(0.0, t_end, frames)
@@ -46,10 +45,16 @@ def hamm_geminard_record(gamma: float, n: int, frames: int = 4000):
     frame_floor_impulse[:, 2] = J
     velocities = np.zeros((frames, n, 3))  # the airborne chain moves as one: zdot
     velocities[:, :, 2] = (u / z)[:, None]
-    return velocities, SimpleNamespace(params=ChainParams(segments=n, alpha=math.pi), t_ff=t_ff, frame_t=ft,
-                           frame_floor_impulse=frame_floor_impulse, anchor_t=anchor_t,
-                           frame_e=np.tile([0.0, 0.0, 1.0], (frames, n, 1)), frame_omega=np.zeros((frames, n, 3)),
-                           t_fall=t_end)
+    return velocities, SimpleNamespace(
+        params=ChainParams(segments=n, alpha=math.pi),
+        t_ff=t_ff,
+        frame_t=ft,
+        frame_floor_impulse=frame_floor_impulse,
+        anchor_t=anchor_t,
+        frame_e=np.tile([0.0, 0.0, 1.0], (frames, n, 1)),
+        frame_omega=np.zeros((frames, n, 3)),
+        t_fall=t_end,
+    )
 
 
 @pytest.mark.parametrize("gamma", [0.0, 0.5, 1.0])
@@ -83,8 +88,11 @@ def test_measured_gamma_on_real_runs_obeys_the_momentum_theorem(floor):
     removed(t_fall) = P(t_fall) - P(0) + g * integral_0^t_fall M_air dt, with P from the
     frames' kinematics (not from the floor's record) and M_air from the landing times."""
     n = 8
-    r = simulate(ChainParams(segments=n, alpha=math.pi / 4, floor=floor), InitialCondition(kind="helix", eps=0.05),
-                 SolverOptions(frames_per_tff=4000))
+    r = simulate(
+        ChainParams(segments=n, alpha=math.pi / 4, floor=floor),
+        InitialCondition(kind="helix", eps=0.05),
+        SolverOptions(frames_per_tff=4000),
+    )
     assert r.status == "landed" and math.isfinite(r.t_fall)
     fg = floor_gamma(r)
     tt = touch_times(r)

@@ -14,9 +14,9 @@ from typer.testing import CliRunner
 from ballchain import cli
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.records.files import save_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
 from ballchain.plots.animate import AnimationError, ChainAnimation, frame_indices, write_animation
+from ballchain.records.files import save_result
 
 
 @pytest.fixture(scope="module")
@@ -26,8 +26,11 @@ def run():
 
 @pytest.fixture(scope="module")
 def si_run():  # b != 1: positions must be divided by it
-    return simulate(ChainParams.from_chain(6, length_m=0.3, mass_kg=0.01), InitialCondition(eps=0.05),
-                    SolverOptions(frames_per_tff=60))
+    return simulate(
+        ChainParams.from_chain(6, length_m=0.3, mass_kg=0.01),
+        InitialCondition(eps=0.05),
+        SolverOptions(frames_per_tff=60),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -54,8 +57,12 @@ def test_frame_indices():
         idx = frame_indices(n, frames=k)
         assert idx.size == k and idx[0] == 0 and (k == 1 or idx[-1] == n - 1)
         assert np.all(np.diff(idx) >= 1) and idx.max() < n
-    for kw, word in ((dict(every=0), "--every"), (dict(frames=0), "--frames"), (dict(frames=11), "only 10"),
-                     (dict(every=2, frames=3), "exclude")):
+    for kw, word in (
+        (dict(every=0), "--every"),
+        (dict(frames=0), "--frames"),
+        (dict(frames=11), "only 10"),
+        (dict(every=2, frames=3), "exclude"),
+    ):
         with pytest.raises(AnimationError, match=word):
             frame_indices(10, **kw)
 
@@ -71,8 +78,9 @@ def _frames_to_check(r):
     mixed_lock = np.flatnonzero((locked > 0) & (locked < n - 1))
     mixed_pile = np.flatnonzero((landed > 0) & (landed < n))
     assert mixed_lock.size and mixed_pile.size
-    return sorted({0, int(mixed_lock[len(mixed_lock) // 2]), int(mixed_pile[0]), int(mixed_pile[-1]),
-                   r.frame_t.size - 1})
+    return sorted(
+        {0, int(mixed_lock[len(mixed_lock) // 2]), int(mixed_pile[0]), int(mixed_pile[-1]), r.frame_t.size - 1}
+    )
 
 
 @pytest.mark.parametrize("which", ["run", "si_run"])
@@ -92,20 +100,22 @@ def test_every_view_draws_the_points_the_pile_and_the_locked_hinges(which, reque
         locked = np.flatnonzero(r.frame_locked[f])  # hinge k is point k + 1
         x, y, z = anim.locks3d.get_data_3d()
         np.testing.assert_allclose(np.column_stack([x, y, z]).reshape(-1, 3), pts[locked + 1], atol=1e-12)
-        np.testing.assert_allclose(np.column_stack(anim.locks_side.get_data()).reshape(-1, 2),
-                                   pts[locked + 1][:, [0, 2]], atol=1e-12)
-        np.testing.assert_allclose(np.column_stack(anim.locks_top.get_data()).reshape(-1, 2),
-                                   pts[locked + 1][:, [0, 1]], atol=1e-12)
+        np.testing.assert_allclose(
+            np.column_stack(anim.locks_side.get_data()).reshape(-1, 2), pts[locked + 1][:, [0, 2]], atol=1e-12
+        )
+        np.testing.assert_allclose(
+            np.column_stack(anim.locks_top.get_data()).reshape(-1, 2), pts[locked + 1][:, [0, 1]], atol=1e-12
+        )
 
         a = r.frame_anchored[f]
         landed = np.flatnonzero(a[:-1] & a[1:])
         want = np.stack([pts[landed], pts[landed + 1]], axis=1)
         got3 = np.array(anim.pile3d._segments3d).reshape(-1, 2, 3)
         np.testing.assert_allclose(got3, want, atol=1e-12)
-        np.testing.assert_allclose(np.array(anim.pile_top.get_segments()).reshape(-1, 2, 2), want[:, :, :2],
-                                   atol=1e-12)
-        np.testing.assert_allclose(np.array(anim.pile_side.get_segments()).reshape(-1, 2, 2),
-                                   want[:, :, [0, 2]], atol=1e-12)
+        np.testing.assert_allclose(np.array(anim.pile_top.get_segments()).reshape(-1, 2, 2), want[:, :, :2], atol=1e-12)
+        np.testing.assert_allclose(
+            np.array(anim.pile_side.get_segments()).reshape(-1, 2, 2), want[:, :, [0, 2]], atol=1e-12
+        )
         assert f"t = {r.frame_t[f] / r.t_ff:.3f} t_ff" in anim.title.get_text()
 
 
@@ -138,17 +148,20 @@ def test_existing_output_needs_force(run_file, tmp_path):
     assert len(read_frames(out)) == 2
 
 
-@pytest.mark.parametrize("args, word", [
-    (["--out", "fall.avi"], ".mp4 or .gif"),
-    (["--out", "fall"], ".mp4 or .gif"),
-    (["--fps", "0"], "--fps"),
-    (["--fps", "x"], "--fps"),
-    (["--every", "0"], "--every"),
-    (["--frames", "0"], "--frames"),
-    (["--frames", "100000"], "only"),
-    (["--every", "2", "--frames", "3"], "exclude"),
-    (["--out", "no/such/dir/fall.mp4"], "does not exist"),
-])
+@pytest.mark.parametrize(
+    "args, word",
+    [
+        (["--out", "fall.avi"], ".mp4 or .gif"),
+        (["--out", "fall"], ".mp4 or .gif"),
+        (["--fps", "0"], "--fps"),
+        (["--fps", "x"], "--fps"),
+        (["--every", "0"], "--every"),
+        (["--frames", "0"], "--frames"),
+        (["--frames", "100000"], "only"),
+        (["--every", "2", "--frames", "3"], "exclude"),
+        (["--out", "no/such/dir/fall.mp4"], "does not exist"),
+    ],
+)
 def test_bad_options_one_line_exit_2(run_file, tmp_path, monkeypatch, args, word):
     monkeypatch.chdir(tmp_path)
     res = invoke("animate", run_file, *args)
@@ -194,6 +207,8 @@ def test_interrupt_leaves_no_file(run, tmp_path):
 
 
 def test_animation_does_not_import_the_engine():
-    code = ("import sys, ballchain.plots.animate, ballchain.plots; "
-            "assert 'ballchain.engine' not in sys.modules and 'numba' not in sys.modules, sorted(sys.modules)")
+    code = (
+        "import sys, ballchain.plots.animate, ballchain.plots; "
+        "assert 'ballchain.engine' not in sys.modules and 'numba' not in sys.modules, sorted(sys.modules)"
+    )
     subprocess.run([sys.executable, "-c", code], check=True)

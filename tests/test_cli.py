@@ -17,13 +17,14 @@ from typer.testing import CliRunner
 
 from ballchain import cli
 from ballchain.cli import app
-from ballchain.records.files import load_result, save_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
+from ballchain.records.files import load_result, save_result
 from ballchain.records.result import Result
 
 
-def fake_result(params: ChainParams, ic: InitialCondition, options: SolverOptions, *,
-                status="landed", message="") -> Result:
+def fake_result(
+    params: ChainParams, ic: InitialCondition, options: SolverOptions, *, status="landed", message=""
+) -> Result:
     n = params.segments
     rng = np.random.default_rng(ic.seed)
     frames, steps = 5, 20
@@ -31,23 +32,55 @@ def fake_result(params: ChainParams, ic: InitialCondition, options: SolverOption
     t_ff = math.sqrt(2 * z0)
     units = "SI" if params.is_si else "nondimensional"
     return Result(
-        params=params, ic=ic, options=options, version="0.1.0", status=status, message=message,
-        z0=z0, t_ff=t_ff, t_fall=0.94 * t_ff, t_landed=1.1 * t_ff,
-        t=np.linspace(0, t_ff, steps), z_top=np.linspace(z0, 0, steps),
-        frame_t=np.linspace(0, t_ff, frames), frame_e=np.tile([0.0, 0.0, 1.0], (frames, n, 1)),
-        frame_omega=np.zeros((frames, n, 3)), frame_anchored=np.zeros((frames, n + 1), bool),
-        frame_locked=np.zeros((frames, n - 1), bool), frame_floor_force=rng.normal(size=(frames, 3)),
-        frame_kinetic=np.zeros(frames), frame_potential=np.zeros(frames),
-        frame_lost_locking=np.zeros(frames), frame_lost_landing=np.zeros(frames),
-        frame_pile_pull=np.zeros((frames, 3)), frame_scale_force=np.zeros(frames),
+        params=params,
+        ic=ic,
+        options=options,
+        version="0.1.0",
+        status=status,
+        message=message,
+        z0=z0,
+        t_ff=t_ff,
+        t_fall=0.94 * t_ff,
+        t_landed=1.1 * t_ff,
+        t=np.linspace(0, t_ff, steps),
+        z_top=np.linspace(z0, 0, steps),
+        frame_t=np.linspace(0, t_ff, frames),
+        frame_e=np.tile([0.0, 0.0, 1.0], (frames, n, 1)),
+        frame_omega=np.zeros((frames, n, 3)),
+        frame_anchored=np.zeros((frames, n + 1), bool),
+        frame_locked=np.zeros((frames, n - 1), bool),
+        frame_floor_force=rng.normal(size=(frames, 3)),
+        frame_kinetic=np.zeros(frames),
+        frame_potential=np.zeros(frames),
+        frame_lost_locking=np.zeros(frames),
+        frame_lost_landing=np.zeros(frames),
+        frame_pile_pull=np.zeros((frames, 3)),
+        frame_scale_force=np.zeros(frames),
         frame_floor_impulse=np.zeros((frames, 3)),
-        event_t=np.array([0.1, 0.2, 0.3, 0.4]), event_kind=np.array([1, 1, 2, 3], np.int8),
-        event_index=np.array([0, 1, 0, n], np.int64), event_impulse=np.zeros((4, 3)),
-        event_energy=np.zeros(4), event_pos=np.zeros((4, 3)), anchor_t=np.full(n + 1, np.nan), anchor_pos=np.zeros((n + 1, 3)),
-        energy={"initial": 1.0 * n * n, "potential": 0.0, "kinetic": 0.0, "lost_locking": 0.5 * n * n,
-                "lost_landing": 0.5 * n * n, "imbalance": 1e-13},
-        max_depth=0.0, floor_impulse=np.zeros(3), floor_impulse_total=np.zeros(3), wall_seconds=0.01, n_steps=steps,
-        n_evals=6 * steps, n_instants=steps // 10, units=units,
+        event_t=np.array([0.1, 0.2, 0.3, 0.4]),
+        event_kind=np.array([1, 1, 2, 3], np.int8),
+        event_index=np.array([0, 1, 0, n], np.int64),
+        event_impulse=np.zeros((4, 3)),
+        event_energy=np.zeros(4),
+        event_pos=np.zeros((4, 3)),
+        anchor_t=np.full(n + 1, np.nan),
+        anchor_pos=np.zeros((n + 1, 3)),
+        energy={
+            "initial": 1.0 * n * n,
+            "potential": 0.0,
+            "kinetic": 0.0,
+            "lost_locking": 0.5 * n * n,
+            "lost_landing": 0.5 * n * n,
+            "imbalance": 1e-13,
+        },
+        max_depth=0.0,
+        floor_impulse=np.zeros(3),
+        floor_impulse_total=np.zeros(3),
+        wall_seconds=0.01,
+        n_steps=steps,
+        n_evals=6 * steps,
+        n_instants=steps // 10,
+        units=units,
     )
 
 
@@ -61,11 +94,18 @@ class FakeEngine:
         if self.behaviour == "interrupt":
             raise KeyboardInterrupt
         if progress is not None:
-            progress(0.5, {"t_over_tff": 0.5, "events": {"lock": 3, "landing": 1}, "instants": 4, "landed": 1,
-                           "segments": params.segments})
+            progress(
+                0.5,
+                {
+                    "t_over_tff": 0.5,
+                    "events": {"lock": 3, "landing": 1},
+                    "instants": 4,
+                    "landed": 1,
+                    "segments": params.segments,
+                },
+            )
         if self.behaviour == "error":
-            return fake_result(params, ic, options, status="error",
-                               message="NaN in the state at t = 3.2")
+            return fake_result(params, ic, options, status="error", message="NaN in the state at t = 3.2")
         return fake_result(params, ic, options)
 
 
@@ -97,8 +137,21 @@ def assert_one_line_error(res, code, *words):
 
 
 # --------------------------------------------------------------------------- JSON
-SUMMARY_KEYS = ("segments", "alpha", "floor", "z0", "t_ff", "t_fall", "t_landed", "ratio",
-                "events", "first_lock_time", "energy", "max_depth", "wall_seconds")
+SUMMARY_KEYS = (
+    "segments",
+    "alpha",
+    "floor",
+    "z0",
+    "t_ff",
+    "t_fall",
+    "t_landed",
+    "ratio",
+    "events",
+    "first_lock_time",
+    "energy",
+    "max_depth",
+    "wall_seconds",
+)
 
 
 def test_json_summary(engine):
@@ -109,10 +162,17 @@ def test_json_summary(engine):
     for k in SUMMARY_KEYS:
         assert k in out, k
     assert set(out["events"]) >= {"lock", "unlock", "landing"}
-    assert out["events"] == {"lock": 2, "unlock": 1, "landing": 1, "top": 0, "impulse": 0, "release": 0, "hold": 0,
-                             "anchor": 0}
-    assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking",
-                                  "lost_landing", "imbalance"}
+    assert out["events"] == {
+        "lock": 2,
+        "unlock": 1,
+        "landing": 1,
+        "top": 0,
+        "impulse": 0,
+        "release": 0,
+        "hold": 0,
+        "anchor": 0,
+    }
+    assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking", "lost_landing", "imbalance"}
     assert out["segments"] == 16 and out["floor"] == "all"
     assert out["ratio"] == pytest.approx(0.94)
     assert out["first_lock_time"] == 0.1
@@ -131,10 +191,34 @@ def test_defaults_are_the_papers_case(engine):
 
 
 def test_all_options_reach_the_engine(engine):
-    res = run("simulate", "--json", "--segments", "8", "--alpha", "60deg", "--floor", "pivot",
-              "--anchor-cone", "--ic", "random", "--eps", "0.05", "--turns", "2", "--phase",
-              "pi/2", "--seed", "3", "--rtol", "1e-7", "--until", "0.5", "--frames-per-tff",
-              "20", "--quiet")
+    res = run(
+        "simulate",
+        "--json",
+        "--segments",
+        "8",
+        "--alpha",
+        "60deg",
+        "--floor",
+        "pivot",
+        "--anchor-cone",
+        "--ic",
+        "random",
+        "--eps",
+        "0.05",
+        "--turns",
+        "2",
+        "--phase",
+        "pi/2",
+        "--seed",
+        "3",
+        "--rtol",
+        "1e-7",
+        "--until",
+        "0.5",
+        "--frames-per-tff",
+        "20",
+        "--quiet",
+    )
     assert res.exit_code == 0, res.stderr
     params, ic, options, _ = engine.calls[-1]
     assert params == ChainParams(segments=8, alpha=math.radians(60), floor="pivot", anchor_cone=True)
@@ -151,14 +235,12 @@ def test_alpha_parsing(engine, text):
 
 
 def test_si_units(engine):
-    res = run("simulate", "--json", "--segments", "170", "--length", "0.535", "--mass",
-              "0.0054567")
+    res = run("simulate", "--json", "--segments", "170", "--length", "0.535", "--mass", "0.0054567")
     assert res.exit_code == 0, res.stderr
     params, *_ = engine.calls[-1]
     assert params == ChainParams.from_chain(170, 0.535, 0.0054567, 9.81)
     assert json.loads(res.stdout)["units"] == "SI"
-    res = run("simulate", "--json", "--segments", "10", "--length", "1", "--mass", "1",
-              "--gravity", "1.62")
+    res = run("simulate", "--json", "--segments", "10", "--length", "1", "--mass", "1", "--gravity", "1.62")
     assert res.exit_code == 0, res.stderr
     assert engine.calls[-1][0].gravity == 1.62
 
@@ -167,8 +249,16 @@ def test_human_summary(engine, tmp_path):
     out = tmp_path / "run.h5"
     res = run("simulate", "--segments", "4", "--output", str(out))
     assert res.exit_code == 0, res.stderr
-    for word in ("t_fall / t_ff", "t_landed / t_ff", "lock 2", "unlock 1", "landing 1",
-                 "energy imbalance", "wall time", str(out)):
+    for word in (
+        "t_fall / t_ff",
+        "t_landed / t_ff",
+        "lock 2",
+        "unlock 1",
+        "landing 1",
+        "energy imbalance",
+        "wall time",
+        str(out),
+    ):
         assert word in res.stdout, word
     assert res.stderr == ""
 
@@ -248,8 +338,7 @@ def test_output_is_a_directory(engine, tmp_path):
 
 def test_output_round_trip(engine, tmp_path):
     out = tmp_path / "run.h5"
-    res = run("simulate", "--json", "--segments", "6", "--seed", "2", "--ic", "planar",
-              "--output", str(out))
+    res = run("simulate", "--json", "--segments", "6", "--seed", "2", "--ic", "planar", "--output", str(out))
     assert res.exit_code == 0, res.stderr
     r = load_result(out)
     s = json.loads(res.stdout)
@@ -299,8 +388,7 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
     from rich.console import Console
 
     buf = io.StringIO()
-    monkeypatch.setattr(cli, "_progress_console",
-                        lambda: Console(file=buf, force_terminal=True, width=100))
+    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=100))
     seen = []
 
     def simulate(params, ic, options, *, progress=None, state=None):
@@ -370,9 +458,27 @@ def test_no_command_shows_help():
 def test_help_lists_the_contract_options():
     res = run("simulate", "--help")
     assert res.exit_code == 0
-    for opt in ("--segments", "--alpha", "--floor", "--anchor-cone", "--ic", "--eps", "--turns",
-                "--phase", "--seed", "--rtol", "--until", "--output", "--force", "--json",
-                "--length", "--mass", "--gravity", "--frames-per-tff", "--quiet"):
+    for opt in (
+        "--segments",
+        "--alpha",
+        "--floor",
+        "--anchor-cone",
+        "--ic",
+        "--eps",
+        "--turns",
+        "--phase",
+        "--seed",
+        "--rtol",
+        "--until",
+        "--output",
+        "--force",
+        "--json",
+        "--length",
+        "--mass",
+        "--gravity",
+        "--frames-per-tff",
+        "--quiet",
+    ):
         assert opt in res.stdout, opt
 
 
@@ -422,8 +528,11 @@ def test_cli_defaults_are_the_dataclasses_defaults(command):
             values[k] = defaults[k]
     p, i, o = cli.build_inputs(values)
     assert (p.alpha, p.floor, p.anchor_cone) == (ChainParams().alpha, ChainParams().floor, ChainParams().anchor_cone)
-    assert (o.rtol, o.until, o.frames_per_tff) == (SolverOptions().rtol, SolverOptions().until,
-                                                   SolverOptions().frames_per_tff)
+    assert (o.rtol, o.until, o.frames_per_tff) == (
+        SolverOptions().rtol,
+        SolverOptions().until,
+        SolverOptions().frames_per_tff,
+    )
     assert i.eps == InitialCondition().eps
     if command == "simulate":
         assert i == InitialCondition()

@@ -13,12 +13,11 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from ballchain import engine
-from ballchain.methods import outputs
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.records.files import load_result
+from ballchain.methods import outputs
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.records.files import load_result
 from ballchain.records.result import EVENT_KINDS
 
 runner = CliRunner()
@@ -86,8 +85,16 @@ def test_frames_stream_in_chunks_without_changing_a_number(monkeypatch):
     monkeypatch.setattr(outputs, "FRAME_CHUNK_BYTES", 7 * outputs.frame_bytes(8))
     chunked = simulate(params, ic, opts)
     assert chunked.frame_t.size == whole.frame_t.size > 300
-    for name in ("frame_t", "frame_e", "frame_omega", "frame_floor_impulse", "frame_pile_pull", "event_t",
-                 "event_pos", "t"):
+    for name in (
+        "frame_t",
+        "frame_e",
+        "frame_omega",
+        "frame_floor_impulse",
+        "frame_pile_pull",
+        "event_t",
+        "event_pos",
+        "t",
+    ):
         np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name), err_msg=name)
     assert chunked.t_landed == whole.t_landed
 
@@ -99,11 +106,13 @@ def test_a_long_until_costs_what_is_written():
     assert s["status"] == "landed" and s["landed_ratio"] < 10
 
 
-@pytest.mark.parametrize("args, option", [(["-N", "2", "--frames-per-tff", "1e12"], "--frames-per-tff"),
-                                          (["-N", "100000000"], "--segments")])
+@pytest.mark.parametrize(
+    "args, option", [(["-N", "2", "--frames-per-tff", "1e12"], "--frames-per-tff"), (["-N", "100000000"], "--segments")]
+)
 def test_a_run_that_cannot_fit_is_refused_before_it_starts(args, option):
-    p = subprocess.run([sys.executable, "-m", "ballchain.cli", "simulate", *args, "-q"], capture_output=True,
-                       text=True, timeout=120)
+    p = subprocess.run(
+        [sys.executable, "-m", "ballchain.cli", "simulate", *args, "-q"], capture_output=True, text=True, timeout=120
+    )
     assert p.returncode == 2
     err = p.stderr.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: memory:") and option in err[0], p.stderr
@@ -128,12 +137,15 @@ def test_frames_do_not_change_the_trajectory():
     """--frames-per-tff sets only what is written: frames come from the steps' dense output
     and the step sequence does not depend on them (as the help says), so a whole fall with
     many lock events is the same at 20 and 500 frames per t_ff."""
-    runs = [simulate(ChainParams(segments=10), InitialCondition(eps=0.05), SolverOptions(frames_per_tff=f))
-            for f in (20, 500)]
+    runs = [
+        simulate(ChainParams(segments=10), InitialCondition(eps=0.05), SolverOptions(frames_per_tff=f))
+        for f in (20, 500)
+    ]
     a, b = runs
     assert a.n_steps == b.n_steps and a.n_instants == b.n_instants > 50
     assert a.event_counts() == b.event_counts()
     assert b.t_fall == pytest.approx(a.t_fall, rel=1e-12) and b.t_landed == pytest.approx(a.t_landed, rel=1e-12)
     # the frames they share (every 25th of the finer run) hold the same states
-    np.testing.assert_allclose(b.frame_e[::25][: a.frame_e.shape[0]], a.frame_e[: b.frame_e[::25].shape[0]],
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        b.frame_e[::25][: a.frame_e.shape[0]], a.frame_e[: b.frame_e[::25].shape[0]], rtol=0, atol=1e-12
+    )

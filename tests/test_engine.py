@@ -18,8 +18,9 @@ SIZES = [8, 16, 32, 64] if FULL else [8, 16]
 
 
 def _fall(n, alpha=math.pi / 4, floor="all", ic=None, rtol=1e-10, **opt):
-    return simulate(ChainParams(segments=n, alpha=alpha, floor=floor), ic or InitialCondition(),
-                    SolverOptions(rtol=rtol, **opt))
+    return simulate(
+        ChainParams(segments=n, alpha=alpha, floor=floor), ic or InitialCondition(), SolverOptions(rtol=rtol, **opt)
+    )
 
 
 @pytest.mark.parametrize("floor", ["all", "pivot"])
@@ -65,8 +66,11 @@ def test_pivot_model_reports_penetration():
 def test_energy_conserved_without_events(n):
     """alpha = pi: no hinge ever locks; before the first point reaches the floor,
     kinetic + potential energy is constant."""
-    r = simulate(ChainParams(segments=n, alpha=math.pi), InitialCondition(eps=0.02),
-                 SolverOptions(rtol=1e-11, until=0.5, frames_per_tff=80))
+    r = simulate(
+        ChainParams(segments=n, alpha=math.pi),
+        InitialCondition(eps=0.02),
+        SolverOptions(rtol=1e-11, until=0.5, frames_per_tff=80),
+    )
     assert r.event_counts()["lock"] == 0 and r.event_counts()["unlock"] == 0
     t_first = r.event_t[0] if r.event_t.size else np.inf
     smooth = r.frame_t < t_first
@@ -131,8 +135,17 @@ def test_same_seed_is_bit_identical(floor):
     a = _fall(12, floor=floor, ic=ic, rtol=1e-8)
     b = _fall(12, floor=floor, ic=ic, rtol=1e-8)
     c = _fall(12, floor=floor, ic=InitialCondition(kind="random", eps=0.03, seed=8), rtol=1e-8)
-    for name in ("t", "z_top", "frame_e", "frame_omega", "event_t", "event_kind", "event_index", "event_impulse",
-                 "anchor_pos"):
+    for name in (
+        "t",
+        "z_top",
+        "frame_e",
+        "frame_omega",
+        "event_t",
+        "event_kind",
+        "event_index",
+        "event_impulse",
+        "anchor_pos",
+    ):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     assert a.t_fall == b.t_fall and a.t_landed == b.t_landed
     assert not np.array_equal(a.frame_e[0], c.frame_e[0])
@@ -177,6 +190,7 @@ def test_initial_state_outside_cone_is_rejected():
 
 def test_helix_is_exactly_model_md():
     from ballchain.initial import helix_directions
+
     n, eps, q, phi0 = 10, 0.02, 1.5, 0.3
     e = helix_directions(n, eps, q, phi0)
     for i in range(n):
@@ -184,4 +198,3 @@ def test_helix_is_exactly_model_md():
         phi = 2 * math.pi * q * (n - nn) / n + phi0
         v = np.array([eps * math.cos(phi), eps * math.sin(phi), 1.0])
         np.testing.assert_allclose(e[i], v / np.linalg.norm(v), rtol=0, atol=1e-15)
-

@@ -5,9 +5,9 @@ size of the step's.  Checked against the same chain integrated in many small ste
 
 import numpy as np
 
-from ballchain.methods.event_driven import integrator as itg
 from ballchain.core.state import new_work
 from ballchain.initial import helix_directions
+from ballchain.methods.event_driven import integrator as itg
 
 N = 8
 THETA = 0.37
@@ -57,8 +57,12 @@ def _errors(h):
     itg._event_state(Ye, st, h, THETA, anchored, locked, ws, np.int64(0), fint)
     Yd = np.empty_like(Y)
     itg._dense(Y, K, h, THETA, Yd)
-    return (np.abs(Ye - ref).max(), np.abs(fint[:3] - imp_ref).max(), np.abs(Yd - ref).max(),
-            np.abs(Y1 - ref_end).max())
+    return (
+        np.abs(Ye - ref).max(),
+        np.abs(fint[:3] - imp_ref).max(),
+        np.abs(Yd - ref).max(),
+        np.abs(Y1 - ref_end).max(),
+    )
 
 
 def test_event_state_has_the_steps_order():

@@ -18,8 +18,11 @@ DATA = Path(__file__).parent / "data"
 
 
 def _run(n, alpha=math.pi / 4, until=None, rtol=1e-9, floor="all", ic=None, **opt):
-    return simulate(ChainParams(segments=n, alpha=alpha, floor=floor), ic or InitialCondition(),
-                    SolverOptions(rtol=rtol, until=until, **opt))
+    return simulate(
+        ChainParams(segments=n, alpha=alpha, floor=floor),
+        ic or InitialCondition(),
+        SolverOptions(rtol=rtol, until=until, **opt),
+    )
 
 
 def test_lock_events_and_energy_converge_with_rtol_n8():

@@ -11,15 +11,23 @@ import h5py
 import numpy as np
 import pytest
 
-from ballchain.records import files
-from ballchain.records.files import (FORMAT_NAME, FORMAT_VERSION, ResultFileError, check_writable, load_result,
-                             save_result, unit_of)
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.records import files
+from ballchain.records.files import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    ResultFileError,
+    check_writable,
+    load_result,
+    save_result,
+    unit_of,
+)
 from ballchain.records.result import EVENT_KINDS, Result
 
 
-def make_result(n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="nondimensional",
-                params=None, **over) -> Result:
+def make_result(
+    n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="nondimensional", params=None, **over
+) -> Result:
     """A synthetic Result with random arrays of the right shapes (not physics)."""
     rng = np.random.default_rng(seed)
     if params is None:
@@ -33,28 +41,52 @@ def make_result(n=5, frames=7, events=6, steps=40, seed=0, *, ic=True, units="no
         params=params,
         ic=InitialCondition(kind="helix", eps=0.03, turns=2.0, phase=0.1, seed=7) if ic else None,
         options=SolverOptions(rtol=1e-8, until=0.5),
-        version="0.1.0", status="landed", message="",
-        z0=2.0 * n - 0.01, t_ff=math.sqrt(2 * (2.0 * n - 0.01)), t_fall=float(rng.uniform(1, 2)),
+        version="0.1.0",
+        status="landed",
+        message="",
+        z0=2.0 * n - 0.01,
+        t_ff=math.sqrt(2 * (2.0 * n - 0.01)),
+        t_fall=float(rng.uniform(1, 2)),
         t_landed=math.nan,
-        t=np.sort(rng.uniform(0, 3, size=steps)), z_top=rng.normal(size=steps),
-        frame_t=np.linspace(0, 3, frames), frame_e=e, frame_omega=rng.normal(size=(frames, n, 3)),
+        t=np.sort(rng.uniform(0, 3, size=steps)),
+        z_top=rng.normal(size=steps),
+        frame_t=np.linspace(0, 3, frames),
+        frame_e=e,
+        frame_omega=rng.normal(size=(frames, n, 3)),
         frame_anchored=rng.random((frames, n + 1)) < 0.5,
         frame_locked=rng.random((frames, n - 1)) < 0.3,
         frame_floor_force=rng.normal(size=(frames, 3)),
-        frame_kinetic=rng.random(frames), frame_potential=rng.random(frames),
+        frame_kinetic=rng.random(frames),
+        frame_potential=rng.random(frames),
         frame_lost_locking=np.cumsum(rng.random(frames)),
         frame_lost_landing=np.cumsum(rng.random(frames)),
-        frame_pile_pull=rng.normal(size=(frames, 3)), frame_scale_force=rng.normal(size=frames),
+        frame_pile_pull=rng.normal(size=(frames, 3)),
+        frame_scale_force=rng.normal(size=frames),
         frame_floor_impulse=np.cumsum(rng.normal(size=(frames, 3)), axis=0),
         event_t=np.sort(rng.uniform(0, 3, size=events)),
         event_kind=rng.integers(1, 9, size=events).astype(np.int8),
         event_index=rng.integers(0, n + 1, size=events).astype(np.int64),
-        event_impulse=rng.normal(size=(events, 3)), event_energy=rng.random(events),
-        event_pos=rng.normal(size=(events, 3)), anchor_t=anchor_t, anchor_pos=rng.normal(size=(n + 1, 3)),
-        energy={"initial": 10.0, "potential": 3.0, "kinetic": 2.5, "lost_locking": 4.0,
-                "lost_landing": 0.5, "imbalance": 1.2e-15},
-        max_depth=0.0, floor_impulse=rng.normal(size=3), floor_impulse_total=rng.normal(size=3),
-        wall_seconds=1.25, n_steps=steps, n_evals=6 * steps, n_instants=steps // 10, units=units,
+        event_impulse=rng.normal(size=(events, 3)),
+        event_energy=rng.random(events),
+        event_pos=rng.normal(size=(events, 3)),
+        anchor_t=anchor_t,
+        anchor_pos=rng.normal(size=(n + 1, 3)),
+        energy={
+            "initial": 10.0,
+            "potential": 3.0,
+            "kinetic": 2.5,
+            "lost_locking": 4.0,
+            "lost_landing": 0.5,
+            "imbalance": 1.2e-15,
+        },
+        max_depth=0.0,
+        floor_impulse=rng.normal(size=3),
+        floor_impulse_total=rng.normal(size=3),
+        wall_seconds=1.25,
+        n_steps=steps,
+        n_evals=6 * steps,
+        n_instants=steps // 10,
+        units=units,
         extra={"note": "synthetic", "list": [1, 2.5, None], "nested": {"a": math.nan}},
     )
     kw.update(over)
@@ -94,8 +126,9 @@ def test_round_trip_bit_identical(tmp_path, case):
     elif case == "no_ic":
         r = make_result(ic=False, status="error", message="blow-up at t = 1.5")
     elif case == "si":
-        r = make_result(units="SI", params=ChainParams.from_chain(5, 0.535, 0.0054567, 9.81,
-                                                                  floor="pivot", anchor_cone=True))
+        r = make_result(
+            units="SI", params=ChainParams.from_chain(5, 0.535, 0.0054567, 9.81, floor="pivot", anchor_cone=True)
+        )
     else:  # compressed + chunked
         r = make_result(n=200, frames=150, events=500, steps=5000)
     path = tmp_path / "run.h5"
@@ -108,8 +141,7 @@ def test_round_trip_bit_identical(tmp_path, case):
 
 
 def test_file_is_self_describing(tmp_path):
-    r = make_result(n=300, frames=120, units="SI",
-                    params=ChainParams.from_chain(300, 0.535, 0.0054567))
+    r = make_result(n=300, frames=120, units="SI", params=ChainParams.from_chain(300, 0.535, 0.0054567))
     path = tmp_path / "run.h5"
     save_result(r, path)
     with h5py.File(path, "r") as f:
@@ -150,8 +182,13 @@ def test_version_1_file_loads_with_the_new_datasets_as_nan(tmp_path):
     save_result(r, path)
     with h5py.File(path, "r+") as f:
         f.attrs["format_version"] = np.int64(1)
-        for key in ("summary/floor_impulse_total", "frames/frame_pile_pull", "frames/frame_scale_force",
-                    "frames/frame_floor_impulse", "events/event_pos"):
+        for key in (
+            "summary/floor_impulse_total",
+            "frames/frame_pile_pull",
+            "frames/frame_scale_force",
+            "frames/frame_floor_impulse",
+            "events/event_pos",
+        ):
             del f[key]
     back = load_result(path)
     assert back.frame_pile_pull.shape == (7, 3) and np.all(np.isnan(back.frame_pile_pull))
@@ -230,8 +267,7 @@ def test_check_writable(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,
-                    reason="root can write into read-only directories")
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root can write into read-only directories")
 def test_check_writable_read_only_dir(tmp_path):
     ro = tmp_path / "ro"
     ro.mkdir()

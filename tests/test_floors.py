@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from oracle.floors import REFERENCE_FLOORS, heights
 
 from ballchain.floors import dispatch
 from ballchain.floors.registry import CONTACT_FIXED, FLOOR_CODES, FLOORS
-from oracle.floors import REFERENCE_FLOORS, heights
 
 
 def random_chain(rng, n):

@@ -57,7 +57,7 @@ class Lagrangian:
         self.n = n
         c = np.eye(n)
         for i in range(n):
-            c[i, i + 1:] = 2.0
+            c[i, i + 1 :] = 2.0
         a = c.T @ c + np.eye(n) / 3.0
         self.mbig = np.kron(a, np.eye(3))
         self.grad_u = np.zeros(3 * n)
@@ -65,19 +65,20 @@ class Lagrangian:
 
     def rhs(self, t, y):
         n = self.n
-        th, ph = y[0:2 * n:2], y[1:2 * n:2]
-        thd, phd = y[2 * n::2], y[2 * n + 1::2]
+        th, ph = y[0 : 2 * n : 2], y[1 : 2 * n : 2]
+        thd, phd = y[2 * n :: 2], y[2 * n + 1 :: 2]
         e, e_th, e_ph, e_thph, e_phph = _angles_e(th, ph)
         jac = np.zeros((3 * n, 2 * n))
         for i in range(n):
-            jac[3 * i:3 * i + 3, 2 * i] = e_th[i]
-            jac[3 * i:3 * i + 3, 2 * i + 1] = e_ph[i]
-        jdot_qd = (-e * (thd**2)[:, None] + 2.0 * e_thph * (thd * phd)[:, None]
-                   + e_phph * (phd**2)[:, None]).reshape(-1)
+            jac[3 * i : 3 * i + 3, 2 * i] = e_th[i]
+            jac[3 * i : 3 * i + 3, 2 * i + 1] = e_ph[i]
+        jdot_qd = (-e * (thd**2)[:, None] + 2.0 * e_thph * (thd * phd)[:, None] + e_phph * (phd**2)[:, None]).reshape(
+            -1
+        )
         mq = jac.T @ self.mbig @ jac
         f = -jac.T @ (self.mbig @ jdot_qd + self.grad_u)
         qdd = np.linalg.solve(mq, f)
-        return np.concatenate([y[2 * n:], qdd])
+        return np.concatenate([y[2 * n :], qdd])
 
     # conversions between (q, qd) and the fast path's (e, w)
     def from_ew(self, e, w):
@@ -92,13 +93,13 @@ class Lagrangian:
         for i in range(n):
             jac = np.stack([e_th[i], e_ph[i]], axis=1)
             sol, *_ = np.linalg.lstsq(jac, edot[i], rcond=None)
-            qd[2 * i:2 * i + 2] = sol
+            qd[2 * i : 2 * i + 2] = sol
         return np.concatenate([q, qd])
 
     def to_ew(self, y):
         n = self.n
-        th, ph = y[0:2 * n:2], y[1:2 * n:2]
-        thd, phd = y[2 * n::2], y[2 * n + 1::2]
+        th, ph = y[0 : 2 * n : 2], y[1 : 2 * n : 2]
+        thd, phd = y[2 * n :: 2], y[2 * n + 1 :: 2]
         e, e_th, e_ph, _, _ = _angles_e(th, ph)
         edot = e_th * thd[:, None] + e_ph * phd[:, None]
         return e, np.cross(e, edot)  # w perpendicular to e: e x (w x e) = w
@@ -112,7 +113,7 @@ class Lagrangian:
             if t1 > t:
                 sol = integrate.solve_ivp(self.rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol)
                 assert sol.success
-                sin_min = min(sin_min, float(np.min(np.abs(np.sin(sol.y[0:2 * self.n:2])))))
+                sin_min = min(sin_min, float(np.min(np.abs(np.sin(sol.y[0 : 2 * self.n : 2])))))
                 y = sol.y[:, -1]
                 t = t1
             e, w = self.to_ew(y)
@@ -141,8 +142,8 @@ class FastPath:
 
     def rhs(self, t, y):
         n = self.n
-        e = np.ascontiguousarray(y[:3 * n].reshape(n, 3))
-        w = np.ascontiguousarray(y[3 * n:].reshape(n, 3))
+        e = np.ascontiguousarray(y[: 3 * n].reshape(n, 3))
+        w = np.ascontiguousarray(y[3 * n :].reshape(n, 3))
         dyn.accelerations(e, w, self.anchored, self.locked, self.ws, self.de, self.dw)
         return np.concatenate([self.de.reshape(-1), self.dw.reshape(-1)])
 
@@ -163,8 +164,8 @@ class FastPath:
                 assert sol.success
                 y = sol.y[:, -1]
                 t = t1
-            es.append(y[:3 * n].reshape(n, 3).copy())
-            ws.append(y[3 * n:].reshape(n, 3).copy())
+            es.append(y[: 3 * n].reshape(n, 3).copy())
+            ws.append(y[3 * n :].reshape(n, 3).copy())
         return np.array(es), np.array(ws)
 
 
@@ -303,8 +304,12 @@ def test_engine_single_rod_landing():
     w0 = np.zeros((1, 3))
     expected = rod_fall_time(theta0)
     for floor in ("all", "pivot"):
-        res = engine.simulate(ChainParams(segments=1, alpha=math.pi / 4, floor=floor), None,
-                              SolverOptions(rtol=1e-12), state=(e0.copy(), w0.copy()))
+        res = engine.simulate(
+            ChainParams(segments=1, alpha=math.pi / 4, floor=floor),
+            None,
+            SolverOptions(rtol=1e-12),
+            state=(e0.copy(), w0.copy()),
+        )
         assert res.z0 == pytest.approx(2 * math.cos(theta0), rel=1e-14)
         assert res.t_ff == pytest.approx(math.sqrt(4 * math.cos(theta0)), rel=1e-14)
         assert res.t_fall == pytest.approx(expected, rel=1e-8), floor
@@ -317,8 +322,12 @@ def test_engine_single_rod_landing_si():
 
     theta0, b, g = 0.1, 0.0016, 9.81
     e0 = np.array([[0.0, math.sin(theta0), math.cos(theta0)]])
-    res = engine.simulate(ChainParams(segments=1, alpha=math.pi / 4, segment_mass=0.003, half_length=b, gravity=g),
-                          None, SolverOptions(rtol=1e-12), state=(e0, np.zeros((1, 3))))
+    res = engine.simulate(
+        ChainParams(segments=1, alpha=math.pi / 4, segment_mass=0.003, half_length=b, gravity=g),
+        None,
+        SolverOptions(rtol=1e-12),
+        state=(e0, np.zeros((1, 3))),
+    )
     assert res.t_fall == pytest.approx(rod_fall_time(theta0, b=b, g=g), rel=1e-8)
 
 
@@ -332,9 +341,12 @@ def test_engine_trajectory_matches_lagrangian_n2():
     T = 2.0
     z0 = 2.0 * float(np.sum(e0[:, 2]))
     t_ff = math.sqrt(2.0 * z0)
-    res = engine.simulate(ChainParams(segments=2, alpha=math.pi, floor="all"), None,
-                          SolverOptions(rtol=1e-11, until=T / t_ff, frames_per_tff=40.0),
-                          state=(e0.copy(), w0.copy()))
+    res = engine.simulate(
+        ChainParams(segments=2, alpha=math.pi, floor="all"),
+        None,
+        SolverOptions(rtol=1e-11, until=T / t_ff, frames_per_tff=40.0),
+        state=(e0.copy(), w0.copy()),
+    )
     assert res.t_ff == pytest.approx(t_ff, rel=1e-14)
     ft = np.asarray(res.frame_t)
     fe = np.asarray(res.frame_e)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from ballchain.engine import simulate
-from ballchain.records.files import load_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.records.files import load_result
 
 N = 256  # a fall of several seconds
 
@@ -26,8 +26,12 @@ def _interrupted_run(tmp_path, sig):
     stderr, wait = "", 8.0
     for attempt in range(6):
         out = tmp_path / f"run-{attempt}.h5"
-        p = subprocess.Popen([sys.executable, "-m", "ballchain.cli", "simulate", "-N", str(N), "-q",
-                              "--output", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        p = subprocess.Popen(
+            [sys.executable, "-m", "ballchain.cli", "simulate", "-N", str(N), "-q", "--output", str(out)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         time.sleep(wait)
         p.send_signal(sig)
         stdout, stderr = p.communicate(timeout=600)
@@ -60,8 +64,15 @@ def _same_as_uninterrupted(r, params, t_stop):
         np.testing.assert_array_equal(getattr(r, name), getattr(ref, name)[b], err_msg=name)
     f = r.frame_t.size
     assert f > 0 and ref.frame_t[f - 1] == r.frame_t[-1]
-    for name in ("frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked", "frame_kinetic",
-                 "frame_lost_locking"):
+    for name in (
+        "frame_t",
+        "frame_e",
+        "frame_omega",
+        "frame_anchored",
+        "frame_locked",
+        "frame_kinetic",
+        "frame_lost_locking",
+    ):
         np.testing.assert_array_equal(getattr(r, name), getattr(ref, name)[:f], err_msg=name)
 
 

@@ -42,8 +42,10 @@ def _chain(module, entry_middle=False):
     return leaf.__qualname__, middle.__qualname__, jit.njit(outer)
 
 
-needs_policy = pytest.mark.skipif(not jit.policy_active(), reason="numba's private method changed shape: "
-                                  "the policy is not installed (numba compiles as it always does)")
+needs_policy = pytest.mark.skipif(
+    not jit.policy_active(),
+    reason="numba's private method changed shape: the policy is not installed (numba compiles as it always does)",
+)
 
 
 @needs_policy
@@ -72,8 +74,13 @@ def test_entry_kernels_and_foreign_code_get_the_full_pipeline():
 
 def test_policy_can_be_switched_off():
     env = dict(os.environ, BALLCHAIN_OPTIMIZE_CALLEES="1")
-    out = subprocess.run([sys.executable, "-c", "from ballchain.core import jit; print(jit.policy_active())"],
-                         env=env, capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", "from ballchain.core import jit; print(jit.policy_active())"],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert out.stdout.strip() == "False"
 
 
@@ -87,11 +94,12 @@ def test_cheap_libraries_link_nothing_and_the_outer_one_everything():
     # the cheap library only declares its callee (resolved in the JIT engine) ...
     assert middle_lib._final_module.get_function(leaf_fn).is_declaration
     # ... while the module whose machine code runs holds every kernel it calls
-    assert not any(fn.is_declaration and ("_probe_link" in fn.name)
-                   for fn in outer_cres.library._final_module.functions)
+    assert not any(
+        fn.is_declaration and ("_probe_link" in fn.name) for fn in outer_cres.library._final_module.functions
+    )
 
 
-PROBE_MODULE = '''
+PROBE_MODULE = """
 import numpy as np
 from ballchain.core.jit import njit
 
@@ -111,7 +119,7 @@ def outer(a):
     for v in a:
         s += middle(v)
     return s
-'''
+"""
 
 
 @needs_policy
@@ -124,8 +132,9 @@ def test_cheap_libraries_are_not_cached_and_compile_when_called_later(tmp_path):
     def run(code):
         # the policy counts this module's kernels as the package's own
         head = "from ballchain.core import jit; jit._PACKAGE = 'probe_cache_mod'\nimport numpy as np, probe_cache_mod as m\n"
-        return subprocess.run([sys.executable, "-c", head + code],
-                              env=env, capture_output=True, text=True, check=True, cwd=tmp_path).stdout
+        return subprocess.run(
+            [sys.executable, "-c", head + code], env=env, capture_output=True, text=True, check=True, cwd=tmp_path
+        ).stdout
 
     assert float(run("print(m.outer(np.array([1.0, 4.0, 9.0])))")) == pytest.approx(18.0, rel=1e-15)
     cached = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbc"))
@@ -169,14 +178,16 @@ def test_an_edited_callee_recompiles_its_callers(tmp_path):
     """``impacts.hinge_gaps`` (cached next to impacts.py) calls ``rules.unit_hinge_gap``
     (another file): after an edit of the callee alone, the next process must run the
     edited code, not the cached machine code of the old one."""
-    shutil.copytree(Path(jit.__file__).resolve().parents[1], tmp_path / "ballchain",
-                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(
+        Path(jit.__file__).resolve().parents[1], tmp_path / "ballchain", ignore=shutil.ignore_patterns("__pycache__")
+    )
     env = dict(os.environ, PYTHONPATH=str(tmp_path))
     env.pop("NUMBA_CACHE_DIR", None)
 
     def run():
-        out = subprocess.run([sys.executable, "-c", EDIT_PROBE], env=env, capture_output=True, text=True,
-                             check=True, cwd=tmp_path)
+        out = subprocess.run(
+            [sys.executable, "-c", EDIT_PROBE], env=env, capture_output=True, text=True, check=True, cwd=tmp_path
+        )
         return float(out.stdout.strip())
 
     assert run() == pytest.approx(0.8 - 0.5, abs=1e-15)  # compiles and caches

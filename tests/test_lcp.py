@@ -6,15 +6,14 @@ import math
 from pathlib import Path
 
 import numpy as np
+from conftest import chain_directions
+from oracle import reference as ref
 
 from ballchain.core import dynamics as dyn
-from ballchain.core.state import new_work
-from oracle import reference as ref
 from ballchain.core.impacts import hinge_accels, lock_set
 from ballchain.core.lcp import _lemke
 from ballchain.core.rules import limit_in_force
-
-from conftest import chain_directions
+from ballchain.core.state import new_work
 
 DATA = Path(__file__).parent / "data"
 
@@ -94,9 +93,10 @@ def test_lock_set_finishes_on_the_state_where_it_used_to_cycle():
     e, w, anchored = d["e"], d["w"].copy(), d["anchored"].astype(np.uint8)
     n = e.shape[0]
     assert not limit_in_force(anchored, 29, False, math.pi / 4)
-    for cand in (d["cand"].astype(np.uint8),
-                 np.array([c and limit_in_force(anchored, k, False, math.pi / 4) for k, c in enumerate(d["cand"])],
-                          np.uint8)):
+    for cand in (
+        d["cand"].astype(np.uint8),
+        np.array([c and limit_in_force(anchored, k, False, math.pi / 4) for k, c in enumerate(d["cand"])], np.uint8),
+    ):
         ws = new_work(n)
         active = (d["active"].astype(np.uint8) & cand).copy()
         de, dw = np.zeros((n, 3)), np.zeros((n, 3))

@@ -24,16 +24,26 @@ def _momentum(r):
     return m * np.sum(lower + de, axis=1)
 
 
-CASES = [("all", 1, math.pi / 4), ("all", 8, math.pi / 4), ("all", 16, math.pi), ("all", 12, math.pi / 2),
-         ("pivot", 1, math.pi / 4), ("pivot", 8, math.pi / 4), ("pivot", 16, math.pi)]
+CASES = [
+    ("all", 1, math.pi / 4),
+    ("all", 8, math.pi / 4),
+    ("all", 16, math.pi),
+    ("all", 12, math.pi / 2),
+    ("pivot", 1, math.pi / 4),
+    ("pivot", 8, math.pi / 4),
+    ("pivot", 16, math.pi),
+]
 
 
 @pytest.mark.parametrize("floor, n, alpha", CASES)
 def test_floor_impulse_total_is_the_weight_times_the_landing_time(floor, n, alpha):
     """Chain at rest at t = 0 and at rest on the floor at t_landed: the floor's whole
     impulse is M g t_landed, vertical (momentum theorem)."""
-    r = simulate(ChainParams(segments=n, alpha=alpha, floor=floor),
-                 InitialCondition(kind="helix", eps=0.3 if n == 1 else 0.05), SolverOptions())
+    r = simulate(
+        ChainParams(segments=n, alpha=alpha, floor=floor),
+        InitialCondition(kind="helix", eps=0.3 if n == 1 else 0.05),
+        SolverOptions(),
+    )
     assert r.status == "landed", r.message
     assert r.energy["kinetic"] == 0.0
     mgt = n * r.t_landed
@@ -59,8 +69,11 @@ def test_floor_impulse_at_every_frame_is_the_momentum_change(floor):
     """J(t_k) = P(t_k) - P(0) + M g t_k e_z at every frame, P computed from the frame's
     state only: the cumulative record holds during the fall, not only at its end."""
     n = 10
-    r = simulate(ChainParams(segments=n, alpha=math.pi / 4, floor=floor), InitialCondition(kind="helix", eps=0.05),
-                 SolverOptions(frames_per_tff=400))
+    r = simulate(
+        ChainParams(segments=n, alpha=math.pi / 4, floor=floor),
+        InitialCondition(kind="helix", eps=0.05),
+        SolverOptions(frames_per_tff=400),
+    )
     assert r.status == "landed"
     P = _momentum(r)
     expected = P - P[0] + n * r.frame_t[:, None] * np.array([0.0, 0.0, 1.0])
@@ -88,8 +101,7 @@ def test_pile_pull_on_a_single_rod_is_the_closed_form(floor):
     assert theta.size > 50 and theta.max() > 1.4
     np.testing.assert_allclose(r.frame_pile_pull[air, 2], pivot_rod_vertical_force(theta, theta0), rtol=0, atol=1e-8)
     # the rod leans towards +x: the horizontal pull is the closed form along x
-    np.testing.assert_allclose(r.frame_pile_pull[air, 0], pivot_rod_horizontal_force(theta, theta0), rtol=0,
-                               atol=1e-8)
+    np.testing.assert_allclose(r.frame_pile_pull[air, 0], pivot_rod_horizontal_force(theta, theta0), rtol=0, atol=1e-8)
     # the pull is the whole force of the floor on the airborne rod, and the scale reads it
     np.testing.assert_allclose(r.frame_pile_pull[air], r.frame_floor_force[air], rtol=0, atol=1e-12)
     np.testing.assert_allclose(r.frame_scale_force[air], r.frame_floor_force[air, 2], rtol=0, atol=1e-12)

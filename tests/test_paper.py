@@ -9,8 +9,8 @@ from typer.testing import CliRunner
 
 from ballchain import theory
 from ballchain.cli import app
-from ballchain.records.files import load_result
 from ballchain.plots import paper as pp
+from ballchain.records.files import load_result
 
 NAMES = ("fig2_strobe", "fig3_lock_map", "fig4_pile", "fig5_alpha", "fig6_hamm_geminard", "fig7_pivot_rod")
 

@@ -7,15 +7,18 @@ from typer.testing import CliRunner
 
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.records.files import save_result
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
 from ballchain.plots import FIGURES, fall_figure, floor_figure, lock_map_figure, pile_figure
+from ballchain.records.files import save_result
 
 
 @pytest.fixture(scope="module")
 def run():
-    return simulate(ChainParams.from_chain(10, length_m=0.5, mass_kg=0.02), InitialCondition(eps=0.05),
-                    SolverOptions(frames_per_tff=200))
+    return simulate(
+        ChainParams.from_chain(10, length_m=0.5, mass_kg=0.02),
+        InitialCondition(eps=0.05),
+        SolverOptions(frames_per_tff=200),
+    )
 
 
 def test_fall_figure_is_z_top_and_free_fall(run):

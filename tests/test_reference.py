@@ -7,13 +7,13 @@ import math
 
 import numpy as np
 import pytest
-
-from ballchain.core import dynamics as dyn
 from conftest import chain_directions
 from oracle import reference as ref
+
+from ballchain.core import dynamics as dyn
 from ballchain.core.impacts import new_impact_work, velocity_impact
-from ballchain.core.state import new_work
 from ballchain.core.rules import limit_in_force
+from ballchain.core.state import new_work
 
 ACC_TOL = 1e-10  # relative to the scale of the compared values
 IMP_TOL = 1e-10
@@ -55,8 +55,14 @@ def fast_impact(e, w, anchored_u8, cand):
     pv = np.zeros((n + 1, 3))
     vel = np.zeros((n, 3))
     iw = new_impact_work(n)
-    out = {"jv_minus": iw.jv, "w_plus": iw.w_plus, "rates": iw.rates_after, "impulse": iw.impulse,
-           "anchor_impulse": iw.anchor_impulse, "energy_split": iw.split}
+    out = {
+        "jv_minus": iw.jv,
+        "w_plus": iw.w_plus,
+        "rates": iw.rates_after,
+        "impulse": iw.impulse,
+        "anchor_impulse": iw.anchor_impulse,
+        "energy_split": iw.split,
+    }
     T0 = dyn.kinetic_energy(e, w, pv, vel)
     it = velocity_impact(e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active, ws, iw)
     out["T0"] = T0
@@ -435,7 +441,7 @@ def test_fixed_size_path_equals_general_path(n):
         ndrop = dyn.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop)
         dyn.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
         dyn.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
-        assert ndrop == sum(int(g.drop[j, :g.nrow[j]].sum()) for j in range(n + 1))
+        assert ndrop == sum(int(g.drop[j, : g.nrow[j]].sum()) for j in range(n + 1))
         scale = max(1.0, np.abs(g.x).max())
         for j in range(n + 1):
             r = g.nrow[j]
@@ -462,7 +468,7 @@ def test_fixed_size_path_off_unit_axes_and_folded():
         e[1] = u
         e[2] = u
         e[3] = u
-        e *= (1.0 + 1e-6 * rng.uniform(-1, 1, size=(n, 1)))  # an RK stage: |e| != 1
+        e *= 1.0 + 1e-6 * rng.uniform(-1, 1, size=(n, 1))  # an RK stage: |e| != 1
         w = rng.normal(size=(n, 3))
         w -= np.einsum("ij,ij->i", w, e)[:, None] * e / np.einsum("ij,ij->i", e, e)[:, None]
         a8 = np.array([1, 0, 1, 1, 1], np.uint8)  # top anchored, segments 2, 3 landed

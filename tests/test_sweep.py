@@ -21,7 +21,7 @@ from ballchain.initial import initial_directions
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from ballchain.sweep import SweepSpec, Task, parse_alphas, parse_segments, run_id
 from ballchain.sweep.execute import run_sweep, run_tasks
-from ballchain.sweep.stats import mean_interval, optimal_alpha, point_stats, table_stats, wilson_interval
+from ballchain.sweep.stats import mean_interval, table_stats
 from ballchain.sweep.table import COLUMNS, VOLATILE, read_table, write_table
 
 runner = CliRunner()
@@ -37,21 +37,24 @@ def test_lists_and_ranges():
     assert parse_alphas("pi") == [math.pi]
 
 
-@pytest.mark.parametrize("args, words", [
-    (["--alpha", "120deg:10deg:10deg"], "empty range"),
-    (["--alpha", "10deg:120deg:0deg"], "step must be > 0"),
-    (["--alpha", "0deg,30deg"], "alpha must be in (0, pi]"),
-    (["--alpha", "200deg"], "alpha must be in (0, pi]"),
-    (["--alpha", "30deg,,60deg"], "empty item"),
-    (["--floor", "all,wall"], "floor must be one of"),
-    (["--segments", "0,8"], "segments must be >= 1"),
-    (["--segments", "64:8:8"], "empty range"),
-    (["--ic", "helix", "--runs", "3"], "needs --ic random"),
-    (["--runs", "0"], "runs must be"),
-    (["--workers", "0"], "workers must be >= 1"),
-    (["--eps", "0.9", "--alpha", "10deg", "--segments", "8"], "not strictly inside"),
-    (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--alpha", "120deg:10deg:10deg"], "empty range"),
+        (["--alpha", "10deg:120deg:0deg"], "step must be > 0"),
+        (["--alpha", "0deg,30deg"], "alpha must be in (0, pi]"),
+        (["--alpha", "200deg"], "alpha must be in (0, pi]"),
+        (["--alpha", "30deg,,60deg"], "empty item"),
+        (["--floor", "all,wall"], "floor must be one of"),
+        (["--segments", "0,8"], "segments must be >= 1"),
+        (["--segments", "64:8:8"], "empty range"),
+        (["--ic", "helix", "--runs", "3"], "needs --ic random"),
+        (["--runs", "0"], "runs must be"),
+        (["--workers", "0"], "workers must be >= 1"),
+        (["--eps", "0.9", "--alpha", "10deg", "--segments", "8"], "not strictly inside"),
+        (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach"),
+    ],
+)
 def test_bad_specifications_fail_in_one_line_before_anything_runs(tmp_path, args, words):
     out = tmp_path / "t.parquet"
     res = runner.invoke(app, ["sweep", "--segments", "4", "--out", str(out), "-q", *args])
@@ -108,13 +111,46 @@ def test_same_table_from_one_and_two_workers_and_rows_obey_momentum_balance(tmp_
 
 def test_a_row_rebuilds_with_simulate(tmp_path):
     out = tmp_path / "t.parquet"
-    res = runner.invoke(app, ["sweep", "--segments", "12", "--alpha", "50deg", "--runs", "2", "--seed", "9",
-                              "--out", str(out), "--workers", "1", "-q"])
+    res = runner.invoke(
+        app,
+        [
+            "sweep",
+            "--segments",
+            "12",
+            "--alpha",
+            "50deg",
+            "--runs",
+            "2",
+            "--seed",
+            "9",
+            "--out",
+            str(out),
+            "--workers",
+            "1",
+            "-q",
+        ],
+    )
     assert res.exit_code == 0, res.output
     row = _table(out).iloc[1]
     assert row.alpha == math.radians(50)  # a degree is converted once, as simulate does
-    sim = runner.invoke(app, ["simulate", "-N", "12", "--alpha", repr(float(row.alpha)), "--ic", "random", "--seed", str(row.seed),
-                              "--spawn-key", row.spawn_key, "--json", "-q"])
+    sim = runner.invoke(
+        app,
+        [
+            "simulate",
+            "-N",
+            "12",
+            "--alpha",
+            repr(float(row.alpha)),
+            "--ic",
+            "random",
+            "--seed",
+            str(row.seed),
+            "--spawn-key",
+            row.spawn_key,
+            "--json",
+            "-q",
+        ],
+    )
     s = json.loads(sim.stdout)
     # the same run on the same machine: identical
     assert s["ratio"] == row.ratio and s["n_evals"] == row.n_evals and s["events"]["lock"] == row.events_lock
@@ -141,8 +177,23 @@ def test_a_run_that_fails_is_a_row_and_the_sweep_goes_on(tmp_path):
 @pytest.mark.slow
 def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
     out = tmp_path / "t.parquet"
-    cmd = [sys.executable, "-m", "ballchain.cli", "sweep", "--segments", "8,12,16,24", "--alpha",
-           "30deg,45deg,60deg,pi", "--runs", "4", "--out", str(out), "--workers", "1", "-q"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "ballchain.cli",
+        "sweep",
+        "--segments",
+        "8,12,16,24",
+        "--alpha",
+        "30deg,45deg,60deg,pi",
+        "--runs",
+        "4",
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "-q",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
         deadline = time.monotonic() + 240
@@ -177,11 +228,34 @@ def _synthetic(tmp_path, values: dict, n_alpha_floor="all") -> str:
     """A table whose ratio at (alpha_deg, run_index) is given."""
     rows = []
     for (a_deg, k), ratio in values.items():
-        p, ic, o = ChainParams(segments=64, alpha=math.radians(a_deg)), InitialCondition(kind="random", spawn_key=(k,)), SolverOptions()
-        rows.append({"run_id": run_id(p, ic, o), "segments": 64, "alpha": p.alpha, "alpha_deg": a_deg,
-                     "floor": n_alpha_floor, "anchor_cone": False, "ic": "random", "eps": 0.02, "turns": 1.0,
-                     "phase": 0.0, "seed": 0, "spawn_key": str(k), "run_index": k, "rtol": 1e-9, "until": math.nan,
-                     "frames_per_tff": 100.0, "status": "landed", "ratio": ratio, "landed_ratio": ratio + 0.5})
+        p, ic, o = (
+            ChainParams(segments=64, alpha=math.radians(a_deg)),
+            InitialCondition(kind="random", spawn_key=(k,)),
+            SolverOptions(),
+        )
+        rows.append(
+            {
+                "run_id": run_id(p, ic, o),
+                "segments": 64,
+                "alpha": p.alpha,
+                "alpha_deg": a_deg,
+                "floor": n_alpha_floor,
+                "anchor_cone": False,
+                "ic": "random",
+                "eps": 0.02,
+                "turns": 1.0,
+                "phase": 0.0,
+                "seed": 0,
+                "spawn_key": str(k),
+                "run_index": k,
+                "rtol": 1e-9,
+                "until": math.nan,
+                "frames_per_tff": 100.0,
+                "status": "landed",
+                "ratio": ratio,
+                "landed_ratio": ratio + 0.5,
+            }
+        )
     path = tmp_path / "syn.parquet"
     write_table(path, rows)
     return str(path)
@@ -202,7 +276,9 @@ def test_statistics_against_hand_computed_values(tmp_path):
     half = z * math.sqrt(phat * (1 - phat) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     fa = p30["faster_than_free_fall"]
     assert (fa["k"], fa["n"]) == (3, 5)
-    assert fa["ci_low"] == pytest.approx(centre - half, abs=1e-12) and fa["ci_high"] == pytest.approx(centre + half, abs=1e-12)
+    assert fa["ci_low"] == pytest.approx(centre - half, abs=1e-12) and fa["ci_high"] == pytest.approx(
+        centre + half, abs=1e-12
+    )
     assert fa["ci_low"] == pytest.approx(0.2307, abs=1e-4) and fa["ci_high"] == pytest.approx(0.8824, abs=1e-4)
     # every start is faster at 30 deg: the optimum is 30 deg in every paired resample
     (opt,) = res["optimal_alpha"]
@@ -281,11 +357,14 @@ def test_an_existing_cluster_by_its_address(tmp_path):
     from distributed import LocalCluster
 
     spec = SweepSpec(segments=(6,), alphas=(math.pi / 4, math.pi), runs=2, seed=3)
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      host="127.0.0.1") as cluster:
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0", host="127.0.0.1"
+    ) as cluster:
         rep = run_sweep(spec, tmp_path / "remote.parquet", scheduler=cluster.scheduler_address, progress=False)
     assert rep.ran == 4 and rep.failed == 0 and rep.workers == 1 and rep.scheduler.startswith("tcp://127.0.0.1")
     local = run_sweep(spec, tmp_path / "local.parquet", workers=1, progress=False)
     assert local.ran == 4
     stable = [c for c in COLUMNS if c not in VOLATILE]
-    pd.testing.assert_frame_equal(_table(tmp_path / "remote.parquet")[stable], _table(tmp_path / "local.parquet")[stable])
+    pd.testing.assert_frame_equal(
+        _table(tmp_path / "remote.parquet")[stable], _table(tmp_path / "local.parquet")[stable]
+    )

@@ -44,9 +44,17 @@ def rod_solve(theta0, thetadot0, b=1.0, g=1.0, t_eval=None):
 
     horizontal.terminal = True
     horizontal.direction = 1
-    return integrate.solve_ivp(rod_ode(b, g), (0.0, 1e3), [theta0, thetadot0], method="DOP853",
-                               rtol=1e-13, atol=1e-14, events=horizontal, dense_output=True,
-                               t_eval=t_eval)
+    return integrate.solve_ivp(
+        rod_ode(b, g),
+        (0.0, 1e3),
+        [theta0, thetadot0],
+        method="DOP853",
+        rtol=1e-13,
+        atol=1e-14,
+        events=horizontal,
+        dense_output=True,
+        t_eval=t_eval,
+    )
 
 
 def rod_fall_time_elliptic(theta0, b=1.0, g=1.0):
@@ -129,12 +137,13 @@ def test_hamm_geminard_quadrature(gamma):
     """The Beta-function form against the defining integral
     t / t_ff = (sqrt(c)/2) int_0^1 dx / sqrt(x^(2 gamma - 2) - x), c = 3 - 2 gamma."""
     c = 3 - 2 * gamma
+
     # substitute x = 1 - v^2 to remove the 1/sqrt singularity at x = 1
     def f(v):
         x = 1.0 - v * v
         # x^(2g-2) - x = x^(2g-2) (1 - x^c); 1 - x^c = -expm1(c log x)
-        return 2 * v * x ** (1 - gamma) / math.sqrt(-math.expm1(c * math.log(x))) if v > 0 else \
-            2 / math.sqrt(c)
+        return 2 * v * x ** (1 - gamma) / math.sqrt(-math.expm1(c * math.log(x))) if v > 0 else 2 / math.sqrt(c)
+
     val, _ = integrate.quad(f, 0.0, 1.0, epsabs=0, epsrel=1e-13, limit=200)
     assert hamm_geminard_time_ratio(gamma) == pytest.approx(0.5 * math.sqrt(c) * val, rel=1e-11)
 
@@ -156,13 +165,14 @@ def test_hamm_geminard_ode(gamma):
 
     events = []
     for x in xs:
+
         def ev(t, y, x=x):
             return y[0] - x * z0
+
         ev.direction = -1
         events.append(ev)
     events[-1].terminal = True
-    sol = integrate.solve_ivp(rhs, (0, 10 * t_ff), [z0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13,
-                              events=events)
+    sol = integrate.solve_ivp(rhs, (0, 10 * t_ff), [z0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13, events=events)
     for x, te in zip(xs, sol.t_events):
         assert te.size == 1
         assert hamm_geminard_height_time(x, gamma) == pytest.approx(te[0] / t_ff, rel=1e-9)
@@ -175,8 +185,7 @@ def test_hamm_geminard_ode(gamma):
 # ------------------------------------------------------------------ pivoting rod: force
 
 
-@pytest.mark.parametrize("theta0,s", [(0.0, 0.3), (0.1, 0.0), (0.3, 0.7), (math.pi / 4, 0.0), (0.5, 4.0),
-                                      (1.2, 0.05)])
+@pytest.mark.parametrize("theta0,s", [(0.0, 0.3), (0.1, 0.0), (0.3, 0.7), (math.pi / 4, 0.0), (0.5, 4.0), (1.2, 0.05)])
 def test_pivot_force_newton(theta0, s):
     """F_z = m d2z_c/dt2 + m g along an ODE solution (mass and gravity not 1), with the
     centre's acceleration from the ODE state (theta, thetadot, thetaddot), not from
@@ -266,8 +275,9 @@ def test_pivot_impulse_ode_quadrature():
         return y[0] - 0.5 * math.pi
 
     horizontal.terminal = True
-    sol = integrate.solve_ivp(rhs, (0, 100), [theta0, math.sqrt(s), 0.0], method="DOP853", rtol=1e-13,
-                              atol=1e-14, events=horizontal)
+    sol = integrate.solve_ivp(
+        rhs, (0, 100), [theta0, math.sqrt(s), 0.0], method="DOP853", rtol=1e-13, atol=1e-14, events=horizontal
+    )
     assert pivot_rod_impulse(theta0, s) == pytest.approx(sol.y_events[0][0][2], rel=1e-10)
 
 
@@ -290,8 +300,15 @@ def _rod_ode(theta0, s, t_end=None):
 
     horizontal = lambda t, y: y[0] - math.pi / 2  # noqa: E731
     horizontal.terminal = True
-    return solve_ivp(lambda t, y: [y[1], 0.75 * math.sin(y[0])], (0.0, 1e3), [theta0, math.sqrt(s)],
-                     events=horizontal, rtol=1e-12, atol=1e-13, dense_output=True)
+    return solve_ivp(
+        lambda t, y: [y[1], 0.75 * math.sin(y[0])],
+        (0.0, 1e3),
+        [theta0, math.sqrt(s)],
+        events=horizontal,
+        rtol=1e-12,
+        atol=1e-13,
+        dense_output=True,
+    )
 
 
 @pytest.mark.parametrize("gamma", [-3.0, -0.5, 0.0, 0.3, 0.8, 1.0, 1.3, 1.49])

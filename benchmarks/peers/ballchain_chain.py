@@ -86,9 +86,19 @@ def simulate_interval(n: int, until: float, rtol: float, frames: int = 1):
     if abs(r.frame_t[k] - until * r.t_ff) > 1e-9 * r.t_ff:
         raise RuntimeError(f"no frame at {until} t_ff (frames at {r.frame_t / r.t_ff})")
     heights = np.cumsum(2.0 * r.frame_e[:, ::-1, 2], axis=1)  # points N-1 .. 0, every frame
-    return dict(t=float(r.frame_t[k]), e=r.frame_e[k].copy(), w=r.frame_omega[k].copy(), wall=wall,
-                min_z=float(heights.min()), landings=int(r.event_counts()["landing"]), status=r.status,
-                t_ff=r.t_ff, e0=e0, steps=int(r.n_steps), evals=int(r.n_evals))
+    return dict(
+        t=float(r.frame_t[k]),
+        e=r.frame_e[k].copy(),
+        w=r.frame_omega[k].copy(),
+        wall=wall,
+        min_z=float(heights.min()),
+        landings=int(r.event_counts()["landing"]),
+        status=r.status,
+        t_ff=r.t_ff,
+        e0=e0,
+        steps=int(r.n_steps),
+        evals=int(r.n_evals),
+    )
 
 
 def full_fall(n: int, alpha: float = math.pi / 4):
@@ -101,6 +111,12 @@ def full_fall(n: int, alpha: float = math.pi / 4):
     t0 = time.perf_counter()
     r = simulate(ChainParams(segments=n, alpha=alpha), InitialCondition(), SolverOptions())
     wall = time.perf_counter() - t0
-    return dict(wall=wall, status=r.status, t_fall=r.t_fall / r.t_ff,
-                t_landed=None if r.t_landed is None else r.t_landed / r.t_ff, steps=int(r.n_steps),
-                evals=int(r.n_evals), imbalance=abs(r.energy["imbalance"]) / r.energy["initial"])
+    return dict(
+        wall=wall,
+        status=r.status,
+        t_fall=r.t_fall / r.t_ff,
+        t_landed=None if r.t_landed is None else r.t_landed / r.t_ff,
+        steps=int(r.n_steps),
+        evals=int(r.n_evals),
+        imbalance=abs(r.energy["imbalance"]) / r.energy["initial"],
+    )

@@ -32,7 +32,6 @@ import sys  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-
 from ballchain_chain import ballchain_eval, random_state, simulate_interval  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -74,8 +73,7 @@ def perpendicular(d: np.ndarray, e: np.ndarray) -> np.ndarray:
 
 def rel_diff(d_peer: np.ndarray, d_ref: np.ndarray, e: np.ndarray) -> float:
     """max_i |P d_peer_i - d_ref_i| / max_i |d_ref_i| (P: projection perpendicular to e_i)."""
-    return float(np.linalg.norm(perpendicular(d_peer, e) - d_ref, axis=1).max()
-                 / np.linalg.norm(d_ref, axis=1).max())
+    return float(np.linalg.norm(perpendicular(d_peer, e) - d_ref, axis=1).max() / np.linalg.norm(d_ref, axis=1).max())
 
 
 def table(headers: list[str], rows: list[list], align: str | None = None) -> str:
@@ -133,9 +131,11 @@ def bench_eval(sizes, repeats, target, axial, pin_max_gb):
             mc.set_state(e, w)
             row["diff_mj"] = rel_diff(mc.angular_accelerations(), dw, e)
         rows.append(row)
-        log(f"  (a) N={n}: ballchain {t_free * 1e6:.2f} us (locked {t_lock * 1e6:.2f} us), "
+        log(
+            f"  (a) N={n}: ballchain {t_free * 1e6:.2f} us (locked {t_lock * 1e6:.2f} us), "
             f"pinocchio {fmt(row['pin'] and row['pin'] * 1e6, '.2f')} us, "
-            f"diff ABA {fmt(row['diff_aba'], '.1e')}, diff MuJoCo {fmt(row['diff_mj'], '.1e')}")
+            f"diff ABA {fmt(row['diff_aba'], '.1e')}, diff MuJoCo {fmt(row['diff_mj'], '.1e')}"
+        )
     return rows
 
 
@@ -155,13 +155,38 @@ def eval_tables(rows, axial, pin_max_gb, repeats, target) -> str:
         ratio_l = None if pin_t is None else pin_t / r["bc_locked"]
         ok = ratio_l is not None and ratio_l >= 3.0 and r["bc_locked"] / n <= 1e-7
         verdict = "n/a" if n < 64 else ("yes" if ok else "no") + ("" if not mark else " ~")
-        out.append([n, fmt(r["bc"] * 1e6, ".2f"), fmt(r["bc"] / n * 1e9, ".1f"),
-                    fmt(r["bc_locked"] * 1e6, ".2f"), fmt(r["bc_locked"] / n * 1e9, ".1f"),
-                    mark + fmt(pin_t and pin_t * 1e6, ".2f"), mark + fmt(pin_t and pin_t / n * 1e9, ".1f"),
-                    mark + fmt(ratio, ".2f"), mark + fmt(ratio_l, ".2f"),
-                    verdict, fmt(r["diff_aba"], ".1e"), fmt(r["diff_crba"], ".1e"), fmt(r["diff_mj"], ".1e")])
-    headers = ["N", "ballchain µs", "ns/seg", "ballchain locked µs", "ns/seg", "Pinocchio ABA µs", "ns/seg",
-               "Pin/bc", "Pin/bc locked", "target met", "Δ vs ABA", "Δ vs Pin CRBA", "Δ vs MuJoCo"]
+        out.append(
+            [
+                n,
+                fmt(r["bc"] * 1e6, ".2f"),
+                fmt(r["bc"] / n * 1e9, ".1f"),
+                fmt(r["bc_locked"] * 1e6, ".2f"),
+                fmt(r["bc_locked"] / n * 1e9, ".1f"),
+                mark + fmt(pin_t and pin_t * 1e6, ".2f"),
+                mark + fmt(pin_t and pin_t / n * 1e9, ".1f"),
+                mark + fmt(ratio, ".2f"),
+                mark + fmt(ratio_l, ".2f"),
+                verdict,
+                fmt(r["diff_aba"], ".1e"),
+                fmt(r["diff_crba"], ".1e"),
+                fmt(r["diff_mj"], ".1e"),
+            ]
+        )
+    headers = [
+        "N",
+        "ballchain µs",
+        "ns/seg",
+        "ballchain locked µs",
+        "ns/seg",
+        "Pinocchio ABA µs",
+        "ns/seg",
+        "Pin/bc",
+        "Pin/bc locked",
+        "target met",
+        "Δ vs ABA",
+        "Δ vs Pin CRBA",
+        "Δ vs MuJoCo",
+    ]
     notes = [
         f"Medians of {repeats} repeats of an inner loop of ~{target:g} s. Same random near-vertical state for "
         f"all (tilts ~0.3 rad, random w ⊥ e); 'locked': ~30% of the hinges locked (ballchain only). "
@@ -195,10 +220,16 @@ def axial_study(sizes, eps_list) -> str:
             mc = MujocoChain(n, eps)
             mc.set_state(e, w)
             d_mj = mc.angular_accelerations()
-            rows.append([n, f"{eps:g}", fmt(rel_diff(d_pin, dw, e), ".1e"),
-                         fmt(float(np.abs(np.einsum("ij,ij->i", d_pin, e)).max()), ".1e"),
-                         fmt(rel_diff(d_mj, dw, e), ".1e"),
-                         fmt(float(np.abs(np.einsum("ij,ij->i", d_mj, e)).max()), ".1e")])
+            rows.append(
+                [
+                    n,
+                    f"{eps:g}",
+                    fmt(rel_diff(d_pin, dw, e), ".1e"),
+                    fmt(float(np.abs(np.einsum("ij,ij->i", d_pin, e)).max()), ".1e"),
+                    fmt(rel_diff(d_mj, dw, e), ".1e"),
+                    fmt(float(np.abs(np.einsum("ij,ij->i", d_mj, e)).max()), ".1e"),
+                ]
+            )
     return table(["N", "axial inertia", "Δ ABA", "max axial dw (ABA)", "Δ MuJoCo", "max axial dw (MuJoCo)"], rows)
 
 
@@ -207,8 +238,9 @@ def axial_study(sizes, eps_list) -> str:
 
 def state_error(e, w, ref) -> float:
     """max over segments of max(|e - e_ref|, |P w - w_ref|) (P: perpendicular to e)."""
-    return float(max(np.linalg.norm(e - ref["e"], axis=1).max(),
-                     np.linalg.norm(perpendicular(w, e) - ref["w"], axis=1).max()))
+    return float(
+        max(np.linalg.norm(e - ref["e"], axis=1).max(), np.linalg.norm(perpendicular(w, e) - ref["w"], axis=1).max())
+    )
 
 
 def mujoco_run(mc, ref, nsteps):
@@ -283,15 +315,34 @@ def bench_free_motion(sizes, interval, rtols, integrators, axial, repeats, max_s
                 order = 4 if integ == "RK4" else 1
                 m = match_mujoco(mc, ref, bc_err, order, step_cost, max_seconds)
                 if "wall" in m and m["wall"] < 1.0 and repeats > 1:  # re-time cheap runs
-                    m["wall"] = statistics.median([m["wall"]] + [mujoco_run(mc, ref, m["steps"])[1]
-                                                                 for _ in range(min(repeats, 3) - 1)])
-                rows.append(dict(n=n, t=ref["t"], t_ff=ref["t_ff"], motion=motion, min_z=ref["min_z"], rtol=rtol,
-                                 bc_err=bc_err, bc_wall=bc_wall, bc_steps=runs[0]["steps"], integ=integ,
-                                 step_cost=step_cost, **m))
+                    m["wall"] = statistics.median(
+                        [m["wall"]] + [mujoco_run(mc, ref, m["steps"])[1] for _ in range(min(repeats, 3) - 1)]
+                    )
+                rows.append(
+                    dict(
+                        n=n,
+                        t=ref["t"],
+                        t_ff=ref["t_ff"],
+                        motion=motion,
+                        min_z=ref["min_z"],
+                        rtol=rtol,
+                        bc_err=bc_err,
+                        bc_wall=bc_wall,
+                        bc_steps=runs[0]["steps"],
+                        integ=integ,
+                        step_cost=step_cost,
+                        **m,
+                    )
+                )
                 r = rows[-1]
-                log(f"  (b) N={n} rtol={rtol:g}: ballchain err {bc_err:.2e} in {bc_wall:.4f} s; MuJoCo {integ}: "
-                    + (f"skip ({r['skip']})" if "skip" in r else
-                       f"{r['steps']} steps, err {r['err']:.2e} in {r['wall']:.3f} s"))
+                log(
+                    f"  (b) N={n} rtol={rtol:g}: ballchain err {bc_err:.2e} in {bc_wall:.4f} s; MuJoCo {integ}: "
+                    + (
+                        f"skip ({r['skip']})"
+                        if "skip" in r
+                        else f"{r['steps']} steps, err {r['err']:.2e} in {r['wall']:.3f} s"
+                    )
+                )
     return rows
 
 
@@ -300,14 +351,40 @@ def free_motion_table(rows, interval, axial, max_seconds) -> str:
     for r in rows:
         dt = None if "steps" not in r else r["t"] / r["steps"]
         skipped = "skip" in r
-        out.append([r["n"], fmt(r["t"], ".3f"), fmt(r["motion"], ".2f"), fmt(r["min_z"], ".2f"), f"{r['rtol']:g}", fmt(r["bc_err"], ".1e"),
-                    r["bc_steps"], fmt(r["bc_wall"] * 1e3, ".2f"), r["integ"], fmt(r["step_cost"] * 1e6, ".0f"),
-                    fmt(dt, ".2e") + (" (est.)" if skipped and dt else ""),
-                    "–" if skipped else fmt(r["err"], ".1e"),
-                    ("skipped: " + r["skip"]) if skipped else fmt(r["wall"] * 1e3, ".1f"),
-                    "–" if skipped else ratio_fmt(r["wall"] / r["bc_wall"])])
-    headers = ["N", "T (√(b/g))", "max Δe over T", "min z", "ballchain rtol", "ballchain err", "bc steps", "ballchain ms",
-               "MuJoCo integrator", "µs/step", "matched dt", "MuJoCo err", "MuJoCo ms", "MuJoCo/ballchain"]
+        out.append(
+            [
+                r["n"],
+                fmt(r["t"], ".3f"),
+                fmt(r["motion"], ".2f"),
+                fmt(r["min_z"], ".2f"),
+                f"{r['rtol']:g}",
+                fmt(r["bc_err"], ".1e"),
+                r["bc_steps"],
+                fmt(r["bc_wall"] * 1e3, ".2f"),
+                r["integ"],
+                fmt(r["step_cost"] * 1e6, ".0f"),
+                fmt(dt, ".2e") + (" (est.)" if skipped and dt else ""),
+                "–" if skipped else fmt(r["err"], ".1e"),
+                ("skipped: " + r["skip"]) if skipped else fmt(r["wall"] * 1e3, ".1f"),
+                "–" if skipped else ratio_fmt(r["wall"] / r["bc_wall"]),
+            ]
+        )
+    headers = [
+        "N",
+        "T (√(b/g))",
+        "max Δe over T",
+        "min z",
+        "ballchain rtol",
+        "ballchain err",
+        "bc steps",
+        "ballchain ms",
+        "MuJoCo integrator",
+        "µs/step",
+        "matched dt",
+        "MuJoCo err",
+        "MuJoCo ms",
+        "MuJoCo/ballchain",
+    ]
     notes = [
         f"Free motion (alpha = pi, no locks) from the default helix at rest over T = {interval:g} t_ff (before "
         "the first floor contact: 'min z' is the lowest point height over 50 frames of the reference; no "
@@ -338,14 +415,27 @@ def bench_full_falls(sizes, alpha, runs, study_runs, opts):
     rows = []
     for n in sizes:
         bc = full_fall(n, alpha)
-        log(f"  (c) N={n}: ballchain {bc['status']} in {bc['wall']:.1f} s, t_fall {bc['t_fall']:.3f}, "
-            f"t_landed {fmt(bc['t_landed'], '.3f')}")
+        log(
+            f"  (c) N={n}: ballchain {bc['status']} in {bc['wall']:.1f} s, t_fall {bc['t_fall']:.3f}, "
+            f"t_landed {fmt(bc['t_landed'], '.3f')}"
+        )
         rows.append(dict(n=n, code="ballchain", **bc))
         for integ, dt in (runs + [r for r in study_runs if r not in runs]) if n == min(sizes) else runs:
-            r = mujoco_fall(n, alpha, dt, integ, opts["radius"], opts["friction"], opts["axial"],
-                            t_max=opts["t_max"], wall_cap=opts["wall_cap"])
-            log(f"  (c) N={n}: MuJoCo {integ} dt={dt:g}: {r.status} at {r.t_end:.3f} t_ff, {r.step_wall:.1f} s, "
-                f"{r.us_per_step:.0f} us/step")
+            r = mujoco_fall(
+                n,
+                alpha,
+                dt,
+                integ,
+                opts["radius"],
+                opts["friction"],
+                opts["axial"],
+                t_max=opts["t_max"],
+                wall_cap=opts["wall_cap"],
+            )
+            log(
+                f"  (c) N={n}: MuJoCo {integ} dt={dt:g}: {r.status} at {r.t_end:.3f} t_ff, {r.step_wall:.1f} s, "
+                f"{r.us_per_step:.0f} us/step"
+            )
             rows.append(dict(n=n, code="MuJoCo", integ=integ, dt=dt, res=r, bc_wall=bc["wall"]))
     return rows
 
@@ -354,20 +444,62 @@ def full_fall_table(rows, alpha, opts, main_run, project_to=512) -> str:
     out = []
     for row in rows:
         if row["code"] == "ballchain":
-            out.append([row["n"], "ballchain", "adaptive", row["steps"], fmt(row["wall"] / row["steps"] * 1e6, ".0f"),
-                        fmt(row["wall"], ".2f"), row["status"], fmt(row["t_fall"], ".3f"), fmt(row["t_landed"], ".3f"),
-                        fmt(row["imbalance"], ".1e") + " (imbalance)", "0 (anchored)", "0 (locks)", "1"])
+            out.append(
+                [
+                    row["n"],
+                    "ballchain",
+                    "adaptive",
+                    row["steps"],
+                    fmt(row["wall"] / row["steps"] * 1e6, ".0f"),
+                    fmt(row["wall"], ".2f"),
+                    row["status"],
+                    fmt(row["t_fall"], ".3f"),
+                    fmt(row["t_landed"], ".3f"),
+                    fmt(row["imbalance"], ".1e") + " (imbalance)",
+                    "0 (anchored)",
+                    "0 (locks)",
+                    "1",
+                ]
+            )
             continue
         r = row["res"]
-        status = {"wall cap": f"did not finish in {r.step_wall:.0f} s (at {r.t_end:.2f} t_ff)",
-                  "unstable": f"blew up at {r.t_end:.2f} t_ff", "time cap": f"not landed at {r.t_end:.2f} t_ff"
-                  }.get(r.status, r.status)
-        out.append([row["n"], "MuJoCo", f"{row['integ']} {row['dt']:g}", r.steps, fmt(r.us_per_step, ".0f"),
-                    fmt(r.step_wall, ".2f"), status, fmt(r.t_fall, ".3f"), fmt(r.t_landed, ".3f"),
-                    fmt(r.max_excess, ".1e") + " (max excess)", fmt(r.max_slide, ".2g"),
-                    fmt(r.max_limit_violation, ".2f"), ratio_fmt(r.step_wall / row["bc_wall"])])
-    headers = ["N", "code", "step", "steps", "µs/step", "wall s", "status", "t_fall/t_ff", "t_landed/t_ff",
-               "energy / E0", "max slide (b)", "max over-bend (rad)", "wall / ballchain wall"]
+        status = {
+            "wall cap": f"did not finish in {r.step_wall:.0f} s (at {r.t_end:.2f} t_ff)",
+            "unstable": f"blew up at {r.t_end:.2f} t_ff",
+            "time cap": f"not landed at {r.t_end:.2f} t_ff",
+        }.get(r.status, r.status)
+        out.append(
+            [
+                row["n"],
+                "MuJoCo",
+                f"{row['integ']} {row['dt']:g}",
+                r.steps,
+                fmt(r.us_per_step, ".0f"),
+                fmt(r.step_wall, ".2f"),
+                status,
+                fmt(r.t_fall, ".3f"),
+                fmt(r.t_landed, ".3f"),
+                fmt(r.max_excess, ".1e") + " (max excess)",
+                fmt(r.max_slide, ".2g"),
+                fmt(r.max_limit_violation, ".2f"),
+                ratio_fmt(r.step_wall / row["bc_wall"]),
+            ]
+        )
+    headers = [
+        "N",
+        "code",
+        "step",
+        "steps",
+        "µs/step",
+        "wall s",
+        "status",
+        "t_fall/t_ff",
+        "t_landed/t_ff",
+        "energy / E0",
+        "max slide (b)",
+        "max over-bend (rad)",
+        "wall / ballchain wall",
+    ]
     mj = [r for r in rows if r["code"] == "MuJoCo" and (r["integ"], r["dt"]) == main_run]
     proj = ""
     if mj:
@@ -375,9 +507,11 @@ def full_fall_table(rows, alpha, opts, main_run, project_to=512) -> str:
         r = big["res"]
         us = r.us_per_step * (project_to / big["n"]) ** 2.7
         t_land = (r.t_landed or r.t_end) * r.t_ff * math.sqrt(project_to / big["n"])
-        proj = (f"N = {project_to} not run: from {r.us_per_step:.0f} µs/step at N = {big['n']} and MuJoCo's ~N^2.7 "
-                f"step cost, ~{us / 1e3:.0f} ms/step; ~{t_land / big['dt']:.2g} steps of {big['dt']:g} to land "
-                f"(t_ff ∝ √N) -> ~{us * 1e-6 * t_land / big['dt'] / 3600:.1f} h.")
+        proj = (
+            f"N = {project_to} not run: from {r.us_per_step:.0f} µs/step at N = {big['n']} and MuJoCo's ~N^2.7 "
+            f"step cost, ~{us / 1e3:.0f} ms/step; ~{t_land / big['dt']:.2g} steps of {big['dt']:g} to land "
+            f"(t_ff ∝ √N) -> ~{us * 1e-6 * t_land / big['dt'] / 3600:.1f} h."
+        )
     notes = [
         f"alpha = {alpha:.4g}, default helix at rest. ballchain: default `simulate` (floor 'all': points anchored on "
         "landing; inelastic locks); energy: |imbalance| / E0 of its closed budget. 'wall s': ballchain's whole "
@@ -418,13 +552,20 @@ def main(argv=None) -> None:
     ap.add_argument("--axial-study", default="1e-2,1e-4,1e-6,1e-9", help="axial inertias compared (empty: skip)")
     ap.add_argument("--max-seconds", type=float, default=None, help="cap of one MuJoCo run (default 60; quick 5)")
     ap.add_argument("--pin-max-gb", type=float, default=4.0, help="skip Pinocchio when its Data would exceed this")
-    ap.add_argument("--only", choices=("eval", "fall", "full"), default=None,
-                    help="run only section (a), (b) or (c) ((c), full falls, runs only when asked for)")
+    ap.add_argument(
+        "--only",
+        choices=("eval", "fall", "full"),
+        default=None,
+        help="run only section (a), (b) or (c) ((c), full falls, runs only when asked for)",
+    )
     ap.add_argument("--full-sizes", default="32,128", help="N for (c) (default 32,128)")
     ap.add_argument("--full-alpha", type=float, default=math.pi / 4, help="bend limit of (c) (default pi/4)")
     ap.add_argument("--full-runs", default="Euler:1e-3", help="MuJoCo integrator:dt of (c) at every N")
-    ap.add_argument("--full-dt-study", default="Euler:3e-4,Euler:1e-4,RK4:1e-3,implicitfast:1e-3",
-                    help="extra MuJoCo integrator:dt of (c) at the smallest N")
+    ap.add_argument(
+        "--full-dt-study",
+        default="Euler:3e-4,Euler:1e-4,RK4:1e-3,implicitfast:1e-3",
+        help="extra MuJoCo integrator:dt of (c) at the smallest N",
+    )
     ap.add_argument("--full-axial", type=float, default=1e-2, help="axial inertia of MuJoCo's rods in (c)")
     ap.add_argument("--full-radius", type=float, default=0.05, help="capsule radius in (c)")
     ap.add_argument("--full-friction", type=float, default=1.0, help="floor friction in (c)")
@@ -444,25 +585,56 @@ def main(argv=None) -> None:
     print("\n".join(parts), flush=True)
     if a.only not in ("fall", "full"):
         rows = bench_eval(sizes, repeats, target, a.axial, a.pin_max_gb)
-        sec = ["### (a) One evaluation of the accelerations", "", eval_tables(rows, a.axial, a.pin_max_gb, repeats, target), ""]
+        sec = [
+            "### (a) One evaluation of the accelerations",
+            "",
+            eval_tables(rows, a.axial, a.pin_max_gb, repeats, target),
+            "",
+        ]
         if a.axial_study:
-            sec += ["Agreement vs the peers' axial inertia (same kind of state; Δ as above):", "",
-                    axial_study(study_sizes, parse_list(a.axial_study, float)), ""]
+            sec += [
+                "Agreement vs the peers' axial inertia (same kind of state; Δ as above):",
+                "",
+                axial_study(study_sizes, parse_list(a.axial_study, float)),
+                "",
+            ]
         print("\n".join(sec), flush=True)
         parts += sec
     if a.only == "full":
-        opts = dict(radius=a.full_radius, friction=a.full_friction, axial=a.full_axial, t_max=a.full_t_max,
-                    wall_cap=a.full_wall_cap)
-        rows = bench_full_falls(parse_list(a.full_sizes), a.full_alpha, parse_runs(a.full_runs),
-                                parse_runs(a.full_dt_study), opts)
-        sec = ["### (c) Full falls: bend limit, floor, pile-up", "", full_fall_table(rows, a.full_alpha, opts, parse_runs(a.full_runs)[0]), ""]
+        opts = dict(
+            radius=a.full_radius,
+            friction=a.full_friction,
+            axial=a.full_axial,
+            t_max=a.full_t_max,
+            wall_cap=a.full_wall_cap,
+        )
+        rows = bench_full_falls(
+            parse_list(a.full_sizes), a.full_alpha, parse_runs(a.full_runs), parse_runs(a.full_dt_study), opts
+        )
+        sec = [
+            "### (c) Full falls: bend limit, floor, pile-up",
+            "",
+            full_fall_table(rows, a.full_alpha, opts, parse_runs(a.full_runs)[0]),
+            "",
+        ]
         print("\n".join(sec), flush=True)
         parts += sec
     if a.only not in ("eval", "full"):
-        rows = bench_free_motion(fall_sizes, a.interval, parse_list(a.rtols, float), a.integrators.split(","),
-                                 a.axial, 3 if a.quick else 5, max_seconds)
-        sec = ["### (b) A fixed interval of free motion at matched accuracy", "",
-               free_motion_table(rows, a.interval, a.axial, max_seconds), ""]
+        rows = bench_free_motion(
+            fall_sizes,
+            a.interval,
+            parse_list(a.rtols, float),
+            a.integrators.split(","),
+            a.axial,
+            3 if a.quick else 5,
+            max_seconds,
+        )
+        sec = [
+            "### (b) A fixed interval of free motion at matched accuracy",
+            "",
+            free_motion_table(rows, a.interval, a.axial, max_seconds),
+            "",
+        ]
         print("\n".join(sec), flush=True)
         parts += sec
     if a.output:

@@ -18,9 +18,7 @@ import time
 
 import mujoco
 import numpy as np
-
 from rotations import chain_state, tree_coordinates
-
 
 OPTIONS_MJCF = """<mujoco model="ballchain">
   <option gravity="0 0 -1" timestep="{timestep!r}" integrator="{integrator}">

@@ -32,36 +32,56 @@ from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
-
 from mujoco_chain import chain_spec
 from rotations import tree_coordinates
 
 DOWN_SLACK = 1e-3
 
 
-def fall_spec(n: int, alpha: float, radius: float = 0.05, friction: float = 1.0, axial_inertia: float = 1e-6,
-              timestep: float = 1e-3, integrator: str = "Euler", cone: str = "pyramidal") -> mujoco.MjSpec:
+def fall_spec(
+    n: int,
+    alpha: float,
+    radius: float = 0.05,
+    friction: float = 1.0,
+    axial_inertia: float = 1e-6,
+    timestep: float = 1e-3,
+    integrator: str = "Euler",
+    cone: str = "pyramidal",
+) -> mujoco.MjSpec:
     """The chain of ``chain_spec`` with limited ball joints, capsules and a floor (module docstring)."""
     spec = chain_spec(n, axial_inertia, timestep, integrator)
     spec.option.cone = getattr(mujoco.mjtCone, "mjCONE_" + cone.upper())
     spec.compiler.degree = False  # joint ranges in radians
     spec.option.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0],
-                            pos=[0.0, 0.0, -radius], contype=0, conaffinity=1, friction=[friction, 0.005, 1e-4])
+    spec.worldbody.add_geom(
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[0.0, 0.0, 1.0],
+        pos=[0.0, 0.0, -radius],
+        contype=0,
+        conaffinity=1,
+        friction=[friction, 0.005, 1e-4],
+    )
     for k in range(n):
         body = spec.body(f"rod{k}")
         if k > 0:  # the bottom rod's joint to the world (the pin) is free, as in ballchain
             joint = spec.joint(f"ball{k}")
             joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
             joint.range = [0.0, alpha]
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0.0, 0.0, 0.0, 0.0, 0.0, 2.0], size=[radius, 0, 0],
-                      contype=1, conaffinity=0, friction=[friction, 0.005, 1e-4])
+        body.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=[0.0, 0.0, 0.0, 0.0, 0.0, 2.0],
+            size=[radius, 0, 0],
+            contype=1,
+            conaffinity=0,
+            friction=[friction, 0.005, 1e-4],
+        )
     return spec
 
 
 def points(data: mujoco.MjData, n: int) -> np.ndarray:
     """Positions (N+1, 3) of the chain's points in ballchain's order (0 = top, N = bottom)."""
-    lower = data.xpos[1:n + 1]  # lower ends, bottom rod first
+    lower = data.xpos[1 : n + 1]  # lower ends, bottom rod first
     top = lower[-1] + 2.0 * data.xmat[n].reshape(3, 3)[:, 2]
     return np.vstack([top[None, :], lower[::-1]])
 
@@ -96,8 +116,18 @@ class FallResult:
 class MujocoFall:
     """A compiled fall model and its data, set to ballchain's initial condition at rest."""
 
-    def __init__(self, n: int, alpha: float, e0: np.ndarray, dt: float, integrator: str = "Euler",
-                 radius: float = 0.05, friction: float = 1.0, axial_inertia: float = 1e-6, cone: str = "pyramidal"):
+    def __init__(
+        self,
+        n: int,
+        alpha: float,
+        e0: np.ndarray,
+        dt: float,
+        integrator: str = "Euler",
+        radius: float = 0.05,
+        friction: float = 1.0,
+        axial_inertia: float = 1e-6,
+        cone: str = "pyramidal",
+    ):
         self.n, self.alpha, self.radius = n, alpha, radius
         self.model = fall_spec(n, alpha, radius, friction, axial_inertia, dt, integrator, cone).compile()
         self.data = mujoco.MjData(self.model)
@@ -165,16 +195,39 @@ class MujocoFall:
             if wall >= wall_cap:
                 status = "wall cap"
                 break
-        return FallResult(n=n, dt=dt, integrator=mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_"),
-                          status=status, t_ff=self.t_ff, t_end=samples[-1][0] if samples else 0.0, t_fall=t_fall, t_landed=t_landed,
-                          steps=steps, step_wall=wall, e0=self.e0, max_excess=max_excess,
-                          final_energy=samples[-1][1] if samples else math.nan, max_slide=max_slide,
-                          max_limit_violation=max_viol, down_fraction=float(down.mean()), samples=samples)
+        return FallResult(
+            n=n,
+            dt=dt,
+            integrator=mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_"),
+            status=status,
+            t_ff=self.t_ff,
+            t_end=samples[-1][0] if samples else 0.0,
+            t_fall=t_fall,
+            t_landed=t_landed,
+            steps=steps,
+            step_wall=wall,
+            e0=self.e0,
+            max_excess=max_excess,
+            final_energy=samples[-1][1] if samples else math.nan,
+            max_slide=max_slide,
+            max_limit_violation=max_viol,
+            down_fraction=float(down.mean()),
+            samples=samples,
+        )
 
 
-def mujoco_fall(n: int, alpha: float = math.pi / 4, dt: float = 1e-3, integrator: str = "Euler", radius: float = 0.05,
-                friction: float = 1.0, axial_inertia: float = 1e-2, cone: str = "pyramidal", t_max: float = 3.0,
-                wall_cap: float = 300.0) -> FallResult:
+def mujoco_fall(
+    n: int,
+    alpha: float = math.pi / 4,
+    dt: float = 1e-3,
+    integrator: str = "Euler",
+    radius: float = 0.05,
+    friction: float = 1.0,
+    axial_inertia: float = 1e-2,
+    cone: str = "pyramidal",
+    t_max: float = 3.0,
+    wall_cap: float = 300.0,
+) -> FallResult:
     """One MuJoCo fall from ballchain's default helix at rest (``initial_directions``)."""
     from ballchain.initial import initial_directions
     from ballchain.model import InitialCondition

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
-
 from rotations import tree_coordinates
 
 

@@ -17,14 +17,14 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import typer
 from typer.core import TyperGroup
 
 from . import __version__
-from .records.files import ResultFileError, check_writable, file_info, load_result, save_result
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
+from .records.files import ResultFileError, check_writable, file_info, load_result, save_result
 
 try:  # typer >= 0.16 vendors click
     from typer._click.exceptions import ClickException, NoArgsIsHelpError
@@ -40,16 +40,27 @@ EXIT_TERMINATED = 143  # SIGTERM
 class _OneLineErrors(TyperGroup):
     """Report usage errors (bad option values, unknown options) as one line."""
 
-    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True,
-             windows_expand_args=True, **extra):
+    def main(
+        self, args=None, prog_name=None, complete_var=None, standalone_mode=True, windows_expand_args=True, **extra
+    ):
         if not standalone_mode:
-            return super().main(args=args, prog_name=prog_name, complete_var=complete_var,
-                                standalone_mode=False, windows_expand_args=windows_expand_args,
-                                **extra)
+            return super().main(
+                args=args,
+                prog_name=prog_name,
+                complete_var=complete_var,
+                standalone_mode=False,
+                windows_expand_args=windows_expand_args,
+                **extra,
+            )
         try:
-            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
-                              standalone_mode=False, windows_expand_args=windows_expand_args,
-                              **extra)
+            rv = super().main(
+                args=args,
+                prog_name=prog_name,
+                complete_var=complete_var,
+                standalone_mode=False,
+                windows_expand_args=windows_expand_args,
+                **extra,
+            )
         except NoArgsIsHelpError as e:
             e.show()
             sys.exit(e.exit_code)
@@ -78,8 +89,11 @@ def _version(value: bool) -> None:
 
 
 @app.callback()
-def _main(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
-                                       help="Print the version and exit.")) -> None:
+def _main(
+    version: bool = typer.Option(
+        False, "--version", callback=_version, is_eager=True, help="Print the version and exit."
+    ),
+) -> None:
     """Event-driven 3D simulation of a falling ball chain (Itano & Sugihara-Seki model)."""
 
 
@@ -104,8 +118,9 @@ def _parse_spawn_key(text: str) -> tuple[int, ...]:
     try:
         return tuple(int(k) for k in text.split(","))
     except ValueError:
-        raise ParameterError(f"spawn-key must be comma-separated integers >= 0 (as a sweep table's spawn_key), "
-                             f"got {text!r}") from None
+        raise ParameterError(
+            f"spawn-key must be comma-separated integers >= 0 (as a sweep table's spawn_key), got {text!r}"
+        ) from None
 
 
 # the defaults of the options are those of the parameter dataclasses (stated once, there)
@@ -118,8 +133,11 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
     a missing value takes the dataclass's default) -> validated dataclasses (raises
     ParameterError)."""
     v = dict(values)
-    chain_kw = dict(alpha=_parse_angle("alpha", v.get("alpha", _CHAIN.alpha)),
-                    floor=v.get("floor", _CHAIN.floor), anchor_cone=v.get("anchor_cone", _CHAIN.anchor_cone))
+    chain_kw = dict(
+        alpha=_parse_angle("alpha", v.get("alpha", _CHAIN.alpha)),
+        floor=v.get("floor", _CHAIN.floor),
+        anchor_cone=v.get("anchor_cone", _CHAIN.anchor_cone),
+    )
     segments = v.get("segments", _CHAIN.segments)
     length, mass, gravity = v.get("length"), v.get("mass"), v.get("gravity")
     if length is None and mass is None and gravity is None:
@@ -129,16 +147,24 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         if missing:
             raise ParameterError(
                 f"{' and '.join(missing)} required: SI units (--length/--mass/--gravity) "
-                f"need the total length (m) and total mass (kg)")
+                f"need the total length (m) and total mass (kg)"
+            )
         if isinstance(segments, int) and segments < 1:
             raise ParameterError(f"segments must be >= 1, got {segments}")
         params = ChainParams.from_chain(segments, length, mass, 9.81 if gravity is None else gravity, **chain_kw)
-    init = InitialCondition(kind=v.get("ic", _START.kind), eps=v.get("eps", _START.eps),
-                            turns=v.get("turns", _START.turns),
-                            phase=_parse_angle("phase", v.get("phase", _START.phase)), seed=v.get("seed", _START.seed),
-                            spawn_key=_parse_spawn_key(v.get("spawn_key", "")))
-    options = SolverOptions(rtol=v.get("rtol", _SOLVER.rtol), until=v.get("until", _SOLVER.until),
-                            frames_per_tff=v.get("frames_per_tff", _SOLVER.frames_per_tff))
+    init = InitialCondition(
+        kind=v.get("ic", _START.kind),
+        eps=v.get("eps", _START.eps),
+        turns=v.get("turns", _START.turns),
+        phase=_parse_angle("phase", v.get("phase", _START.phase)),
+        seed=v.get("seed", _START.seed),
+        spawn_key=_parse_spawn_key(v.get("spawn_key", "")),
+    )
+    options = SolverOptions(
+        rtol=v.get("rtol", _SOLVER.rtol),
+        until=v.get("until", _SOLVER.until),
+        frames_per_tff=v.get("frames_per_tff", _SOLVER.frames_per_tff),
+    )
     return params, init, options
 
 
@@ -180,9 +206,14 @@ def _div(a, b):
 def human_summary(s: dict, output: str | None = None, header: str = "ballchain") -> str:
     """A short human-readable summary of ``Result.summary()``."""
     ic = s.get("ic")
-    ic_text = "n/a" if not ic else (
-        f"{ic.get('kind')} (eps {_fmt(ic.get('eps'))}, turns {_fmt(ic.get('turns'))}, "
-        f"phase {_fmt(ic.get('phase'))}, seed {ic.get('seed')})")
+    ic_text = (
+        "n/a"
+        if not ic
+        else (
+            f"{ic.get('kind')} (eps {_fmt(ic.get('eps'))}, turns {_fmt(ic.get('turns'))}, "
+            f"phase {_fmt(ic.get('phase'))}, seed {ic.get('seed')})"
+        )
+    )
     alpha = s.get("alpha")
     ev = s.get("events") or {}
     en = s.get("energy") or {}
@@ -202,7 +233,8 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     lines = [
         f"{header}: N = {s.get('segments')}, alpha = {_fmt(alpha)} rad "
         f"({_fmt(None if alpha is None else math.degrees(alpha), '.4g')} deg), floor = {s.get('floor')}"
-        + (", anchor cone" if s.get("anchor_cone") else "") + f", units = {units}",
+        + (", anchor cone" if s.get("anchor_cone") else "")
+        + f", units = {units}",
         f"  initial condition  {ic_text}",
         f"  status             {s.get('status')}" + (f" ({s['message']})" if s.get("message") else ""),
         f"  free-fall time     t_ff = {_fmt(s.get('t_ff'))} {u_t} (top end at z0 = {_fmt(s.get('z0'))} {u_l})",
@@ -216,24 +248,31 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         f"  energy imbalance   {_fmt(imb, '.3g')} {u_e} (relative to initial energy: {_fmt(rel, '.3g')})",
     ]
     if fi:
-        lines.append(f"  floor impulse      ({', '.join(_fmt(v, '.6g') for v in fi)}) {u_i} "
-                     f"(whole, from t = 0)")
+        lines.append(f"  floor impulse      ({', '.join(_fmt(v, '.6g') for v in fi)}) {u_i} (whole, from t = 0)")
     if "gamma_measured" in s:
-        lines.append(f"  gamma              {_fmt(s.get('gamma_measured'), '.4g')} measured from the floor, "
-                     f"{_fmt(s.get('gamma_inferred'), '.4g')} from t_fall/t_ff (Hamm-Geminard)")
+        lines.append(
+            f"  gamma              {_fmt(s.get('gamma_measured'), '.4g')} measured from the floor, "
+            f"{_fmt(s.get('gamma_inferred'), '.4g')} from t_fall/t_ff (Hamm-Geminard)"
+        )
     if s.get("floor") == "pivot":
         depth = s.get("max_depth")
         lines.append(f"  max depth          {_fmt(depth)} {u_l} below the floor")
         if depth is not None and s.get("z0") and depth > 0.05 * s["z0"]:
-            lines.append("  note               floor 'pivot' stops only the segment at the pivot: the rest of the "
-                         "chain may pass below the floor (use --floor all for a floor that stops every point)")
-    lines.append(f"  wall time          {_fmt(s.get('wall_seconds'), '.3g')} s "
-                 f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)"
-                 + ("; includes compiling the kernels (first run only)" if s.get("wall_includes_compile") else ""))
+            lines.append(
+                "  note               floor 'pivot' stops only the segment at the pivot: the rest of the "
+                "chain may pass below the floor (use --floor all for a floor that stops every point)"
+            )
+    lines.append(
+        f"  wall time          {_fmt(s.get('wall_seconds'), '.3g')} s "
+        f"({s.get('n_steps')} steps, {s.get('n_evals')} evaluations)"
+        + ("; includes compiling the kernels (first run only)" if s.get("wall_includes_compile") else "")
+    )
     if s.get("setup_seconds") is not None:
-        lines.append(f"  kernels            {'compiled' if s.get('setup_compiled') else 'loaded'} in "
-                     f"{_fmt(s['setup_seconds'], '.2g')} s before the run"
-                     + (" (first run only: cached afterwards)" if s.get("setup_compiled") else ""))
+        lines.append(
+            f"  kernels            {'compiled' if s.get('setup_compiled') else 'loaded'} in "
+            f"{_fmt(s['setup_seconds'], '.2g')} s before the run"
+            + (" (first run only: cached afterwards)" if s.get("setup_compiled") else "")
+        )
     if output:
         lines.append(f"  output             {output}")
     return "\n".join(lines)
@@ -269,15 +308,20 @@ def _simulate_with_progress(simulate, params, init, options, show_progress: bool
     if not show_progress:
         return simulate(params, init, options, progress=None, state=state)
 
-    from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn,
-                               TimeElapsedColumn)
+    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
     console = _progress_console()
     if not console.is_terminal:
         return simulate(params, init, options, progress=None, state=state)
-    with Progress(TextColumn("simulating"), BarColumn(), TaskProgressColumn(),
-                  TimeElapsedColumn(), TextColumn("{task.fields[info]}"),
-                  console=console, transient=True) as bar:
+    with Progress(
+        TextColumn("simulating"),
+        BarColumn(),
+        TaskProgressColumn(),
+        TimeElapsedColumn(),
+        TextColumn("{task.fields[info]}"),
+        console=console,
+        transient=True,
+    ) as bar:
         task = bar.add_task("simulating", total=1.0, info="")
 
         def progress(fraction: float, info: dict | None = None) -> None:
@@ -305,27 +349,58 @@ def _simulate_with_progress(simulate, params, init, options, show_progress: bool
 # --------------------------------------------------------------------------- commands
 @app.command()
 def simulate(
-    segments: Optional[int] = typer.Option(None, "--segments", "-N", help=f"Number of segments N (>= 1; default {_CHAIN.segments}, or the rows of --initial)."),
-    alpha: str = typer.Option(repr(_CHAIN.alpha), "--alpha", help="Critical bend angle in (0, pi]: 45deg, pi/4 or radians (default pi/4)."),
-    floor: str = typer.Option(_CHAIN.floor, "--floor", help="Floor model: all (every point is stopped by the floor) or pivot (the paper read literally)."),
-    anchor_cone: bool = typer.Option(_CHAIN.anchor_cone, "--anchor-cone", help="Keep the hinge limit between a landed segment and the airborne one hinged to it (beware: a landed segment then acts as a cantilever that can hold a locked chain up)."),
+    segments: int | None = typer.Option(
+        None,
+        "--segments",
+        "-N",
+        help=f"Number of segments N (>= 1; default {_CHAIN.segments}, or the rows of --initial).",
+    ),
+    alpha: str = typer.Option(
+        repr(_CHAIN.alpha), "--alpha", help="Critical bend angle in (0, pi]: 45deg, pi/4 or radians (default pi/4)."
+    ),
+    floor: str = typer.Option(
+        _CHAIN.floor,
+        "--floor",
+        help="Floor model: all (every point is stopped by the floor) or pivot (the paper read literally).",
+    ),
+    anchor_cone: bool = typer.Option(
+        _CHAIN.anchor_cone,
+        "--anchor-cone",
+        help="Keep the hinge limit between a landed segment and the airborne one hinged to it (beware: a landed segment then acts as a cantilever that can hold a locked chain up).",
+    ),
     ic: str = typer.Option(_START.kind, "--ic", help="Initial condition family: helix, planar or random."),
     eps: float = typer.Option(_START.eps, "--eps", help="Amplitude of the initial tilt (>= 0)."),
     turns: float = typer.Option(_START.turns, "--turns", help="Turns q of the helix / wavenumber of the planar bend."),
-    phase: str = typer.Option(repr(_START.phase), "--phase", help="Phase phi0 (radians, or 45deg, pi/4): rotates the chain about z."),
+    phase: str = typer.Option(
+        repr(_START.phase), "--phase", help="Phase phi0 (radians, or 45deg, pi/4): rotates the chain about z."
+    ),
     seed: int = typer.Option(_START.seed, "--seed", help="Seed of the random initial condition (>= 0)."),
-    spawn_key: str = typer.Option("", "--spawn-key", help="Spawn key of the random start's SeedSequence (run k of a sweep: k)."),
+    spawn_key: str = typer.Option(
+        "", "--spawn-key", help="Spawn key of the random start's SeedSequence (run k of a sweep: k)."
+    ),
     rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
-    until: Optional[float] = typer.Option(None, "--until", help="Stop at this time, in units of t_ff (default: until every segment has landed)."),
-    frames_per_tff: float = typer.Option(_SOLVER.frames_per_tff, "--frames-per-tff", help="Output frames per t_ff (what is written: frames sample the steps' dense output and do not change the fall)."),
-    output: Optional[str] = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
+    until: float | None = typer.Option(
+        None, "--until", help="Stop at this time, in units of t_ff (default: until every segment has landed)."
+    ),
+    frames_per_tff: float = typer.Option(
+        _SOLVER.frames_per_tff,
+        "--frames-per-tff",
+        help="Output frames per t_ff (what is written: frames sample the steps' dense output and do not change the fall).",
+    ),
+    output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (the run's summary) on stdout."),
-    length: Optional[float] = typer.Option(None, "--length", help="Total length of the chain in m (SI units; needs --mass)."),
-    mass: Optional[float] = typer.Option(None, "--mass", help="Total mass of the chain in kg (SI units; needs --length)."),
-    gravity: Optional[float] = typer.Option(None, "--gravity", help="Gravity in m/s^2 (SI units; default 9.81)."),
+    length: float | None = typer.Option(
+        None, "--length", help="Total length of the chain in m (SI units; needs --mass)."
+    ),
+    mass: float | None = typer.Option(None, "--mass", help="Total mass of the chain in kg (SI units; needs --length)."),
+    gravity: float | None = typer.Option(None, "--gravity", help="Gravity in m/s^2 (SI units; default 9.81)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    initial: Optional[str] = typer.Option(None, "--initial", help="Initial state from a file instead of --ic: a text or .npy array, N x 3 (segment axes from the top, pointing up the chain) or N x 6 (axes, then angular velocities in sqrt(g/b))."),
+    initial: str | None = typer.Option(
+        None,
+        "--initial",
+        help="Initial state from a file instead of --ic: a text or .npy array, N x 3 (segment axes from the top, pointing up the chain) or N x 6 (axes, then angular velocities in sqrt(g/b)).",
+    ),
 ) -> None:
     """Simulate one fall (defaults: the paper's case N = 128, alpha = pi/4, helix)."""
     state = None
@@ -338,10 +413,26 @@ def simulate(
                 raise ParameterError(f"--segments {segments} disagrees with the {e0.shape[0]} rows of {initial!r}")
             segments = e0.shape[0]
             state = (e0, w0)
-        params, init, options = build_inputs(dict(
-            segments=_CHAIN.segments if segments is None else segments, alpha=alpha, floor=floor,
-            anchor_cone=anchor_cone, ic=ic, eps=eps, turns=turns, phase=phase, seed=seed, spawn_key=spawn_key,
-            rtol=rtol, until=until, frames_per_tff=frames_per_tff, length=length, mass=mass, gravity=gravity))
+        params, init, options = build_inputs(
+            dict(
+                segments=_CHAIN.segments if segments is None else segments,
+                alpha=alpha,
+                floor=floor,
+                anchor_cone=anchor_cone,
+                ic=ic,
+                eps=eps,
+                turns=turns,
+                phase=phase,
+                seed=seed,
+                spawn_key=spawn_key,
+                rtol=rtol,
+                until=until,
+                frames_per_tff=frames_per_tff,
+                length=length,
+                mass=mass,
+                gravity=gravity,
+            )
+        )
         if output is not None:
             check_writable(output, force)
     except (ParameterError, ResultFileError, FileExistsError) as e:
@@ -378,18 +469,21 @@ def simulate(
         typer.echo(human_summary(summary, saved, header="ballchain simulate"))
 
     if result.status == "error":
-        _error(f"the run failed: {result.message or 'unknown error'}"
-               + (f" (partial result saved to {saved})" if saved else ""))
+        _error(
+            f"the run failed: {result.message or 'unknown error'}"
+            + (f" (partial result saved to {saved})" if saved else "")
+        )
         raise typer.Exit(EXIT_RUN_ERROR)
     if result.status == "interrupted":
-        _error(f"interrupted by {result.message}"
-               + (f" (partial result saved to {saved})" if saved else " (no --output: not saved)"))
+        _error(
+            f"interrupted by {result.message}"
+            + (f" (partial result saved to {saved})" if saved else " (no --output: not saved)")
+        )
         raise typer.Exit(EXIT_TERMINATED if "SIGTERM" in result.message else EXIT_INTERRUPTED)
     if save_failed:
         raise typer.Exit(EXIT_RUN_ERROR)
     if result.status == "max_time":
-        typer.echo(f"warning: stopped at the time cap ({options.max_time} t_ff) before every "
-                   f"segment landed", err=True)
+        typer.echo(f"warning: stopped at the time cap ({options.max_time} t_ff) before every segment landed", err=True)
 
 
 @app.command()
@@ -409,8 +503,10 @@ def info(
         _print_json(summary)
         return
     typer.echo(human_summary(summary, header=file))
-    typer.echo(f"  file               {meta.get('format')} v{meta.get('format_version')}, "
-               f"written by ballchain {meta.get('package_version')} at {meta.get('created')}")
+    typer.echo(
+        f"  file               {meta.get('format')} v{meta.get('format_version')}, "
+        f"written by ballchain {meta.get('package_version')} at {meta.get('created')}"
+    )
 
 
 @app.command()
@@ -453,7 +549,9 @@ def paper(
     seed: int = typer.Option(0, "--seed", help="Seed of the random initial condition."),
     alpha_segments: int = typer.Option(256, "--alpha-segments", help="N of the alpha series (Fig. 5)."),
     alphas: str = typer.Option("30deg,45deg,60deg,90deg,180deg", "--alphas", help="alpha values of Fig. 5."),
-    quick: bool = typer.Option(False, "--quick", help="Small chains (N = 12 and 16, three alphas): seconds, for tests."),
+    quick: bool = typer.Option(
+        False, "--quick", help="Small chains (N = 12 and 16, three alphas): seconds, for tests."
+    ),
     formats: str = typer.Option("png,pdf", "--formats", help="Comma-separated file formats."),
 ) -> None:
     """The paper's figures 2-7 from one command (runs are cached under OUT/cache)."""
@@ -464,9 +562,14 @@ def paper(
         _error(f"--formats: expected png, pdf or svg, got {formats!r}")
         raise typer.Exit(EXIT_USAGE)
     try:
-        kw = dict(segments=segments, alpha=parse_angle(alpha), floor=floor,
-                  ic=InitialCondition(kind=ic, eps=eps, seed=seed), alpha_segments=alpha_segments,
-                  alphas=tuple(parse_angle(a) for a in alphas.split(",") if a.strip()))
+        kw = dict(
+            segments=segments,
+            alpha=parse_angle(alpha),
+            floor=floor,
+            ic=InitialCondition(kind=ic, eps=eps, seed=seed),
+            alpha_segments=alpha_segments,
+            alphas=tuple(parse_angle(a) for a in alphas.split(",") if a.strip()),
+        )
         if quick:
             kw.update(QUICK)
         setup = PaperSetup(**kw)
@@ -482,15 +585,20 @@ def animate(
     file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
     out: str = typer.Option("fall.mp4", "--out", help="The animation file: .mp4 (H.264) or .gif, by its suffix."),
     fps: float = typer.Option(25.0, "--fps", help="Frames per second of the animation."),
-    every: Optional[int] = typer.Option(None, "--every", help="Draw every K-th frame of the run (default: every frame)."),
-    frames: Optional[int] = typer.Option(None, "--frames", help="Draw exactly N frames spread evenly over the run."),
+    every: int | None = typer.Option(None, "--every", help="Draw every K-th frame of the run (default: every frame)."),
+    frames: int | None = typer.Option(None, "--frames", help="Draw exactly N frames spread evenly over the run."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Animation of one run: 3D view with the floor, side view (x-z) and top view (x-y);
     the chain, the pile (landed segments) and the locked hinges, time in units of t_ff."""
-    from .plots.animate import (SUFFIXES, AnimationError, check_options, frame_indices,  # lazy: matplotlib
-                                write_animation)
+    from .plots.animate import (  # lazy: matplotlib
+        SUFFIXES,
+        AnimationError,
+        check_options,
+        frame_indices,
+        write_animation,
+    )
 
     try:
         if Path(out).suffix.lower() not in SUFFIXES:
@@ -519,8 +627,14 @@ def animate(
         else:
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-            with Progress(TextColumn("animating"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                          console=console, transient=True) as bar:
+            with Progress(
+                TextColumn("animating"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeElapsedColumn(),
+                console=console,
+                transient=True,
+            ) as bar:
                 task = bar.add_task("animating", total=total)
                 path = run(lambda done, _total: bar.update(task, completed=done))
     except KeyboardInterrupt:
@@ -538,41 +652,71 @@ def animate(
 @app.command()
 def sweep(
     segments: str = typer.Option("64", "--segments", "-N", help="N values: a list (64,128) or range start:stop:step."),
-    alpha: str = typer.Option(repr(_CHAIN.alpha), "--alpha", help="alpha values: a list (30deg,pi/4) or range (10deg:120deg:10deg), in (0, pi]."),
+    alpha: str = typer.Option(
+        repr(_CHAIN.alpha),
+        "--alpha",
+        help="alpha values: a list (30deg,pi/4) or range (10deg:120deg:10deg), in (0, pi].",
+    ),
     floor: str = typer.Option(_CHAIN.floor, "--floor", help="Floor models: all, pivot or all,pivot."),
-    ic: str = typer.Option("random", "--ic", help="Initial-condition families (random; helix and planar with --runs 1)."),
+    ic: str = typer.Option(
+        "random", "--ic", help="Initial-condition families (random; helix and planar with --runs 1)."
+    ),
     runs: int = typer.Option(1, "--runs", help="Initial conditions per point (independent streams of --seed)."),
-    seed: int = typer.Option(0, "--seed", help="Entropy of numpy.random.SeedSequence; run k uses its k-th spawned child."),
+    seed: int = typer.Option(
+        0, "--seed", help="Entropy of numpy.random.SeedSequence; run k uses its k-th spawned child."
+    ),
     eps: float = typer.Option(_START.eps, "--eps", help="Largest initial tilt."),
     rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator."),
-    until: Optional[float] = typer.Option(None, "--until", help="Stop each run at this time in t_ff (default: until landed)."),
-    frames_per_tff: float = typer.Option(_SOLVER.frames_per_tff, "--frames-per-tff", help="Output frames per t_ff (as simulate: what is written; the falls do not depend on it)."),
-    out: str = typer.Option("sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786) instead of a local cluster."),
-    save_runs: Optional[str] = typer.Option(None, "--save-runs", help="Also keep each run's result file (HDF5) in this directory."),
+    until: float | None = typer.Option(
+        None, "--until", help="Stop each run at this time in t_ff (default: until landed)."
+    ),
+    frames_per_tff: float = typer.Option(
+        _SOLVER.frames_per_tff,
+        "--frames-per-tff",
+        help="Output frames per t_ff (as simulate: what is written; the falls do not depend on it).",
+    ),
+    out: str = typer.Option(
+        "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
+    ),
+    workers: int | None = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786) instead of a local cluster."
+    ),
+    save_runs: str | None = typer.Option(
+        None, "--save-runs", help="Also keep each run's result file (HDF5) in this directory."
+    ),
     retry_errors: bool = typer.Option(False, "--retry-errors", help="Run again the runs whose row says error."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (what the sweep did) on stdout."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Run a grid of falls on dask.distributed into one Parquet table (resumable)."""
-    from .sweep import SweepSpec, parse_alphas, parse_choices, parse_segments
     from .model import FLOOR_MODELS, IC_KINDS
+    from .sweep import SweepSpec, parse_alphas, parse_choices, parse_segments
 
     try:
         if workers is not None and workers < 1:
             raise ParameterError(f"workers must be >= 1, got {workers}")
-        spec = SweepSpec(segments=tuple(parse_segments(segments)), alphas=tuple(parse_alphas(alpha)),
-                         floors=tuple(parse_choices(floor, FLOOR_MODELS, "floor")),
-                         ics=tuple(parse_choices(ic, IC_KINDS, "ic")), runs=runs, seed=seed, eps=eps,
-                         rtol=rtol, until=until, frames_per_tff=frames_per_tff, save_runs=save_runs)
+        spec = SweepSpec(
+            segments=tuple(parse_segments(segments)),
+            alphas=tuple(parse_alphas(alpha)),
+            floors=tuple(parse_choices(floor, FLOOR_MODELS, "floor")),
+            ics=tuple(parse_choices(ic, IC_KINDS, "ic")),
+            runs=runs,
+            seed=seed,
+            eps=eps,
+            rtol=rtol,
+            until=until,
+            frames_per_tff=frames_per_tff,
+            save_runs=save_runs,
+        )
         from .sweep.execute import check_scheduler, run_sweep
 
         spec.tasks()  # every run validated before anything starts
         if scheduler is not None:
             check_scheduler(scheduler)
-        report = run_sweep(spec, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors,
-                           progress=not quiet)
+        report = run_sweep(
+            spec, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors, progress=not quiet
+        )
     except ParameterError as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
@@ -580,9 +724,11 @@ def sweep(
         _print_json(report.to_dict())
     else:
         st = ", ".join(f"{v} {k}" for k, v in sorted(report.statuses.items()))
-        typer.echo(f"{report.table}: {report.total} runs in the grid ({st}); ran {report.ran} now "
-                   f"({report.failed} failed), {report.skipped} were already there; "
-                   f"{report.wall_seconds:.1f} s on {report.workers} workers")
+        typer.echo(
+            f"{report.table}: {report.total} runs in the grid ({st}); ran {report.ran} now "
+            f"({report.failed} failed), {report.skipped} were already there; "
+            f"{report.wall_seconds:.1f} s on {report.workers} workers"
+        )
     if report.interrupted:
         raise typer.Exit(EXIT_INTERRUPTED)
 
@@ -591,8 +737,12 @@ def sweep(
 def stats(
     table: str = typer.Argument(..., help="A table written by ballchain sweep."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
-    plot: Optional[str] = typer.Option(None, "--plot", help="Write t_fall/t_ff against alpha with 95% bands (PNG, PDF or SVG)."),
-    plot_n: Optional[str] = typer.Option(None, "--plot-n", help="Write t_fall/t_ff against N with 95% bands, per alpha and floor."),
+    plot: str | None = typer.Option(
+        None, "--plot", help="Write t_fall/t_ff against alpha with 95% bands (PNG, PDF or SVG)."
+    ),
+    plot_n: str | None = typer.Option(
+        None, "--plot-n", help="Write t_fall/t_ff against N with 95% bands, per alpha and floor."
+    ),
 ) -> None:
     """Means, medians and 95% intervals per point of a sweep; the optimal alpha per N."""
     from .sweep.stats import table_stats
@@ -631,30 +781,40 @@ def stats_text(res: dict) -> str:
     def f(x, spec=".4f"):
         return "-" if x is None else format(x, spec)
 
-    lines = [f"{res['table']}: {res['rows']} rows ({', '.join(f'{v} {k}' for k, v in res['status'].items())})",
-             f"{'N':>5} {'alpha':>7} {'floor':>5} {'runs':>4} {'fell':>4} {'t_fall/t_ff: mean':>17} {'95% interval':>17} "
-             f"{'median':>7} {'t_landed/t_ff':>13} {'faster':>7} {'95% interval':>13}"]
+    lines = [
+        f"{res['table']}: {res['rows']} rows ({', '.join(f'{v} {k}' for k, v in res['status'].items())})",
+        f"{'N':>5} {'alpha':>7} {'floor':>5} {'runs':>4} {'fell':>4} {'t_fall/t_ff: mean':>17} {'95% interval':>17} "
+        f"{'median':>7} {'t_landed/t_ff':>13} {'faster':>7} {'95% interval':>13}",
+    ]
     for p in res["points"]:
-        r, l, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
-        lines.append(f"{p['segments']:>5} {p['alpha_deg']:>6.4g}d {p['floor']:>5} {p['n_runs']:>4} {r['n']:>4} {f(r['mean']):>17} "
-                     f"{'[' + f(r['ci_low']) + ', ' + f(r['ci_high']) + ']':>17} {f(r['median']):>7} "
-                     f"{f(l['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
-                     f"{'[' + f(fa['ci_low'], '.2f') + ', ' + f(fa['ci_high'], '.2f') + ']':>13}")
+        r, lr, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
+        lines.append(
+            f"{p['segments']:>5} {p['alpha_deg']:>6.4g}d {p['floor']:>5} {p['n_runs']:>4} {r['n']:>4} {f(r['mean']):>17} "
+            f"{'[' + f(r['ci_low']) + ', ' + f(r['ci_high']) + ']':>17} {f(r['median']):>7} "
+            f"{f(lr['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
+            f"{'[' + f(fa['ci_low'], '.2f') + ', ' + f(fa['ci_high'], '.2f') + ']':>13}"
+        )
     if any(o["n_alpha"] > 1 for o in res["optimal_alpha"]):
         lines.append("optimal alpha (smallest mean t_fall/t_ff; paired bootstrap 95% interval):")
         for o in res["optimal_alpha"]:
             if o["n_alpha"] > 1 and o["alpha_deg"] is not None:
-                lines.append(f"  N = {o['segments']}, floor {o['floor']}: {o['alpha_deg']:.4g} deg "
-                             f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}], mean t_fall/t_ff {o['mean']:.4f} "
-                             f"({o['n_starts']} starts)")
+                lines.append(
+                    f"  N = {o['segments']}, floor {o['floor']}: {o['alpha_deg']:.4g} deg "
+                    f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}], mean t_fall/t_ff {o['mean']:.4f} "
+                    f"({o['n_starts']} starts)"
+                )
     for key in ("plot", "plot_n"):
         if res.get(key):
             lines.append(f"{key.replace('_', ' ')}: {res[key]}")
     return "\n".join(lines)
 
 
-theory_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, add_completion=False,
-                         help="Closed forms of the model's theory (ballchain.theory), nondimensional.")
+theory_app = typer.Typer(
+    cls=_OneLineErrors,
+    no_args_is_help=True,
+    add_completion=False,
+    help="Closed forms of the model's theory (ballchain.theory), nondimensional.",
+)
 app.add_typer(theory_app, name="theory")
 
 
@@ -675,8 +835,10 @@ def _theory_call(fn, *args):
 
 
 @theory_app.command("hamm-geminard")
-def theory_hamm_geminard(gamma: float = typer.Option(..., "--gamma", help="Braking coefficient gamma < 3/2."),
-                         json_out: bool = typer.Option(False, "--json")) -> None:
+def theory_hamm_geminard(
+    gamma: float = typer.Option(..., "--gamma", help="Braking coefficient gamma < 3/2."),
+    json_out: bool = typer.Option(False, "--json"),
+) -> None:
     """t_gamma / t_ff of the Hamm-Geminard model: B((2-g)/(3-2g), 1/2) / (2 sqrt(3-2g))."""
     from .theory import hamm_geminard_time_ratio
 
@@ -684,8 +846,10 @@ def theory_hamm_geminard(gamma: float = typer.Option(..., "--gamma", help="Braki
 
 
 @theory_app.command("gamma")
-def theory_gamma(ratio: float = typer.Option(..., "--ratio", help="t_fall / t_ff, in (0, sqrt(pi/2))."),
-                 json_out: bool = typer.Option(False, "--json")) -> None:
+def theory_gamma(
+    ratio: float = typer.Option(..., "--ratio", help="t_fall / t_ff, in (0, sqrt(pi/2))."),
+    json_out: bool = typer.Option(False, "--json"),
+) -> None:
     """The Hamm-Geminard gamma whose fall takes t_fall / t_ff = RATIO."""
     from .theory import gamma_from_time_ratio
 
@@ -693,10 +857,12 @@ def theory_gamma(ratio: float = typer.Option(..., "--ratio", help="t_fall / t_ff
 
 
 @theory_app.command("pivot-rod")
-def theory_pivot_rod(theta0: str = typer.Option(..., "--theta0", help="Start angle from the vertical (rad, or 30deg)."),
-                     s: float = typer.Option(0.0, "--s", help="Launch rate s = b thetadot0^2 / g (>= 0)."),
-                     theta: Optional[str] = typer.Option(None, "--theta", help="Angle at which to give the reaction."),
-                     json_out: bool = typer.Option(False, "--json")) -> None:
+def theory_pivot_rod(
+    theta0: str = typer.Option(..., "--theta0", help="Start angle from the vertical (rad, or 30deg)."),
+    s: float = typer.Option(0.0, "--s", help="Launch rate s = b thetadot0^2 / g (>= 0)."),
+    theta: str | None = typer.Option(None, "--theta", help="Angle at which to give the reaction."),
+    json_out: bool = typer.Option(False, "--json"),
+) -> None:
     """A rod pivoting on the floor: the pivot's vertical impulse Delta p(theta0, s) until
     the rod is horizontal (units m sqrt(g b)), the critical s*(theta0) beyond which it is
     negative, and the reaction (units m g) at --theta."""
@@ -708,8 +874,12 @@ def theory_pivot_rod(theta0: str = typer.Option(..., "--theta0", help="Start ang
     except (ParameterError, ValueError) as e:
         _error(f"angle: {e}")
         raise typer.Exit(EXIT_USAGE)
-    out = {"theta0": th0, "s": s, "impulse": _theory_call(pivot_rod_impulse, th0, s),
-           "critical_s": _theory_call(pivot_rod_critical_s, th0)}
+    out = {
+        "theta0": th0,
+        "s": s,
+        "impulse": _theory_call(pivot_rod_impulse, th0, s),
+        "critical_s": _theory_call(pivot_rod_critical_s, th0),
+    }
     if th is not None:
         out["theta"] = th
         out["force_z"] = float(pivot_rod_vertical_force(th, th0, s))

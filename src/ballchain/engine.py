@@ -14,8 +14,8 @@ import os
 import signal
 import threading
 import time as _time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -133,10 +133,12 @@ def check_memory(params: ChainParams, options: SolverOptions) -> None:
     out = 2.0 * frames * frame_bytes(n)
     if work + out <= avail:
         return
-    gib = 1024.0 ** 3
-    what = ("lower --frames-per-tff (or --until)" if out > work else "lower --segments (-N)")
-    raise ParameterError(f"memory: this run needs at least {(work + out) / gib:.3g} GiB ({n} segments, "
-                         f"{frames:.3g} frames), {avail / gib:.3g} GiB are available: {what}")
+    gib = 1024.0**3
+    what = "lower --frames-per-tff (or --until)" if out > work else "lower --segments (-N)"
+    raise ParameterError(
+        f"memory: this run needs at least {(work + out) / gib:.3g} GiB ({n} segments, "
+        f"{frames:.3g} frames), {avail / gib:.3g} GiB are available: {what}"
+    )
 
 
 def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> tuple[np.ndarray, np.ndarray]:
@@ -194,12 +196,15 @@ class _Progress:
     def info(self, t: float, chain, log, books) -> dict:
         k = len(log)
         kinds = log.compiled.kind
-        self.counts[:] += np.bincount(kinds[self.counted:k], minlength=self.counts.size)[:self.counts.size]
+        self.counts[:] += np.bincount(kinds[self.counted : k], minlength=self.counts.size)[: self.counts.size]
         self.counted = k
-        return {"t_over_tff": t / self.setup.t_ff,
-                "events": {name: int(self.counts[c]) for c, name in EVENT_KINDS.items()},
-                "instants": int(books.n_instants[0]), "landed": _landed(chain.anchored),
-                "segments": self.setup.params.segments}
+        return {
+            "t_over_tff": t / self.setup.t_ff,
+            "events": {name: int(self.counts[c]) for c, name in EVENT_KINDS.items()},
+            "instants": int(books.n_instants[0]),
+            "landed": _landed(chain.anchored),
+            "segments": self.setup.params.segments,
+        }
 
     def __call__(self, t: float, chain, log, books, final: bool = False) -> None:
         if self.callback is None:
@@ -219,8 +224,14 @@ def _landed(anchored: np.ndarray) -> int:
     return int(sum(is_landed(anchored, i) for i in range(anchored.shape[0] - 1)))
 
 
-def simulate(params: ChainParams, ic: InitialCondition | None = None, options: SolverOptions | None = None, *,
-             state=None, progress: Callable[[float, dict], None] | None = None) -> Result:
+def simulate(
+    params: ChainParams,
+    ic: InitialCondition | None = None,
+    options: SolverOptions | None = None,
+    *,
+    state=None,
+    progress: Callable[[float, dict], None] | None = None,
+) -> Result:
     """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
     overrides the initial condition family.  Returns a Result in the run's units."""
     options = options or SolverOptions()
@@ -259,21 +270,46 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
     fr = out.frames.arrays()
     log_t, log_kind, log_index, log_imp, log_energy, log_pos = out.log.view()
     return Result(
-        params=params, ic=setup.ic, options=setup.options, version=__version__, status=out.status,
-        message=out.message, z0=setup.z0 * lu, t_ff=setup.t_ff * tu, t_fall=float(books.t_fall[0]) * tu,
-        t_landed=float(books.t_landed[0]) * tu, t=tr_t * tu, z_top=tr_z * lu,
-        frame_t=fr["t"] * tu, frame_e=fr["e"], frame_omega=fr["omega"] / tu,
-        frame_anchored=fr["anchored"].astype(bool), frame_locked=fr["locked"].astype(bool),
-        frame_floor_force=fr["floor_force"] * fu, frame_kinetic=fr["kinetic"] * eu,
-        frame_potential=fr["potential"] * eu, frame_lost_locking=fr["lost_locking"] * eu,
-        frame_lost_landing=fr["lost_landing"] * eu, frame_pile_pull=fr["pile_pull"] * fu,
-        frame_scale_force=fr["scale_force"] * fu, frame_floor_impulse=fr["floor_impulse"] * iu,
-        event_t=log_t * tu, event_kind=log_kind.astype(np.int8), event_index=log_index.copy(),
-        event_impulse=log_imp * iu, event_energy=log_energy * eu, event_pos=log_pos * lu,
-        anchor_t=chain.anchor_t * tu, anchor_pos=chain.anchor_pos * lu,
-        energy=energy, max_depth=-min(float(books.lowest[0]), 0.0) * lu, floor_impulse=books.floor_impulse * iu,
+        params=params,
+        ic=setup.ic,
+        options=setup.options,
+        version=__version__,
+        status=out.status,
+        message=out.message,
+        z0=setup.z0 * lu,
+        t_ff=setup.t_ff * tu,
+        t_fall=float(books.t_fall[0]) * tu,
+        t_landed=float(books.t_landed[0]) * tu,
+        t=tr_t * tu,
+        z_top=tr_z * lu,
+        frame_t=fr["t"] * tu,
+        frame_e=fr["e"],
+        frame_omega=fr["omega"] / tu,
+        frame_anchored=fr["anchored"].astype(bool),
+        frame_locked=fr["locked"].astype(bool),
+        frame_floor_force=fr["floor_force"] * fu,
+        frame_kinetic=fr["kinetic"] * eu,
+        frame_potential=fr["potential"] * eu,
+        frame_lost_locking=fr["lost_locking"] * eu,
+        frame_lost_landing=fr["lost_landing"] * eu,
+        frame_pile_pull=fr["pile_pull"] * fu,
+        frame_scale_force=fr["scale_force"] * fu,
+        frame_floor_impulse=fr["floor_impulse"] * iu,
+        event_t=log_t * tu,
+        event_kind=log_kind.astype(np.int8),
+        event_index=log_index.copy(),
+        event_impulse=log_imp * iu,
+        event_energy=log_energy * eu,
+        event_pos=log_pos * lu,
+        anchor_t=chain.anchor_t * tu,
+        anchor_pos=chain.anchor_pos * lu,
+        energy=energy,
+        max_depth=-min(float(books.lowest[0]), 0.0) * lu,
+        floor_impulse=books.floor_impulse * iu,
         floor_impulse_total=(books.floor_impulse + books.floor_flow) * iu,
-        wall_seconds=_time.perf_counter() - wall0, n_steps=int(books.n_steps[0]), n_evals=int(books.n_evals[0]),
+        wall_seconds=_time.perf_counter() - wall0,
+        n_steps=int(books.n_steps[0]),
+        n_evals=int(books.n_evals[0]),
         n_instants=int(books.n_instants[0]),
         units="SI" if params.is_si else "nondimensional",
     )

@@ -37,8 +37,9 @@ def planar_directions(segments: int, eps: float, turns: float, phase: float) -> 
     return _normalize_tilts(np.outer(amp, [math.cos(phase), math.sin(phase)]))
 
 
-def random_directions(segments: int, eps: float, modes: int, seed: int, phase: float,
-                      spawn_key: tuple[int, ...] = ()) -> np.ndarray:
+def random_directions(
+    segments: int, eps: float, modes: int, seed: int, phase: float, spawn_key: tuple[int, ...] = ()
+) -> np.ndarray:
     """A smooth random tilt: ``modes`` Fourier modes along the chain with random
     horizontal coefficients (amplitude falling as 1/k), scaled so that the largest
     tilt |e_n - (e_n . e_z) e_z| / (e_n . e_z) is ``eps`` (as in the other families),
@@ -84,7 +85,8 @@ def check_inside_cone(e: np.ndarray, alpha: float) -> None:
     if ang[worst] >= alpha:
         raise ParameterError(
             f"initial state: hinge {worst + 1} bends {math.degrees(ang[worst]):.3g} deg, "
-            f"not strictly inside alpha = {math.degrees(alpha):.3g} deg (reduce eps)")
+            f"not strictly inside alpha = {math.degrees(alpha):.3g} deg (reduce eps)"
+        )
     if np.any(e[:, 2] <= 0.0):
         raise ParameterError("initial state: a segment points at or below the horizontal (reduce eps)")
 
@@ -111,8 +113,10 @@ def load_initial_state(path) -> tuple[np.ndarray, np.ndarray | None]:
         raise ParameterError(f"initial: cannot read {str(p)!r}: {msg}") from None
     a = np.asarray(a, dtype=float)
     if a.ndim != 2 or a.shape[1] not in (3, 6) or a.shape[0] < 1:
-        raise ParameterError(f"initial: {str(p)!r} must hold an N x 3 (axes) or N x 6 (axes, angular velocities) "
-                             f"array, got shape {a.shape}")
+        raise ParameterError(
+            f"initial: {str(p)!r} must hold an N x 3 (axes) or N x 6 (axes, angular velocities) "
+            f"array, got shape {a.shape}"
+        )
     if not np.all(np.isfinite(a)):
         raise ParameterError(f"initial: {str(p)!r} has non-finite entries")
     norms = np.linalg.norm(a[:, :3], axis=1)

@@ -21,6 +21,7 @@ import numpy as np
 
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
 from .methods import METHOD_NAMES  # noqa: E402  (one registry of methods)
+
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
 
@@ -105,16 +106,16 @@ class ChainParams:
             object.__setattr__(self, name, _finite_positive(name, getattr(self, name)))
 
     @classmethod
-    def from_chain(cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81,
-                   **kw) -> "ChainParams":
+    def from_chain(
+        cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81, **kw
+    ) -> ChainParams:
         """A real chain: total length (m), total mass (kg), gravity (m/s^2)."""
         length_m = _finite_positive("length", length_m)
         mass_kg = _finite_positive("mass", mass_kg)
         n = int(segments)
         if n < 1:
             raise ParameterError(f"segments must be >= 1, got {segments}")
-        return cls(segments=n, segment_mass=mass_kg / n, half_length=length_m / (2 * n),
-                   gravity=gravity_m_s2, **kw)
+        return cls(segments=n, segment_mass=mass_kg / n, half_length=length_m / (2 * n), gravity=gravity_m_s2, **kw)
 
     @property
     def time_unit(self) -> float:
@@ -238,8 +239,10 @@ class SolverOptions:
         if not math.isfinite(r) or not (0.0 < r < 1.0):
             raise ParameterError(f"rtol must be finite and in (0, 1), got {self.rtol!r}")
         if r < RTOL_MIN:
-            raise ParameterError(f"rtol {self.rtol!r} is below what double precision can honour "
-                                 f"(at least {RTOL_MIN:g}: the state is O(1) and its round-off ~1e-16 per step)")
+            raise ParameterError(
+                f"rtol {self.rtol!r} is below what double precision can honour "
+                f"(at least {RTOL_MIN:g}: the state is O(1) and its round-off ~1e-16 per step)"
+            )
         object.__setattr__(self, "rtol", r)
         if self.until is not None:
             object.__setattr__(self, "until", _finite_positive("until", self.until))
@@ -249,8 +252,9 @@ class SolverOptions:
         object.__setattr__(self, "hold_rate", _finite_positive("hold_rate", self.hold_rate))
         object.__setattr__(self, "hold_apex", _finite_positive("hold_apex", self.hold_apex))
         if self.hold_apex < 1e-12:
-            raise ParameterError(f"hold_apex must be >= 1e-12 (the round-off band of the bend function), "
-                                 f"got {self.hold_apex!r}")
+            raise ParameterError(
+                f"hold_apex must be >= 1e-12 (the round-off band of the bend function), got {self.hold_apex!r}"
+            )
         if self.method not in METHOD_NAMES:
             raise ParameterError(f"method must be one of {METHOD_NAMES}, got {self.method!r}")
         if int(self.max_events) < 1:
@@ -258,4 +262,3 @@ class SolverOptions:
 
     def to_dict(self) -> dict:
         return asdict(self)
-

@@ -12,14 +12,14 @@ import dataclasses
 import hashlib
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from . import __version__
 from .engine import simulate
+from .model import ChainParams, InitialCondition, SolverOptions
 from .provenance import engine_fingerprint
 from .records.files import ResultFileError, load_result, save_result
-from .model import ChainParams, InitialCondition, SolverOptions
 from .records.result import Result
 
 
@@ -49,13 +49,21 @@ QUICK = dict(segments=12, alpha_segments=16, alphas=(math.pi / 4, math.pi / 2, m
 
 
 def _key(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
-    blob = json.dumps([params.to_dict(), ic.to_dict(), options.to_dict(), __version__, engine_fingerprint()],
-                      sort_keys=True, default=str)
+    blob = json.dumps(
+        [params.to_dict(), ic.to_dict(), options.to_dict(), __version__, engine_fingerprint()],
+        sort_keys=True,
+        default=str,
+    )
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
-def cached_run(params: ChainParams, ic: InitialCondition, options: SolverOptions, cache: Path,
-               note: Callable[[str], None] = lambda s: None) -> Result:
+def cached_run(
+    params: ChainParams,
+    ic: InitialCondition,
+    options: SolverOptions,
+    cache: Path,
+    note: Callable[[str], None] = lambda s: None,
+) -> Result:
     """The run of these inputs: loaded from ``cache`` if it was made before, else simulated
     and saved there."""
     path = Path(cache) / f"run-{_key(params, ic, options)}.h5"
@@ -71,8 +79,9 @@ def cached_run(params: ChainParams, ic: InitialCondition, options: SolverOptions
     return r
 
 
-def paper_figures(setup: PaperSetup, out_dir, formats=("png", "pdf"),
-                  note: Callable[[str], None] = lambda s: None) -> list[Path]:
+def paper_figures(
+    setup: PaperSetup, out_dir, formats=("png", "pdf"), note: Callable[[str], None] = lambda s: None
+) -> list[Path]:
     """Run (or reuse) what the figures need and write fig2 ... fig7 in ``formats``."""
     from .plots import paper as pp
     from .plots.run import write_figures
@@ -81,10 +90,13 @@ def paper_figures(setup: PaperSetup, out_dir, formats=("png", "pdf"),
     out.mkdir(parents=True, exist_ok=True)
     cache = out / "cache"
     opts = SolverOptions(rtol=setup.rtol, frames_per_tff=setup.frames_per_tff)
-    main = cached_run(ChainParams(segments=setup.segments, alpha=setup.alpha, floor=setup.floor), setup.ic, opts,
-                      cache, note)
-    series = [cached_run(ChainParams(segments=setup.alpha_segments, alpha=a, floor=setup.floor), setup.ic, opts,
-                         cache, note) for a in setup.alphas]
+    main = cached_run(
+        ChainParams(segments=setup.segments, alpha=setup.alpha, floor=setup.floor), setup.ic, opts, cache, note
+    )
+    series = [
+        cached_run(ChainParams(segments=setup.alpha_segments, alpha=a, floor=setup.floor), setup.ic, opts, cache, note)
+        for a in setup.alphas
+    ]
     figures = {
         "fig2_strobe": lambda: pp.fig2_strobe(main),
         "fig3_lock_map": lambda: pp.fig3_lock_map(main),

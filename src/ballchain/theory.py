@@ -196,8 +196,7 @@ def pivot_rod_vertical_force(theta, theta0: float, s: float = 0.0, m: float = 1.
     return 0.25 * m * g * ((1.0 - 3.0 * c) ** 2 + 6.0 * (1.0 - math.cos(theta0)) * c - 4.0 * s * c)
 
 
-def pivot_rod_vertical_force_as_printed(theta, theta0: float, s: float = 0.0, m: float = 1.0,
-                                        g: float = 1.0):
+def pivot_rod_vertical_force_as_printed(theta, theta0: float, s: float = 0.0, m: float = 1.0, g: float = 1.0):
     """The paper's formula exactly as printed (Discussion section), kept for comparison:
     ``(m g / 4){(1 - 3 cos theta)^2 - 6 (1 - cos theta0) cos theta - 4 s cos theta}``.
     Wrong for ``theta0 != 0``; use :func:`pivot_rod_vertical_force`."""

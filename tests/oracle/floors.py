@@ -47,8 +47,7 @@ class AnchorAll:
     @staticmethod
     def contacts(e, point_velocity, anchored, landing_event):
         z = heights(e)
-        return [j for j in range(e.shape[0]) if anchored[j] == 0 and z[j] <= Z_TOL
-                and point_velocity[j, 2] <= RATE_TOL]
+        return [j for j in range(e.shape[0]) if anchored[j] == 0 and z[j] <= Z_TOL and point_velocity[j, 2] <= RATE_TOL]
 
 
 class Pivot:

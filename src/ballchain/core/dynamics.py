@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from .jit import entry, njit
 from .rules import is_landed as _is_landed
 from .state import MAXR
@@ -301,8 +302,12 @@ def factor_general(anchored, J, nrow, S, G, drop):
             for s in range(r + 1):
                 acc = 0.0
                 for q in range(3):
-                    acc += (av * J[j, r, q] * J[j, s, q] + aw * J[j, r, 3 + q] * J[j, s, 3 + q]
-                            + cv * J[j, r, 6 + q] * J[j, s, 6 + q] + cw * J[j, r, 9 + q] * J[j, s, 9 + q])
+                    acc += (
+                        av * J[j, r, q] * J[j, s, q]
+                        + aw * J[j, r, 3 + q] * J[j, s, 3 + q]
+                        + cv * J[j, r, 6 + q] * J[j, s, 6 + q]
+                        + cw * J[j, r, 9 + q] * J[j, s, 9 + q]
+                    )
                 S[j, r, s] = acc
         if j >= 1 and nr > 0:
             np_ = nrow[j - 1]
@@ -409,8 +414,11 @@ def _lock_vector(e, j, nr):
         return 0.0, 0.0, 0.0
     a = j - 1
     c = j
-    return (e[a, 1] * e[c, 2] - e[a, 2] * e[c, 1], e[a, 2] * e[c, 0] - e[a, 0] * e[c, 2],
-            e[a, 0] * e[c, 1] - e[a, 1] * e[c, 0])
+    return (
+        e[a, 1] * e[c, 2] - e[a, 2] * e[c, 1],
+        e[a, 2] * e[c, 0] - e[a, 0] * e[c, 2],
+        e[a, 0] * e[c, 1] - e[a, 1] * e[c, 0],
+    )
 
 
 @njit(cache=True)
@@ -494,15 +502,24 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
     nx, ny, nz = _lock_vector(e, j0, nr)
     for j in range(j0, npts):
         if rec:  # the restart record of point j (what its block is computed from)
-            S[j, REC_U, 0] = u00; S[j, REC_U, 1] = u10; S[j, REC_U, 2] = u11; S[j, REC_U, 3] = u20
-            S[j, REC_U, 4] = u21; S[j, REC_U, 5] = u22; S[j, REC_U, 6] = u30
-            S[j, REC_P, 0] = u31; S[j, REC_P, 1] = u32; S[j, REC_P, 2] = u33
+            S[j, REC_U, 0] = u00
+            S[j, REC_U, 1] = u10
+            S[j, REC_U, 2] = u11
+            S[j, REC_U, 3] = u20
+            S[j, REC_U, 4] = u21
+            S[j, REC_U, 5] = u22
+            S[j, REC_U, 6] = u30
+            S[j, REC_P, 0] = u31
+            S[j, REC_P, 1] = u32
+            S[j, REC_P, 2] = u33
             S[j, REC_P, 3] = ndrop
             S[j, REC_P, 4] = nr
             S[j, REC_P, 5] = kind[j, 0]
             S[j, REC_P, 6] = anchored[j]
             if j < n:
-                S[j, REC_E, 0] = e[j, 0]; S[j, REC_E, 1] = e[j, 1]; S[j, REC_E, 2] = e[j, 2]
+                S[j, REC_E, 0] = e[j, 0]
+                S[j, REC_E, 1] = e[j, 1]
+                S[j, REC_E, 2] = e[j, 2]
         if nr == 0:  # no rows: E_{j-1} = E_j = 0
             u00 = u10 = u11 = u20 = u21 = u22 = u30 = u31 = u32 = u33 = 0.0
             if j == n:
@@ -527,13 +544,14 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
             # the sweep so far, its upper rows (segment c) start a new one (S[j, 4:7, 4:7])
             t = aw * na2
             d00 = av + t - aw * ea0 * ea0
-            d10 = - aw * ea1 * ea0
+            d10 = -aw * ea1 * ea0
             d11 = av + t - aw * ea1 * ea1
-            d20 = - aw * ea2 * ea0
-            d21 = - aw * ea2 * ea1
+            d20 = -aw * ea2 * ea0
+            d21 = -aw * ea2 * ea1
             d22 = av + t - aw * ea2 * ea2
-            i0, l10, l20, i1, l21, i2, nd = _ldl3(d00 - u00, d10 - u10, d11 - u11, d20 - u20, d21 - u21,
-                                                  d22 - u22, d00, d11, d22, drop, j, 0)
+            i0, l10, l20, i1, l21, i2, nd = _ldl3(
+                d00 - u00, d10 - u10, d11 - u11, d20 - u20, d21 - u21, d22 - u22, d00, d11, d22, drop, j, 0
+            )
             ndrop += nd
             S[j, 0, 0] = i0
             S[j, 1, 0] = l10
@@ -547,10 +565,10 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
             S[j, 3, 3] = 0.0
             t = cw * nc2
             d00 = cv + t - cw * ec0 * ec0
-            d10 = - cw * ec1 * ec0
+            d10 = -cw * ec1 * ec0
             d11 = cv + t - cw * ec1 * ec1
-            d20 = - cw * ec2 * ec0
-            d21 = - cw * ec2 * ec1
+            d20 = -cw * ec2 * ec0
+            d21 = -cw * ec2 * ec1
             d22 = cv + t - cw * ec2 * ec2
             i0, l10, l20, i1, l21, i2, nd = _ldl3(d00, d10, d11, d20, d21, d22, d00, d11, d22, drop, j, 3)
             ndrop += nd
@@ -566,10 +584,10 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         else:
             base = av * Aa * Aa + qa * na2 + cv * Ac * Ac + qc * nc2
             d00 = base - qa * ea0 * ea0 - qc * ec0 * ec0
-            d10 = - qa * ea1 * ea0 - qc * ec1 * ec0
+            d10 = -qa * ea1 * ea0 - qc * ec1 * ec0
             d11 = base - qa * ea1 * ea1 - qc * ec1 * ec1
-            d20 = - qa * ea2 * ea0 - qc * ec2 * ec0
-            d21 = - qa * ea2 * ea1 - qc * ec2 * ec1
+            d20 = -qa * ea2 * ea0 - qc * ec2 * ec0
+            d21 = -qa * ea2 * ea1 - qc * ec2 * ec1
             d22 = base - qa * ea2 * ea2 - qc * ec2 * ec2
             if nr == 4:
                 la = aw * Ba
@@ -635,13 +653,13 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         pw = cw * Bc * Ba1
         pe = pw * nc2
         g00 = pv + pe - pw * ec0 * ec0
-        g01 = - pw * ec0 * ec1
-        g02 = - pw * ec0 * ec2
-        g10 = - pw * ec1 * ec0
+        g01 = -pw * ec0 * ec1
+        g02 = -pw * ec0 * ec2
+        g10 = -pw * ec1 * ec0
         g11 = pv + pe - pw * ec1 * ec1
-        g12 = - pw * ec1 * ec2
-        g20 = - pw * ec2 * ec0
-        g21 = - pw * ec2 * ec1
+        g12 = -pw * ec1 * ec2
+        g20 = -pw * ec2 * ec0
+        g21 = -pw * ec2 * ec1
         g22 = pv + pe - pw * ec2 * ec2
         lc = cw * Bc
         g03 = lc * (ec1 * mz - ec2 * my)
@@ -657,14 +675,38 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
         f01, f11, f21, f31 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g01, g11, g21, g31)
         f02, f12, f22, f32 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g02, g12, g22, g32)
         f03, f13, f23, f33 = _unit_lower_solve4(l10, l20, l21, l30, l31, l32, g03, g13, g23, g33)
-        h00 = f00 * i0; h01 = f01 * i0; h02 = f02 * i0; h03 = f03 * i0
-        h10 = f10 * i1; h11 = f11 * i1; h12 = f12 * i1; h13 = f13 * i1
-        h20 = f20 * i2; h21 = f21 * i2; h22 = f22 * i2; h23 = f23 * i2
-        h30 = f30 * i3; h31 = f31 * i3; h32 = f32 * i3; h33 = f33 * i3
-        G[j, 0, 0] = h00; G[j, 0, 1] = h01; G[j, 0, 2] = h02; G[j, 0, 3] = h03
-        G[j, 1, 0] = h10; G[j, 1, 1] = h11; G[j, 1, 2] = h12; G[j, 1, 3] = h13
-        G[j, 2, 0] = h20; G[j, 2, 1] = h21; G[j, 2, 2] = h22; G[j, 2, 3] = h23
-        G[j, 3, 0] = h30; G[j, 3, 1] = h31; G[j, 3, 2] = h32; G[j, 3, 3] = h33
+        h00 = f00 * i0
+        h01 = f01 * i0
+        h02 = f02 * i0
+        h03 = f03 * i0
+        h10 = f10 * i1
+        h11 = f11 * i1
+        h12 = f12 * i1
+        h13 = f13 * i1
+        h20 = f20 * i2
+        h21 = f21 * i2
+        h22 = f22 * i2
+        h23 = f23 * i2
+        h30 = f30 * i3
+        h31 = f31 * i3
+        h32 = f32 * i3
+        h33 = f33 * i3
+        G[j, 0, 0] = h00
+        G[j, 0, 1] = h01
+        G[j, 0, 2] = h02
+        G[j, 0, 3] = h03
+        G[j, 1, 0] = h10
+        G[j, 1, 1] = h11
+        G[j, 1, 2] = h12
+        G[j, 1, 3] = h13
+        G[j, 2, 0] = h20
+        G[j, 2, 1] = h21
+        G[j, 2, 2] = h22
+        G[j, 2, 3] = h23
+        G[j, 3, 0] = h30
+        G[j, 3, 1] = h31
+        G[j, 3, 2] = h32
+        G[j, 3, 3] = h33
         u00 = f00 * h00 + f10 * h10 + f20 * h20 + f30 * h30
         u10 = f01 * h00 + f11 * h10 + f21 * h20 + f31 * h30
         u11 = f01 * h01 + f11 * h11 + f21 * h21 + f31 * h31
@@ -728,7 +770,10 @@ def solve4(nrow, S, G, rhs, x):
         nr = nrow[j]
         if nr == 0:
             u0 = u1 = u2 = u3 = 0.0
-            x[j, 0] = 0.0; x[j, 1] = 0.0; x[j, 2] = 0.0; x[j, 3] = 0.0
+            x[j, 0] = 0.0
+            x[j, 1] = 0.0
+            x[j, 2] = 0.0
+            x[j, 3] = 0.0
             continue
         b0, b1, b2 = rhs[j, 0], rhs[j, 1], rhs[j, 2]
         b3 = rhs[j, 3] if nr == 4 else 0.0  # (nr == 6: rhs[j, 3:6] are the upper rows)
@@ -737,15 +782,21 @@ def solve4(nrow, S, G, rhs, x):
             b1 -= G[j - 1, 0, 1] * u0 + G[j - 1, 1, 1] * u1 + G[j - 1, 2, 1] * u2 + G[j - 1, 3, 1] * u3
             b2 -= G[j - 1, 0, 2] * u0 + G[j - 1, 1, 2] * u1 + G[j - 1, 2, 2] * u2 + G[j - 1, 3, 2] * u3
             b3 -= G[j - 1, 0, 3] * u0 + G[j - 1, 1, 3] * u1 + G[j - 1, 2, 3] * u2 + G[j - 1, 3, 3] * u3
-        u0, u1, u2, u3 = _unit_lower_solve4(S[j, 1, 0], S[j, 2, 0], S[j, 2, 1], S[j, 3, 0], S[j, 3, 1], S[j, 3, 2],
-                                            b0, b1, b2, b3)
-        x[j, 0] = u0; x[j, 1] = u1; x[j, 2] = u2; x[j, 3] = u3
+        u0, u1, u2, u3 = _unit_lower_solve4(
+            S[j, 1, 0], S[j, 2, 0], S[j, 2, 1], S[j, 3, 0], S[j, 3, 1], S[j, 3, 2], b0, b1, b2, b3
+        )
+        x[j, 0] = u0
+        x[j, 1] = u1
+        x[j, 2] = u2
+        x[j, 3] = u3
         if nr == 6:  # the upper rows of a split anchor start afresh (factors in S[j, 4:7, 4:7])
             u0 = rhs[j, 3]
             u1 = rhs[j, 4] - S[j, 5, 4] * u0
             u2 = rhs[j, 5] - S[j, 6, 4] * u0 - S[j, 6, 5] * u1
             u3 = 0.0
-            x[j, 3] = u0; x[j, 4] = u1; x[j, 5] = u2
+            x[j, 3] = u0
+            x[j, 4] = u1
+            x[j, 5] = u2
     z0 = z1 = z2 = z3 = 0.0
     for j in range(npts - 1, -1, -1):
         nr = nrow[j]
@@ -766,18 +817,25 @@ def solve4(nrow, S, G, rhs, x):
             z2 = b2
             z1 = b1 - S[j, 6, 5] * z2
             z0 = b0 - S[j, 5, 4] * z1 - S[j, 6, 4] * z2
-            x[j, 3] = z0; x[j, 4] = z1; x[j, 5] = z2
+            x[j, 3] = z0
+            x[j, 4] = z1
+            x[j, 5] = z2
             z2 = x[j, 2] * S[j, 2, 2]
             z1 = x[j, 1] * S[j, 1, 1] - S[j, 2, 1] * z2
             z0 = x[j, 0] * S[j, 0, 0] - S[j, 1, 0] * z1 - S[j, 2, 0] * z2
             z3 = 0.0
-            x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2
+            x[j, 0] = z0
+            x[j, 1] = z1
+            x[j, 2] = z2
             continue
         z3 = x[j, 3] * S[j, 3, 3] - c3
         z2 = x[j, 2] * S[j, 2, 2] - c2 - S[j, 3, 2] * z3
         z1 = x[j, 1] * S[j, 1, 1] - c1 - S[j, 2, 1] * z2 - S[j, 3, 1] * z3
         z0 = x[j, 0] * S[j, 0, 0] - c0 - S[j, 1, 0] * z1 - S[j, 2, 0] * z2 - S[j, 3, 0] * z3
-        x[j, 0] = z0; x[j, 1] = z1; x[j, 2] = z2; x[j, 3] = z3
+        x[j, 0] = z0
+        x[j, 1] = z1
+        x[j, 2] = z2
+        x[j, 3] = z3
 
 
 @njit(cache=True)

@@ -29,13 +29,11 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import entry, njit
-from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
-
 from .dynamics import (
     ROW_ANCHOR_LOWER,
     ROW_ANCHOR_UPPER,
     ROW_LOCK,
+    W_W,
     accelerations,
     apply_impulses,
     build_rows,
@@ -46,8 +44,9 @@ from .dynamics import (
     solve,
     torque_jump,
     torques4,
-    W_W,
 )
+from .jit import entry, njit
+from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
 from .rules import RATE_TOL, unit_hinge_gap
 from .state import MAXR
 
@@ -58,15 +57,24 @@ MULT_RTOL = 1e-10  # tolerance relative to the largest multiplier / acceleration
 # the post-impact w of a trial (w_plus), the hinge rates after it (rates_after), the lock
 # impulses, the floor's impulse per point, and the energy lost (to locking, to landing);
 # pv, vel: scratch of the point and centre velocities.
-ImpactWork = namedtuple("ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split", "pv",
-                                       "vel"])
+ImpactWork = namedtuple(
+    "ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split", "pv", "vel"]
+)
 
 
 def new_impact_work(n: int) -> ImpactWork:
     """Scratch of ``velocity_impact`` for an N-segment chain."""
     nh = max(n - 1, 0)
-    return ImpactWork(np.zeros((n + 1, MAXR)), np.zeros((n, 3)), np.zeros(nh), np.zeros(nh), np.zeros((n + 1, 3)),
-                      np.zeros(2), np.zeros((n + 1, 3)), np.zeros((n, 3)))
+    return ImpactWork(
+        np.zeros((n + 1, MAXR)),
+        np.zeros((n, 3)),
+        np.zeros(nh),
+        np.zeros(nh),
+        np.zeros((n + 1, 3)),
+        np.zeros(2),
+        np.zeros((n + 1, 3)),
+        np.zeros((n, 3)),
+    )
 
 
 @entry

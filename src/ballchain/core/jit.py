@@ -146,8 +146,9 @@ def _cheap_only(library) -> None:
     """numba's cheap module pipeline and reference-count pruning, without the full one
     (the first half of ``CPUCodeLibrary._optimize_final_module``)."""
     cg = library._codegen
-    mpm, mpb = cg._module_pass_manager(loop_vectorize=cg._loopvect, slp_vectorize=False,
-                                       opt=cg._opt_level, cost="cheap")
+    mpm, mpb = cg._module_pass_manager(
+        loop_vectorize=cg._loopvect, slp_vectorize=False, opt=cg._opt_level, cost="cheap"
+    )
     with library._recorded_timings.record("Module passes (cheap optimization for refprune)", mpb):
         mpm.run(library._final_module, mpb)
     if not _config.LLVM_REFPRUNE_PASS:
@@ -168,14 +169,33 @@ def _shape_known() -> bool:
     lib = getattr(_codegen, "CPUCodeLibrary", None)
     impl = getattr(_caching, "CompileResultCacheImpl", None)
     cache = getattr(_caching, "Cache", None)
-    return (lib is not None and impl is not None and cache is not None
-            and {"_module_pass_manager", "_final_module", "_recorded_timings", "LLVM_REFPRUNE_PASS",
-                 "remove_redundant_nrt_refct", "run"} <= _names(lib, "_optimize_final_module")
-            and {"_linking_libraries", "link_in", "_get_module_for_linking", "_optimize_final_module",
-                 "_reload_init", "_finalize_final_module"} <= _names(lib, "finalize")
-            and "_verify_declare_only_symbols" in _names(lib, "_finalize_final_module")
-            and "check_cachable" in _names(cache, "_save_overload")
-            and hasattr(impl, "check_cachable") and hasattr(_codegen, "remove_redundant_nrt_refct"))
+    return (
+        lib is not None
+        and impl is not None
+        and cache is not None
+        and {
+            "_module_pass_manager",
+            "_final_module",
+            "_recorded_timings",
+            "LLVM_REFPRUNE_PASS",
+            "remove_redundant_nrt_refct",
+            "run",
+        }
+        <= _names(lib, "_optimize_final_module")
+        and {
+            "_linking_libraries",
+            "link_in",
+            "_get_module_for_linking",
+            "_optimize_final_module",
+            "_reload_init",
+            "_finalize_final_module",
+        }
+        <= _names(lib, "finalize")
+        and "_verify_declare_only_symbols" in _names(lib, "_finalize_final_module")
+        and "check_cachable" in _names(cache, "_save_overload")
+        and hasattr(impl, "check_cachable")
+        and hasattr(_codegen, "remove_redundant_nrt_refct")
+    )
 
 
 def _install() -> bool:

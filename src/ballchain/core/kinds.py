@@ -7,8 +7,7 @@ plots and files can name the kinds without loading numba.
 from __future__ import annotations
 
 # The event log's kinds (one row per constraint that acted at an event instant).
-EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top", 5: "impulse", 6: "release", 7: "hold",
-               8: "anchor"}
+EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top", 5: "impulse", 6: "release", 7: "hold", 8: "anchor"}
 EVENT_MEANINGS = {
     "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
     "unlock": "a locked hinge's multiplier crosses zero in smooth motion and it unlocks; no impulse",

@@ -34,9 +34,14 @@ Pivoting = namedtuple("Pivoting", ["viol", "hist", "nhist", "best", "stall", "mu
 @njit(cache=True)
 def new_pivoting(nh):
     """A fresh driver for an LCP over nh indices."""
-    return Pivoting(np.zeros(max(nh, 1), dtype=np.uint8), np.zeros(PIVOT_BUDGET + 1, dtype=np.uint64),
-                    np.zeros(1, np.int64), np.full(1, 1 << 60, np.int64), np.zeros(1, np.int64),
-                    np.zeros(1, np.uint8))
+    return Pivoting(
+        np.zeros(max(nh, 1), dtype=np.uint8),
+        np.zeros(PIVOT_BUDGET + 1, dtype=np.uint64),
+        np.zeros(1, np.int64),
+        np.full(1, 1 << 60, np.int64),
+        np.zeros(1, np.int64),
+        np.zeros(1, np.uint8),
+    )
 
 
 @njit(cache=True)

@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 
 from .jit import njit
-
 from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a plain module)
     EVENT_CODES,
     EVENT_KINDS,
@@ -159,5 +158,3 @@ def bottom_airborne(anchored):
         if not (anchored[i] != 0 and anchored[i + 1] != 0):
             return i
     return -1
-
-

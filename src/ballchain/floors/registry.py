@@ -12,8 +12,12 @@ from __future__ import annotations
 # name -> (code, module, what it means)
 FLOORS = {
     "all": (0, "anchor_all", "every point that reaches the floor is stopped and anchored there"),
-    "pivot": (1, "pivot", "the paper read literally: only the bottom airborne segment meets the floor, "
-                          "its upper end anchors when it lies flat"),
+    "pivot": (
+        1,
+        "pivot",
+        "the paper read literally: only the bottom airborne segment meets the floor, "
+        "its upper end anchors when it lies flat",
+    ),
 }
 FLOOR_MODELS = tuple(FLOORS)  # the names ChainParams.floor accepts
 FLOOR_CODES = {name: code for name, (code, _, _) in FLOORS.items()}

@@ -13,8 +13,11 @@ import importlib
 
 # name -> (module path relative to this package, what it is)
 METHODS = {
-    "event": ("event_driven.driver", "event-driven: Dormand-Prince 5(4) between events located to "
-                                     "event_xtol, an exact impact and lock set at each event instant"),
+    "event": (
+        "event_driven.driver",
+        "event-driven: Dormand-Prince 5(4) between events located to "
+        "event_xtol, an exact impact and lock set at each event instant",
+    ),
 }
 METHOD_NAMES = tuple(METHODS)
 

@@ -44,8 +44,10 @@ class FrameBuffer:
 
     def arrays(self) -> dict:
         self.flush()
-        return {name: np.concatenate(self.chunks[name]) if self.chunks[name] else getattr(self.compiled, name)[:0]
-                for name in FRAME_FIELDS}
+        return {
+            name: np.concatenate(self.chunks[name]) if self.chunks[name] else getattr(self.compiled, name)[:0]
+            for name in FRAME_FIELDS
+        }
 
 
 class TraceBuffer:

@@ -7,7 +7,6 @@
 """
 
 from .animate import AnimationError, ChainAnimation, animation_figure, frame_indices, write_animation
-
 from .run import (
     FIGURES,
     energy_figure,
@@ -19,5 +18,18 @@ from .run import (
     plot_run,
 )
 
-__all__ = ["AnimationError", "ChainAnimation", "animation_figure", "frame_indices", "write_animation", "FIGURES", "energy_figure", "fall_figure", "floor_figure", "gamma_figure", "lock_map_figure", "pile_figure",
-           "plot_run"]
+__all__ = [
+    "AnimationError",
+    "ChainAnimation",
+    "animation_figure",
+    "frame_indices",
+    "write_animation",
+    "FIGURES",
+    "energy_figure",
+    "fall_figure",
+    "floor_figure",
+    "gamma_figure",
+    "lock_map_figure",
+    "pile_figure",
+    "plot_run",
+]

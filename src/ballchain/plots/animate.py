@@ -76,7 +76,7 @@ def _limits(r: Result, idx: np.ndarray, chunk: int = 256):
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
     for s in range(0, idx.size, chunk):
-        p = r.points(idx[s:s + chunk]) / b
+        p = r.points(idx[s : s + chunk]) / b
         lo = np.minimum(lo, np.nanmin(p.reshape(-1, 3), axis=0))
         hi = np.maximum(hi, np.nanmax(p.reshape(-1, 3), axis=0))
     return lo, hi
@@ -114,14 +114,19 @@ class ChainAnimation:
         fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI)
         self.canvas = FigureCanvasAgg(fig)
         self.fig = fig
-        gs = fig.add_gridspec(1, 3, width_ratios=(1.5, 1.0, 1.0), left=0.02, right=0.98, bottom=0.12,
-                              top=0.9, wspace=0.3)
+        gs = fig.add_gridspec(
+            1, 3, width_ratios=(1.5, 1.0, 1.0), left=0.02, right=0.98, bottom=0.12, top=0.9, wspace=0.3
+        )
 
         # 3D view: floor plane first, then the chain, the pile and the locks over it
         ax3 = fig.add_subplot(gs[0, 0], projection="3d", computed_zorder=False)
         (x0, x1), (y0, y1) = xy_lim
-        floor = Poly3DCollection([[(x0, y0, 0.0), (x1, y0, 0.0), (x1, y1, 0.0), (x0, y1, 0.0)]],
-                                 facecolors=(0.6, 0.6, 0.6, 0.35), edgecolors=(0.4, 0.4, 0.4, 0.6), zorder=0)
+        floor = Poly3DCollection(
+            [[(x0, y0, 0.0), (x1, y0, 0.0), (x1, y1, 0.0), (x0, y1, 0.0)]],
+            facecolors=(0.6, 0.6, 0.6, 0.35),
+            edgecolors=(0.4, 0.4, 0.4, 0.6),
+            zorder=0,
+        )
         ax3.add_collection3d(floor, autolim=False)
         self.floor3d = floor
         self.pile3d = Line3DCollection([], colors=PILE_COLOR, linewidths=2.5, zorder=3)
@@ -157,14 +162,20 @@ class ChainAnimation:
         stretch = ((z_lim[1] - z_lim[0]) / (box.height * h)) / ((xy_lim[0][1] - xy_lim[0][0]) / (box.width * w))
         self.side_stretch = max(float(stretch), 1.0)  # pixels per b along x over those along z
         side_title = "side (x-z)" if stretch <= 1.0 else f"side (x-z), x stretched {stretch:.3g}x"
-        self.chain_side, self.pile_side, self.locks_side = flat(self.ax_side, (xy_lim[0], z_lim), "x / b",
-                                                                "z / b", side_title, equal=stretch <= 1.0)
+        self.chain_side, self.pile_side, self.locks_side = flat(
+            self.ax_side, (xy_lim[0], z_lim), "x / b", "z / b", side_title, equal=stretch <= 1.0
+        )
         self.ax_top = fig.add_subplot(gs[0, 2])
-        self.chain_top, self.pile_top, self.locks_top = flat(self.ax_top, xy_lim, "x / b", "y / b",
-                                                             "top (x-y)")
+        self.chain_top, self.pile_top, self.locks_top = flat(self.ax_top, xy_lim, "x / b", "y / b", "top (x-y)")
         # a legend of the three kinds of artist, once
-        fig.legend([self.chain_top, self.pile_top, self.locks_top], ["chain", "pile (landed segments)",
-                   "locked hinge"], loc="lower center", ncol=3, fontsize=9, frameon=False)
+        fig.legend(
+            [self.chain_top, self.pile_top, self.locks_top],
+            ["chain", "pile (landed segments)", "locked hinge"],
+            loc="lower center",
+            ncol=3,
+            fontsize=9,
+            frameon=False,
+        )
 
         p = r.params
         self._head = f"N = {p.segments}, alpha = {np.degrees(p.alpha):.4g} deg, floor {p.floor}"
@@ -193,21 +204,34 @@ class ChainAnimation:
         self.chain3d.set_data_3d(pts[:, 0], pts[:, 1], pts[:, 2])
         self.pile3d.set_segments(list(seg))
         self.locks3d.set_data_3d(hinge[:, 0], hinge[:, 1], hinge[:, 2])
-        for chain, pile, locks, (i, j) in ((self.chain_side, self.pile_side, self.locks_side, (0, 2)),
-                                           (self.chain_top, self.pile_top, self.locks_top, (0, 1))):
+        for chain, pile, locks, (i, j) in (
+            (self.chain_side, self.pile_side, self.locks_side, (0, 2)),
+            (self.chain_top, self.pile_top, self.locks_top, (0, 1)),
+        ):
             chain.set_data(pts[:, i], pts[:, j])
             pile.set_segments(list(seg[:, :, (i, j)]))
             locks.set_data(hinge[:, i], hinge[:, j])
 
         t = float(np.asarray(self.r.frame_t)[frame]) / self.r.t_ff
-        self.title.set_text(f"{self._head}    t = {t:.3f} t_ff    "
-                            f"landed {landed.size}/{pts.shape[0] - 1}, locked {locked.size}")
+        self.title.set_text(
+            f"{self._head}    t = {t:.3f} t_ff    landed {landed.size}/{pts.shape[0] - 1}, locked {locked.size}"
+        )
         self.frame = frame
 
     def _moving(self):
         """The artists that change from frame to frame, in drawing order."""
-        return (self.chain3d, self.pile3d, self.locks3d, self.chain_side, self.pile_side, self.locks_side,
-                self.chain_top, self.pile_top, self.locks_top, self.title)
+        return (
+            self.chain3d,
+            self.pile3d,
+            self.locks3d,
+            self.chain_side,
+            self.pile_side,
+            self.locks_side,
+            self.chain_top,
+            self.pile_top,
+            self.locks_top,
+            self.title,
+        )
 
     def render(self, frame: int) -> np.ndarray:
         """The RGB image (H, W, 3) uint8 of frame ``frame``.
@@ -241,9 +265,17 @@ def _write_mp4(path: Path, images, fps: float) -> None:
     import imageio.v2 as imageio  # lazy: only when writing
     import imageio_ffmpeg  # noqa: F401  (the ffmpeg binary imageio uses: imageio_ffmpeg.get_ffmpeg_exe())
 
-    writer = imageio.get_writer(str(path), format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                pixelformat="yuv420p", quality=7, macro_block_size=16,
-                                ffmpeg_log_level="error")
+    writer = imageio.get_writer(
+        str(path),
+        format="FFMPEG",
+        mode="I",
+        fps=fps,
+        codec="libx264",
+        pixelformat="yuv420p",
+        quality=7,
+        macro_block_size=16,
+        ffmpeg_log_level="error",
+    )
     try:
         for img in images:
             writer.append_data(img)
@@ -257,12 +289,28 @@ def _write_gif(path: Path, images, fps: float) -> None:
     frames = [Image.fromarray(img).quantize(colors=128, method=Image.Quantize.MEDIANCUT) for img in images]
     if not frames:
         raise AnimationError("no frames to write")
-    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:],
-                   duration=max(int(round(1000.0 / fps)), 10), loop=0, optimize=False, disposal=1)
+    frames[0].save(
+        path,
+        format="GIF",
+        save_all=True,
+        append_images=frames[1:],
+        duration=max(int(round(1000.0 / fps)), 10),
+        loop=0,
+        optimize=False,
+        disposal=1,
+    )
 
 
-def write_animation(r: Result, path, *, fps: float = 25.0, every: int | None = None, frames: int | None = None,
-                    force: bool = False, progress=None) -> Path:
+def write_animation(
+    r: Result,
+    path,
+    *,
+    fps: float = 25.0,
+    every: int | None = None,
+    frames: int | None = None,
+    force: bool = False,
+    progress=None,
+) -> Path:
     """Write the animation of ``r`` to ``path`` (.mp4 or .gif by its suffix) and return
     the path.  ``every``/``frames`` thin the run's frames (``frame_indices``); ``fps``
     is the playback rate.  ``progress(done, total)`` is called after every frame.  The

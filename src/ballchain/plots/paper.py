@@ -62,8 +62,10 @@ def fig4_pile(r: Result, split: float = SPLIT) -> Figure:
     pos = np.asarray(r.anchor_pos) / r.params.half_length
     idx = np.flatnonzero(np.isfinite(a[:-1]) & np.isfinite(a[1:]))
     when = np.maximum(a[idx], a[idx + 1]) / r.t_ff
-    for sel, color, label in ((when < split, "C0", f"landed before {split} t_ff"),
-                              (when >= split, "C3", f"landed after {split} t_ff")):
+    for sel, color, label in (
+        (when < split, "C0", f"landed before {split} t_ff"),
+        (when >= split, "C3", f"landed after {split} t_ff"),
+    ):
         segs = np.stack([pos[idx[sel], :2], pos[idx[sel] + 1, :2]], axis=1)
         ax.add_collection(LineCollection(segs, colors=color, linewidths=1.5, label=label))
     ax.autoscale()
@@ -101,8 +103,9 @@ def fig6_hamm_geminard(runs: list[Result]) -> Figure:
             gam = theory.gamma_from_time_ratio(ratio)
         except ValueError:
             continue
-        (mark,) = ax.plot([gam], [ratio], "o", ms=5,
-                          label=f"N = {r.params.segments}, alpha = {math.degrees(r.params.alpha):.0f} deg")
+        (mark,) = ax.plot(
+            [gam], [ratio], "o", ms=5, label=f"N = {r.params.segments}, alpha = {math.degrees(r.params.alpha):.0f} deg"
+        )
         measured = floor_gamma(r).gamma  # gamma measured from the floor's momentum record
         if math.isfinite(measured):
             ax.plot([measured], [ratio], "s", ms=5, mfc="none", color=mark.get_color(), gid="measured")
@@ -132,8 +135,7 @@ def fig7_pivot_rod(theta0s=(0.0, 0.2, 0.5), s_max: float = 1.5, n: int = 41) -> 
     with warnings.catch_warnings():  # (quad's round-off notes at 1e-13: far below the picture's resolution)
         warnings.simplefilter("ignore")
         dp = np.array([[theory.pivot_rod_impulse(a, b) for a in t0] for b in ss])
-    mesh = a2.pcolormesh(t0, ss, dp, cmap="RdBu_r", vmin=-np.max(np.abs(dp)), vmax=np.max(np.abs(dp)),
-                         shading="auto")
+    mesh = a2.pcolormesh(t0, ss, dp, cmap="RdBu_r", vmin=-np.max(np.abs(dp)), vmax=np.max(np.abs(dp)), shading="auto")
     fig.colorbar(mesh, ax=a2, label="Delta p / m sqrt(g b)")
     a2.plot(t0, [theory.pivot_rod_critical_s(a) for a in t0], "k", lw=1.2, label="Delta p = 0")
     a2.set(xlabel="theta0 (rad)", ylabel="s = b thetadot0^2 / g", title="pivot impulse")

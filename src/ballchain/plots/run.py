@@ -46,8 +46,12 @@ def energy_figure(r: Result) -> Figure:
     fig, ax = plt.subplots(figsize=(5.5, 4))
     tau = np.asarray(r.frame_t) / r.t_ff
     e0 = r.energy["initial"]
-    for name, label in (("frame_kinetic", "kinetic"), ("frame_potential", "potential"),
-                        ("frame_lost_locking", "lost to locking"), ("frame_lost_landing", "lost to landing")):
+    for name, label in (
+        ("frame_kinetic", "kinetic"),
+        ("frame_potential", "potential"),
+        ("frame_lost_locking", "lost to locking"),
+        ("frame_lost_landing", "lost to landing"),
+    ):
         ax.plot(tau, np.asarray(getattr(r, name)) / e0, label=label)
     ax.set(xlabel="t / t_ff", ylabel="energy / initial energy", title=_title(r))
     ax.legend()
@@ -95,8 +99,9 @@ def lock_map_figure(r: Result) -> Figure:
     """Heights of the hinges at the instants they lock, with z_top(t) (the paper's Fig. 3)."""
     fig, ax = plt.subplots(figsize=(5.5, 4))
     lock = np.asarray(r.event_kind) == EVENT_CODES["lock"]
-    ax.scatter(np.asarray(r.event_t)[lock] / r.t_ff, np.asarray(r.event_pos)[lock, 2] / r.z0, s=2, c="C3",
-               label="hinge locks")
+    ax.scatter(
+        np.asarray(r.event_t)[lock] / r.t_ff, np.asarray(r.event_pos)[lock, 2] / r.z0, s=2, c="C3", label="hinge locks"
+    )
     ax.plot(np.asarray(r.t) / r.t_ff, np.asarray(r.z_top) / r.z0, "k", lw=1, label="z_top")
     ax.set(xlabel="t / t_ff", ylabel="height / z0", title=_title(r))
     ax.legend(markerscale=4)
@@ -113,8 +118,14 @@ def gamma_figure(r: Result) -> Figure:
     fig, ax = plt.subplots(figsize=(5.5, 4))
     if fg.window_gamma.size:
         mid = 0.5 * (fg.window_edges[:-1] + fg.window_edges[1:])
-        ax.step(fg.window_edges, np.append(fg.window_gamma, fg.window_gamma[-1]), where="post", color="C0",
-                label="measured, per window", gid="windows")
+        ax.step(
+            fg.window_edges,
+            np.append(fg.window_gamma, fg.window_gamma[-1]),
+            where="post",
+            color="C0",
+            label="measured, per window",
+            gid="windows",
+        )
         ax.plot(mid, fg.window_gamma, "o", color="C0", ms=3)
     if np.isfinite(fg.gamma):
         ax.axhline(fg.gamma, color="C0", ls="--", lw=1, label=f"measured over the fall: {fg.gamma:.3f}", gid="whole")
@@ -124,14 +135,23 @@ def gamma_figure(r: Result) -> Figure:
     except ValueError:
         pass
     ax.axhline(1.0, color="k", lw=0.5)
-    ax.set(xlabel="t / t_ff", ylabel="gamma = removed / carried momentum",
-           title=_title(r) + f"\n{fg.landed} landings before t_fall")
+    ax.set(
+        xlabel="t / t_ff",
+        ylabel="gamma = removed / carried momentum",
+        title=_title(r) + f"\n{fg.landed} landings before t_fall",
+    )
     ax.legend(fontsize=7)
     return fig
 
 
-FIGURES = {"fall": fall_figure, "energy": energy_figure, "floor": floor_figure, "pile": pile_figure,
-           "lock_map": lock_map_figure, "gamma": gamma_figure}
+FIGURES = {
+    "fall": fall_figure,
+    "energy": energy_figure,
+    "floor": floor_figure,
+    "pile": pile_figure,
+    "lock_map": lock_map_figure,
+    "gamma": gamma_figure,
+}
 
 
 def write_figures(makers: dict, out_dir, formats=("png", "pdf"), note=lambda s: None) -> list[Path]:

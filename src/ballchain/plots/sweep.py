@@ -14,7 +14,6 @@ from matplotlib.figure import Figure  # noqa: E402
 from ..theory import hamm_geminard_time_ratio  # noqa: E402
 
 
-
 def alpha_figure(points: list[dict], column: str = "ratio", optimal: list[dict] | None = None) -> Figure:
     """``points``: ``stats.point_stats`` rows.  One panel per floor; per N the mean of
     ``column`` against alpha (degrees), the interval as a band, the per-N optimum marked."""
@@ -24,8 +23,10 @@ def alpha_figure(points: list[dict], column: str = "ratio", optimal: list[dict] 
     for ax, fl in zip(axes[0], floors):
         ns = sorted({p["segments"] for p in points if p["floor"] == fl})
         for i, n in enumerate(ns):
-            rows = sorted((p for p in points if p["floor"] == fl and p["segments"] == n and p[column]["mean"]
-                           is not None), key=lambda p: p["alpha"])
+            rows = sorted(
+                (p for p in points if p["floor"] == fl and p["segments"] == n and p[column]["mean"] is not None),
+                key=lambda p: p["alpha"],
+            )
             if not rows:
                 continue
             a = np.array([p["alpha_deg"] for p in rows])
@@ -36,11 +37,23 @@ def alpha_figure(points: list[dict], column: str = "ratio", optimal: list[dict] 
             ax.plot(a, m, "o-", color=f"C{i}", ms=3, lw=1.2, label=f"N = {n} ({nrun} runs per alpha)", gid=f"N{n}")
             ax.fill_between(a, lo, hi, color=f"C{i}", alpha=0.25, lw=0, gid=f"band-N{n}")
             for o in optimal or []:
-                if o.get("floor") == fl and o.get("segments") == n and o.get("alpha_deg") is not None \
-                        and column == "ratio" and o.get("n_alpha", 0) > 1:
-                    ax.errorbar([o["alpha_deg"]], [o["mean"]],
-                                xerr=[[o["alpha_deg"] - o["ci_low_deg"]], [o["ci_high_deg"] - o["alpha_deg"]]],
-                                fmt="*", color=f"C{i}", ms=10, capsize=3, gid=f"optimum-N{n}")
+                if (
+                    o.get("floor") == fl
+                    and o.get("segments") == n
+                    and o.get("alpha_deg") is not None
+                    and column == "ratio"
+                    and o.get("n_alpha", 0) > 1
+                ):
+                    ax.errorbar(
+                        [o["alpha_deg"]],
+                        [o["mean"]],
+                        xerr=[[o["alpha_deg"] - o["ci_low_deg"]], [o["ci_high_deg"] - o["alpha_deg"]]],
+                        fmt="*",
+                        color=f"C{i}",
+                        ms=10,
+                        capsize=3,
+                        gid=f"optimum-N{n}",
+                    )
         ax.axhline(1.0, color="k", ls="--", lw=0.8, label="free fall")
         if column == "ratio":
             ax.axhline(hamm_geminard_time_ratio(0.0), color="0.5", ls=":", lw=0.8, label="Hamm-Geminard, gamma = 0")
@@ -59,8 +72,10 @@ def segments_figure(points: list[dict], column: str = "ratio", min_sizes: int = 
     keys = sorted({(p["alpha_deg"], p["floor"]) for p in points})
     i = 0
     for a, fl in keys:
-        rows = sorted((p for p in points if p["alpha_deg"] == a and p["floor"] == fl
-                       and p[column]["mean"] is not None), key=lambda p: p["segments"])
+        rows = sorted(
+            (p for p in points if p["alpha_deg"] == a and p["floor"] == fl and p[column]["mean"] is not None),
+            key=lambda p: p["segments"],
+        )
         if len(rows) < max(2, min_sizes):
             continue
         n = np.array([p["segments"] for p in rows])
@@ -96,5 +111,3 @@ def write_alpha_figure(points, path, optimal=None, column: str = "ratio") -> Non
         fig.savefig(path, dpi=150, bbox_inches="tight")
     finally:
         plt.close(fig)
-
-

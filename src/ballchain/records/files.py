@@ -65,28 +65,65 @@ _COMPRESS_MIN_BYTES = 16 * 1024
 _CHUNK_BYTES = 1 << 20
 
 _UNITS_SI = {
-    "time": "s", "length": "m", "force": "N", "impulse": "N s", "energy": "J",
-    "1/time": "1/s", "1": "1", "s": "s",
+    "time": "s",
+    "length": "m",
+    "force": "N",
+    "impulse": "N s",
+    "energy": "J",
+    "1/time": "1/s",
+    "1": "1",
+    "s": "s",
 }
 _UNITS_ND = {
-    "time": "sqrt(b/g)", "length": "b", "force": "m g", "impulse": "m sqrt(g b)",
-    "energy": "m g b", "1/time": "sqrt(g/b)", "1": "1", "s": "s",
+    "time": "sqrt(b/g)",
+    "length": "b",
+    "force": "m g",
+    "impulse": "m sqrt(g b)",
+    "energy": "m g b",
+    "1/time": "sqrt(g/b)",
+    "1": "1",
+    "s": "s",
 }
 
 GROUPS = {
-    "summary": ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "floor_impulse", "floor_impulse_total",
-                "wall_seconds", "n_steps", "n_evals", "n_instants"),
+    "summary": (
+        "z0",
+        "t_ff",
+        "t_fall",
+        "t_landed",
+        "max_depth",
+        "floor_impulse",
+        "floor_impulse_total",
+        "wall_seconds",
+        "n_steps",
+        "n_evals",
+        "n_instants",
+    ),
     "trace": ("t", "z_top"),
-    "frames": ("frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked",
-               "frame_floor_force", "frame_pile_pull", "frame_scale_force", "frame_floor_impulse",
-               "frame_kinetic", "frame_potential", "frame_lost_locking", "frame_lost_landing"),
+    "frames": (
+        "frame_t",
+        "frame_e",
+        "frame_omega",
+        "frame_anchored",
+        "frame_locked",
+        "frame_floor_force",
+        "frame_pile_pull",
+        "frame_scale_force",
+        "frame_floor_impulse",
+        "frame_kinetic",
+        "frame_potential",
+        "frame_lost_locking",
+        "frame_lost_landing",
+    ),
     "events": ("event_t", "event_kind", "event_index", "event_impulse", "event_energy", "event_pos"),
     "anchors": ("anchor_t", "anchor_pos"),
 }
 # datasets that version 1 files lack (read back as NaN), by their shape
 _NEW_IN_V2 = {
-    "floor_impulse_total": lambda nf, ne: (3,), "frame_pile_pull": lambda nf, ne: (nf, 3),
-    "frame_scale_force": lambda nf, ne: (nf,), "frame_floor_impulse": lambda nf, ne: (nf, 3),
+    "floor_impulse_total": lambda nf, ne: (3,),
+    "frame_pile_pull": lambda nf, ne: (nf, 3),
+    "frame_scale_force": lambda nf, ne: (nf,),
+    "frame_floor_impulse": lambda nf, ne: (nf, 3),
     "event_pos": lambda nf, ne: (ne, 3),
 }
 _FLOAT_SCALARS = ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "wall_seconds")
@@ -100,8 +137,8 @@ DESCRIPTIONS = {
     "max_depth": "deepest airborne point below the floor (floor = pivot; 0 if none)",
     "floor_impulse": "sum of the floor's impulses on the chain at every impact (x, y, z), landings and anchored points",
     "floor_impulse_total": "the floor's whole impulse on the chain from t = 0 to the end (x, y, z): impacts, "
-                           "continuous force (integrated by the integrator's quadrature) and the support of landed "
-                           "segments; = M (v_cm(end) - v_cm(0)) + M g t_end e_z",
+    "continuous force (integrated by the integrator's quadrature) and the support of landed "
+    "segments; = M (v_cm(end) - v_cm(0)) + M g t_end e_z",
     "wall_seconds": "wall-clock duration of the run",
     "n_steps": "accepted integrator steps",
     "n_evals": "evaluations of the equations of motion",
@@ -115,9 +152,9 @@ DESCRIPTIONS = {
     "frame_locked": "hinge k between segments k and k+1 locked (F, N-1)",
     "frame_floor_force": "continuous force of all anchors on the airborne chain (F, 3)",
     "frame_pile_pull": "force of the pile on the hanging chain through the first anchored point from the top "
-                       "(F, 3; z < 0: a pull down; 0 when the top end is anchored)",
+    "(F, 3; z < 0: a pull down; 0 when the top end is anchored)",
     "frame_scale_force": "vertical force a scale under the floor reads: the anchors' z force plus the weight "
-                         "of the landed segments (impulses excluded)",
+    "of the landed segments (impulses excluded)",
     "frame_floor_impulse": "the floor's cumulative impulse on the chain from t = 0 (F, 3), impacts included",
     "frame_kinetic": "kinetic energy",
     "frame_potential": "potential energy",
@@ -209,7 +246,9 @@ def check_writable(path, force: bool = False) -> Path:
         raise ResultFileError(f"output: {str(p)!r} is a directory")
     if p.exists() or p.is_symlink():
         if not force:
-            raise FileExistsError(f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)")
+            raise FileExistsError(
+                f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
+            )
     reason = _writable_dir(p.parent if str(p.parent) else Path("."))
     if reason is not None:
         raise ResultFileError(f"output: cannot write {str(p)!r}: {reason}")
@@ -240,7 +279,7 @@ def _write(f, result: Result) -> None:
     f.attrs["package_version"] = __version__
     f.attrs["version"] = str(result.version)
     f.attrs["units"] = units
-    f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    f.attrs["created"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     f.attrs["status"] = str(result.status)
     f.attrs["message"] = str(result.message)
     if result.ic is not None:
@@ -304,10 +343,14 @@ def save_result(result: Result, path, *, force: bool = False) -> Path:
             try:  # atomic no-clobber: link fails if the target appeared meanwhile
                 os.link(tmp, p)
             except FileExistsError:
-                raise FileExistsError(f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)") from None
+                raise FileExistsError(
+                    f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
+                ) from None
             except OSError:  # file system without hard links
                 if p.exists():
-                    raise FileExistsError(f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)") from None
+                    raise FileExistsError(
+                        f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
+                    ) from None
                 os.replace(tmp, p)
     finally:
         try:
@@ -375,10 +418,16 @@ def _read(f, where: str) -> Result:
     for name in _INT_SCALARS:
         kw[name] = int(kw[name])
     return Result(
-        params=params, ic=ic, options=options,
-        version=str(need_attr("version")), status=str(need_attr("status")),
-        message=str(need_attr("message")), energy=energy,
-        units=str(need_attr("units")), extra=extra, **kw,
+        params=params,
+        ic=ic,
+        options=options,
+        version=str(need_attr("version")),
+        status=str(need_attr("status")),
+        message=str(need_attr("message")),
+        energy=energy,
+        units=str(need_attr("units")),
+        extra=extra,
+        **kw,
     )
 
 
@@ -407,8 +456,9 @@ def _open(path):
     try:
         fmt = _str_attr(f.attrs, "format")
         if fmt != FORMAT_NAME:
-            raise ResultFileError(f"{where}: not a ballchain result file (HDF5 file without "
-                                  f"format attribute {FORMAT_NAME!r})")
+            raise ResultFileError(
+                f"{where}: not a ballchain result file (HDF5 file without format attribute {FORMAT_NAME!r})"
+            )
         ver = f.attrs.get("format_version")
         try:
             ver_i = int(ver)
@@ -418,8 +468,10 @@ def _open(path):
             raise ResultFileError(f"{where}: damaged result file (bad format_version {ver!r})") from None
         if ver_i > FORMAT_VERSION:
             pv = _str_attr(f.attrs, "package_version", "?")
-            raise ResultFileError(f"{where}: written by a newer ballchain ({pv}, format version "
-                                  f"{ver_i} > {FORMAT_VERSION}); upgrade ballchain to read it")
+            raise ResultFileError(
+                f"{where}: written by a newer ballchain ({pv}, format version "
+                f"{ver_i} > {FORMAT_VERSION}); upgrade ballchain to read it"
+            )
         if ver_i < 1:
             raise ResultFileError(f"{where}: damaged result file (bad format_version {ver_i})")
     except ResultFileError:
@@ -453,8 +505,10 @@ def file_info(path) -> dict:
     """Root metadata of a result file (format, versions, units, creation time)."""
     f, _ = _open(path)
     with f:
-        info = {k: _str_attr(f.attrs, k) for k in
-                ("format", "package_version", "version", "units", "created", "status")
-                if k in f.attrs}
+        info = {
+            k: _str_attr(f.attrs, k)
+            for k in ("format", "package_version", "version", "units", "created", "status")
+            if k in f.attrs
+        }
         info["format_version"] = int(f.attrs["format_version"])
         return info

@@ -61,12 +61,12 @@ def landing_times(r) -> np.ndarray:
 class FloorGamma:
     """gamma measured from the floor: whole fall and per window of t/t_ff."""
 
-    gamma: float                 # removed / carried over the segments landed before t_fall
-    removed: float               # the floor's impulse beyond the landed segments' support (run units)
-    carried: float               # the momentum the landing segments carried in (run units)
-    landed: int                  # segments counted
-    window_edges: np.ndarray     # (W+1,) t/t_ff
-    window_gamma: np.ndarray     # (W,) NaN where nothing landed
+    gamma: float  # removed / carried over the segments landed before t_fall
+    removed: float  # the floor's impulse beyond the landed segments' support (run units)
+    carried: float  # the momentum the landing segments carried in (run units)
+    landed: int  # segments counted
+    window_edges: np.ndarray  # (W+1,) t/t_ff
+    window_gamma: np.ndarray  # (W,) NaN where nothing landed
 
 
 def floor_gamma(r, windows: int = 8, velocities: np.ndarray | None = None) -> FloorGamma:
@@ -112,8 +112,14 @@ def floor_gamma(r, windows: int = 8, velocities: np.ndarray | None = None) -> Fl
         c = float(np.sum(carried_each[sel]))
         if c > 0.0:
             wg[k] = (removed_at(edges[k + 1]) - removed_at(edges[k])) / c
-    return FloorGamma(gamma=removed / carried if carried > 0 else math.nan, removed=removed,
-                      carried=carried, landed=int(s_i.size), window_edges=edges / r.t_ff, window_gamma=wg)
+    return FloorGamma(
+        gamma=removed / carried if carried > 0 else math.nan,
+        removed=removed,
+        carried=carried,
+        landed=int(s_i.size),
+        window_edges=edges / r.t_ff,
+        window_gamma=wg,
+    )
 
 
 def derived_measures(result) -> dict[str, float]:

@@ -38,8 +38,9 @@ def run_task(task: Task) -> dict:
         return result_row(task, result, where)
     except BaseException as exc:  # noqa: BLE001 - a run must never stop the sweep
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-        return error_row(task, f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__,
-                         time.perf_counter() - t0, where)
+        return error_row(
+            task, f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__, time.perf_counter() - t0, where
+        )
 
 
 def warm_kernels() -> bool:
@@ -89,8 +90,14 @@ def _connect(scheduler: str | None, workers: int, log):
     # one thread per worker process; no nested BLAS/numba threads
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
         os.environ.setdefault(var, "1")
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR, host="127.0.0.1")
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+        host="127.0.0.1",
+    )
     return Client(cluster), cluster
 
 
@@ -100,8 +107,16 @@ def check_scheduler(address: str) -> None:
     client.close()
 
 
-def run_sweep(spec: SweepSpec, out, *, workers: int | None = None, scheduler: str | None = None,
-              retry_errors: bool = False, progress: bool = True, log=None) -> SweepReport:
+def run_sweep(
+    spec: SweepSpec,
+    out,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    retry_errors: bool = False,
+    progress: bool = True,
+    log=None,
+) -> SweepReport:
     """Run every task of ``spec`` that ``out`` does not hold yet; rows go to ``out``."""
     tasks = spec.tasks()  # validates everything first
     if spec.save_runs is not None:
@@ -109,12 +124,21 @@ def run_sweep(spec: SweepSpec, out, *, workers: int | None = None, scheduler: st
             Path(spec.save_runs).mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise ParameterError(f"save-runs: cannot create {spec.save_runs!r} ({exc.strerror})") from None
-    return run_tasks(tasks, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors,
-                     progress=progress, log=log)
+    return run_tasks(
+        tasks, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors, progress=progress, log=log
+    )
 
 
-def run_tasks(tasks: list[Task], out, *, workers: int | None = None, scheduler: str | None = None,
-              retry_errors: bool = False, progress: bool = True, log=None) -> SweepReport:
+def run_tasks(
+    tasks: list[Task],
+    out,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    retry_errors: bool = False,
+    progress: bool = True,
+    log=None,
+) -> SweepReport:
     """Run the ``tasks`` that the table ``out`` does not hold yet (see ``run_sweep``)."""
     log = log or sys.stderr
     t0 = time.perf_counter()
@@ -124,12 +148,16 @@ def run_tasks(tasks: list[Task], out, *, workers: int | None = None, scheduler: 
     if not out.parent.exists():
         raise ParameterError(f"out: directory {str(out.parent)!r} does not exist")
     writer = TableWriter(out, read_table(out) if out.exists() else [])
-    done = {t.run_id for t in tasks if t.run_id in writer
-            and not (retry_errors and writer.rows[t.run_id]["status"] == "error")}
+    done = {
+        t.run_id
+        for t in tasks
+        if t.run_id in writer and not (retry_errors and writer.rows[t.run_id]["status"] == "error")
+    }
     todo = [t for t in tasks if t.run_id not in done]
     workers = max(1, int(workers or os.cpu_count() or 1))
-    report = SweepReport(table=str(out), total=len(tasks), skipped=len(done), workers=workers,
-                         scheduler=scheduler or "local")
+    report = SweepReport(
+        table=str(out), total=len(tasks), skipped=len(done), workers=workers, scheduler=scheduler or "local"
+    )
     if not todo:
         writer.flush()
         report.wall_seconds = time.perf_counter() - t0
@@ -139,12 +167,19 @@ def run_tasks(tasks: list[Task], out, *, workers: int | None = None, scheduler: 
         from ..engine import kernels_cached
 
         if not kernels_cached():
-            print("compiling the numba kernels (first run only; a minute or two, cached afterwards)...",
-                  file=log, flush=True)
+            print(
+                "compiling the numba kernels (first run only; a minute or two, cached afterwards)...",
+                file=log,
+                flush=True,
+            )
         warm_kernels()
     if progress:
-        print(f"sweep: {len(todo)} runs to do ({len(done)} of {len(tasks)} already in {out}), "
-              f"{'scheduler ' + scheduler if scheduler else f'{workers} local workers'}", file=log, flush=True)
+        print(
+            f"sweep: {len(todo)} runs to do ({len(done)} of {len(tasks)} already in {out}), "
+            f"{'scheduler ' + scheduler if scheduler else f'{workers} local workers'}",
+            file=log,
+            flush=True,
+        )
 
     old = {}
 
@@ -166,8 +201,9 @@ def run_tasks(tasks: list[Task], out, *, workers: int | None = None, scheduler: 
         futures = []
         for n in sorted({t.params.segments for t in todo}, reverse=True):  # the longest runs first
             group = [t for t in todo if t.params.segments == n]
-            fs = client.map(run_task, group, key=[f"ballchain-{t.run_id}" for t in group], pure=False,
-                            priority=n, retries=0)
+            fs = client.map(
+                run_task, group, key=[f"ballchain-{t.run_id}" for t in group], pure=False, priority=n, retries=0
+            )
             for f, t in zip(fs, group):
                 by_key[f.key] = t
             futures.extend(fs)
@@ -185,8 +221,12 @@ def run_tasks(tasks: list[Task], out, *, workers: int | None = None, scheduler: 
             fut.release()
     except _Stop as exc:
         report.interrupted = True
-        print(f"\nsweep interrupted ({exc}): {report.ran} runs done now, {len(writer.rows)} rows in {out}; "
-              f"the same command finishes the rest", file=log, flush=True)
+        print(
+            f"\nsweep interrupted ({exc}): {report.ran} runs done now, {len(writer.rows)} rows in {out}; "
+            f"the same command finishes the rest",
+            file=log,
+            flush=True,
+        )
     finally:
         for sig, h in old.items():
             signal.signal(sig, h)
@@ -227,12 +267,26 @@ class _Bar:
         self.rich = None
         if enabled and getattr(log, "isatty", lambda: False)():
             from rich.console import Console
-            from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-                                       TimeRemainingColumn)
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
 
-            self.rich = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                                 TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.fields[info]}"),
-                                 console=Console(file=log), transient=False)
+            self.rich = Progress(
+                TextColumn("sweep"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeElapsedColumn(),
+                TextColumn("ETA"),
+                TimeRemainingColumn(),
+                TextColumn("{task.fields[info]}"),
+                console=Console(file=log),
+                transient=False,
+            )
             self.task = self.rich.add_task("sweep", total=total, info="")
             self.rich.start()
 
@@ -248,8 +302,11 @@ class _Bar:
         if now - self.last >= 30.0 or self.done == self.total or tenth:
             el = now - self.t0
             eta = el / self.done * (self.total - self.done)
-            print(f"sweep: {self.done}/{self.total} runs, {failed} failed, elapsed {_hms(el)}, ETA {_hms(eta)}",
-                  file=self.log, flush=True)
+            print(
+                f"sweep: {self.done}/{self.total} runs, {failed} failed, elapsed {_hms(el)}, ETA {_hms(eta)}",
+                file=self.log,
+                flush=True,
+            )
             self.last = now
 
     def close(self) -> None:

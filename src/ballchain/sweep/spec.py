@@ -16,8 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..model import (FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions,
-                     parse_angle)
+from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 MAX_RUNS = 1_000_000  # a guard against a typo in a range step
 
@@ -141,13 +140,16 @@ class SweepSpec:
             if kind not in IC_KINDS:
                 raise ParameterError(f"ic must be one of {', '.join(IC_KINDS)}; got {kind!r}")
             if kind != "random" and self.runs > 1:
-                raise ParameterError(f"--runs {self.runs} needs --ic random: the {kind} start is one "
-                                     f"deterministic shape (vary --eps instead)")
+                raise ParameterError(
+                    f"--runs {self.runs} needs --ic random: the {kind} start is one "
+                    f"deterministic shape (vary --eps instead)"
+                )
         for f in self.floors:
             if f not in FLOOR_MODELS:
                 raise ParameterError(f"floor must be one of {', '.join(FLOOR_MODELS)}; got {f!r}")
-        object.__setattr__(self, "options", SolverOptions(rtol=self.rtol, until=self.until,
-                                                          frames_per_tff=self.frames_per_tff))
+        object.__setattr__(
+            self, "options", SolverOptions(rtol=self.rtol, until=self.until, frames_per_tff=self.frames_per_tff)
+        )
         InitialCondition(eps=self.eps)  # validates eps
         n = self.size
         if n > MAX_RUNS:
@@ -169,15 +171,17 @@ class SweepSpec:
                     params = ChainParams(segments=n, alpha=a, floor=fl)
                     for kind in self.ics:
                         for k in range(self.runs):
-                            ic = InitialCondition(kind=kind, eps=self.eps, seed=self.seed,
-                                                  spawn_key=(k,) if kind == "random" else ())
+                            ic = InitialCondition(
+                                kind=kind, eps=self.eps, seed=self.seed, spawn_key=(k,) if kind == "random" else ()
+                            )
                             key = (n, a, kind, k)
                             if key not in checked:  # the floor does not change the start
                                 try:
                                     initial_directions(ic, n, params.alpha)
                                 except ParameterError as exc:
-                                    raise ParameterError(f"N = {n}, alpha = {math.degrees(a):.6g} deg, "
-                                                         f"{kind} run {k}: {exc}") from None
+                                    raise ParameterError(
+                                        f"N = {n}, alpha = {math.degrees(a):.6g} deg, {kind} run {k}: {exc}"
+                                    ) from None
                                 checked.add(key)
                             rid = run_id(params, ic, self.options)
                             path = None
@@ -193,7 +197,9 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
     """A run's key in the table: every input that changes the run, readable."""
     until = "end" if options.until is None else f"{options.until:.12g}"
     key = "-".join(str(k) for k in ic.spawn_key) or "none"
-    return (f"N{params.segments}_a{math.degrees(params.alpha):.10g}deg_{params.floor}"
-            f"{'_cone' if params.anchor_cone else ''}_{ic.kind}_eps{ic.eps:.12g}_q{ic.turns:.12g}"
-            f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
-            f"_fr{options.frames_per_tff:.12g}")
+    return (
+        f"N{params.segments}_a{math.degrees(params.alpha):.10g}deg_{params.floor}"
+        f"{'_cone' if params.anchor_cone else ''}_{ic.kind}_eps{ic.eps:.12g}_q{ic.turns:.12g}"
+        f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
+        f"_fr{options.frames_per_tff:.12g}"
+    )

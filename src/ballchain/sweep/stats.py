@@ -36,12 +36,19 @@ def mean_interval(x, confidence: float = CONFIDENCE, seed: int = SEED) -> tuple[
         return (float(x[0]), float(x[0]))
     rng = np.random.default_rng(seed)
     with np.errstate(all="ignore"):
-        res = stats.bootstrap((x,), np.mean, confidence_level=confidence, n_resamples=N_RESAMPLES,
-                              method="BCa", random_state=rng)
+        res = stats.bootstrap(
+            (x,), np.mean, confidence_level=confidence, n_resamples=N_RESAMPLES, method="BCa", random_state=rng
+        )
     lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
     if not (math.isfinite(lo) and math.isfinite(hi)):  # BCa degenerate: fall back to percentiles
-        res = stats.bootstrap((x,), np.mean, confidence_level=confidence, n_resamples=N_RESAMPLES,
-                              method="percentile", random_state=np.random.default_rng(seed))
+        res = stats.bootstrap(
+            (x,),
+            np.mean,
+            confidence_level=confidence,
+            n_resamples=N_RESAMPLES,
+            method="percentile",
+            random_state=np.random.default_rng(seed),
+        )
         lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
     return lo, hi
 
@@ -77,17 +84,25 @@ def point_stats(df) -> list[dict]:
             x = g[col].to_numpy(dtype=float)
             x = x[np.isfinite(x)]
             lo, hi = mean_interval(x)
-            row[col] = {"n": int(x.size), "mean": float(np.mean(x)) if x.size else None,
-                        "median": float(np.median(x)) if x.size else None,
-                        "std": float(np.std(x, ddof=1)) if x.size > 1 else None,
-                        "ci_low": lo if math.isfinite(lo) else None, "ci_high": hi if math.isfinite(hi) else None}
+            row[col] = {
+                "n": int(x.size),
+                "mean": float(np.mean(x)) if x.size else None,
+                "median": float(np.median(x)) if x.size else None,
+                "std": float(np.std(x, ddof=1)) if x.size > 1 else None,
+                "ci_low": lo if math.isfinite(lo) else None,
+                "ci_high": hi if math.isfinite(hi) else None,
+            }
         x = g["ratio"].to_numpy(dtype=float)
         x = x[np.isfinite(x)]
         k = int(np.sum(x < FAST))
         lo, hi = wilson_interval(k, int(x.size))
-        row["faster_than_free_fall"] = {"k": k, "n": int(x.size), "fraction": k / x.size if x.size else None,
-                                        "ci_low": lo if math.isfinite(lo) else None,
-                                        "ci_high": hi if math.isfinite(hi) else None}
+        row["faster_than_free_fall"] = {
+            "k": k,
+            "n": int(x.size),
+            "fraction": k / x.size if x.size else None,
+            "ci_low": lo if math.isfinite(lo) else None,
+            "ci_high": hi if math.isfinite(hi) else None,
+        }
         out.append(row)
     return out
 
@@ -125,9 +140,14 @@ def optimal_alpha(df, column: str = "ratio", seed: int = SEED, n_resamples: int 
             picks[b] = alphas[np.nanargmin(mb)] if np.any(np.isfinite(mb)) else np.nan
         picks = picks[np.isfinite(picks)]
         lo, hi = np.quantile(picks, [(1 - CONFIDENCE) / 2, (1 + CONFIDENCE) / 2], method="inverted_cdf")
-        row.update(alpha=float(alphas[best]), alpha_deg=math.degrees(alphas[best]), mean=float(means[best]),
-                   ci_low_deg=math.degrees(lo), ci_high_deg=math.degrees(hi),
-                   share_best=float(np.mean(picks == alphas[best])))
+        row.update(
+            alpha=float(alphas[best]),
+            alpha_deg=math.degrees(alphas[best]),
+            mean=float(means[best]),
+            ci_low_deg=math.degrees(lo),
+            ci_high_deg=math.degrees(hi),
+            share_best=float(np.mean(picks == alphas[best])),
+        )
         out.append(row)
     return out
 
@@ -139,10 +159,15 @@ def table_stats(path) -> dict:
     from .table import read_table
 
     df = pd.DataFrame(read_table(path))
-    return _finite({"table": str(path), "rows": int(len(df)),
-                    "status": {str(k): int(v) for k, v in df["status"].value_counts().items()} if len(df) else {},
-                    "points": point_stats(df) if len(df) else [],
-                    "optimal_alpha": optimal_alpha(df) if len(df) else []})
+    return _finite(
+        {
+            "table": str(path),
+            "rows": int(len(df)),
+            "status": {str(k): int(v) for k, v in df["status"].value_counts().items()} if len(df) else {},
+            "points": point_stats(df) if len(df) else [],
+            "optimal_alpha": optimal_alpha(df) if len(df) else [],
+        }
+    )
 
 
 def _finite(obj):

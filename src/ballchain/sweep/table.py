@@ -64,31 +64,48 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "floor_impulse_total_z": ("float64", "floor's whole impulse from t = 0, z (at rest: M g t_landed)"),
     "max_depth": ("float64", "deepest airborne point below the floor, b"),
     "gamma_inferred": ("float64", "Hamm-Geminard gamma whose fall time equals t_fall (NaN outside its range)"),
-    "gamma_measured": ("float64", "gamma from the floor's momentum record: removed / carried momentum, "
-                                  "landings before t_fall (analysis.floor_gamma)"),
+    "gamma_measured": (
+        "float64",
+        "gamma from the floor's momentum record: removed / carried momentum, "
+        "landings before t_fall (analysis.floor_gamma)",
+    ),
     "wall_seconds": ("float64", "wall time of the run, s"),
     "n_steps": ("int64", "accepted integrator steps"),
     "n_evals": ("int64", "right-hand-side evaluations"),
     "worker": ("string", "where it ran"),
 }
-INPUT_COLUMNS = ("segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed",
-                 "spawn_key", "rtol", "until", "frames_per_tff")
+INPUT_COLUMNS = (
+    "segments",
+    "alpha",
+    "floor",
+    "anchor_cone",
+    "ic",
+    "eps",
+    "turns",
+    "phase",
+    "seed",
+    "spawn_key",
+    "rtol",
+    "until",
+    "frames_per_tff",
+)
 SORT_KEYS = ("segments", "alpha", "floor", "ic", "eps", "rtol", "until", "seed", "run_index", "run_id")
 # columns that differ between two executions of the same sweep (the rest must not)
 VOLATILE = ("wall_seconds", "worker")
-CONVENTIONS = ("nondimensional units m = b = g = 1: times in sqrt(b/g), lengths in b, energies in m g b, "
-               "impulses in m sqrt(g b); ratio columns in units of t_ff = sqrt(2 z0 / g); one row per run; "
-               "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
-               "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --rtol RTOL "
-               "--frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)")
+CONVENTIONS = (
+    "nondimensional units m = b = g = 1: times in sqrt(b/g), lengths in b, energies in m g b, "
+    "impulses in m sqrt(g b); ratio columns in units of t_ff = sqrt(2 z0 / g); one row per run; "
+    "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
+    "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --rtol RTOL "
+    "--frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
+)
 
 
 def schema():
     import pyarrow as pa
 
     types = {"string": pa.string(), "int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_()}
-    meta = {"ballchain": json.dumps({"conventions": CONVENTIONS,
-                                     "columns": {k: v[1] for k, v in COLUMNS.items()}})}
+    meta = {"ballchain": json.dumps({"conventions": CONVENTIONS, "columns": {k: v[1] for k, v in COLUMNS.items()}})}
     return pa.schema([(k, types[t]) for k, (t, _) in COLUMNS.items()], metadata=meta)
 
 
@@ -104,10 +121,21 @@ def input_row(task) -> dict:
     """The columns a run's inputs fill (also for a run that never started)."""
     p, ic, o = task.params, task.ic, task.options
     return {
-        "run_id": task.run_id, "segments": p.segments, "alpha": p.alpha, "alpha_deg": math.degrees(p.alpha),
-        "floor": p.floor, "anchor_cone": p.anchor_cone, "ic": ic.kind, "eps": ic.eps, "turns": ic.turns,
-        "phase": ic.phase, "seed": ic.seed, "spawn_key": ",".join(str(k) for k in ic.spawn_key),
-        "run_index": task.run_index, "rtol": o.rtol, "until": math.nan if o.until is None else o.until,
+        "run_id": task.run_id,
+        "segments": p.segments,
+        "alpha": p.alpha,
+        "alpha_deg": math.degrees(p.alpha),
+        "floor": p.floor,
+        "anchor_cone": p.anchor_cone,
+        "ic": ic.kind,
+        "eps": ic.eps,
+        "turns": ic.turns,
+        "phase": ic.phase,
+        "seed": ic.seed,
+        "spawn_key": ",".join(str(k) for k in ic.spawn_key),
+        "run_index": task.run_index,
+        "rtol": o.rtol,
+        "until": math.nan if o.until is None else o.until,
         "frames_per_tff": o.frames_per_tff,
     }
 
@@ -121,20 +149,36 @@ def result_row(task, result, worker: str = "") -> dict:
     fi = np.asarray(result.floor_impulse, dtype=float)
     ft = np.asarray(result.floor_impulse_total, dtype=float)
     ratio = _num(s["ratio"])
-    row.update({
-        "version": str(result.version), "status": str(result.status), "message": str(result.message or ""),
-        "ratio": ratio, "landed_ratio": _num(s["landed_ratio"]), "t_ff": _num(result.t_ff), "z0": _num(result.z0),
-        "first_lock_ratio": _num(result.first_lock_time) / _num(result.t_ff),
-        **{f"events_{k}": int(v) for k, v in s["events"].items()},
-        "n_instants": int(result.n_instants),
-        **{f"energy_{k}": _num(result.energy.get(k)) for k in ("initial", "lost_locking", "lost_landing",
-                                                                "imbalance")},
-        "floor_impulse_x": fi[0], "floor_impulse_y": fi[1], "floor_impulse_z": fi[2],
-        "floor_impulse_total_x": ft[0], "floor_impulse_total_y": ft[1], "floor_impulse_total_z": ft[2],
-        "max_depth": _num(result.max_depth), **derived_measures(result),
-        "wall_seconds": _num(result.wall_seconds), "n_steps": int(result.n_steps), "n_evals": int(result.n_evals),
-        "worker": worker,
-    })
+    row.update(
+        {
+            "version": str(result.version),
+            "status": str(result.status),
+            "message": str(result.message or ""),
+            "ratio": ratio,
+            "landed_ratio": _num(s["landed_ratio"]),
+            "t_ff": _num(result.t_ff),
+            "z0": _num(result.z0),
+            "first_lock_ratio": _num(result.first_lock_time) / _num(result.t_ff),
+            **{f"events_{k}": int(v) for k, v in s["events"].items()},
+            "n_instants": int(result.n_instants),
+            **{
+                f"energy_{k}": _num(result.energy.get(k))
+                for k in ("initial", "lost_locking", "lost_landing", "imbalance")
+            },
+            "floor_impulse_x": fi[0],
+            "floor_impulse_y": fi[1],
+            "floor_impulse_z": fi[2],
+            "floor_impulse_total_x": ft[0],
+            "floor_impulse_total_y": ft[1],
+            "floor_impulse_total_z": ft[2],
+            "max_depth": _num(result.max_depth),
+            **derived_measures(result),
+            "wall_seconds": _num(result.wall_seconds),
+            "n_steps": int(result.n_steps),
+            "n_evals": int(result.n_evals),
+            "worker": worker,
+        }
+    )
     return row
 
 
@@ -143,8 +187,9 @@ def error_row(task, message: str, wall_seconds: float = math.nan, worker: str = 
     from .. import __version__
 
     row = input_row(task)
-    row.update({"version": __version__, "status": "error", "message": message, "wall_seconds": wall_seconds,
-                "worker": worker})
+    row.update(
+        {"version": __version__, "status": "error", "message": message, "wall_seconds": wall_seconds, "worker": worker}
+    )
     return row
 
 
@@ -178,8 +223,9 @@ def read_table(path) -> list[dict]:
         raise ParameterError(f"out: {str(path)!r} exists and is not a readable Parquet table ({msg})") from None
     core = [c for c in ("run_id", "status", *INPUT_COLUMNS) if c not in t.column_names]
     if core:
-        raise ParameterError(f"out: {str(path)!r} is not a ballchain sweep table (no column "
-                             f"{core[0]!r}); choose another --out")
+        raise ParameterError(
+            f"out: {str(path)!r} is not a ballchain sweep table (no column {core[0]!r}); choose another --out"
+        )
     # a table of an older version: columns it lacks are filled with their empty value
     return [_complete(r) for r in t.select([c for c in COLUMNS if c in t.column_names]).to_pylist()]
 

@@ -51,13 +51,19 @@ def _failure(code: int, t: float, h: float, t_ff: float, options) -> str | None:
     if code == ADV_MAX_STEPS:
         return f"more than max_steps = {options.max_steps} steps {at}"
     if code == ERR_ZENO:
-        return f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff before t/t_ff = " \
-               f"{t / t_ff:.6f} (Zeno); stopping"
+        return (
+            f"event accumulation: {ZENO_EVENTS} events within {ZENO_WINDOW:.3g} t_ff before t/t_ff = "
+            f"{t / t_ff:.6f} (Zeno); stopping"
+        )
     if code == ERR_MAX_EVENTS:
         return f"more than max_events = {options.max_events} events; stopping"
     if code in ERROR_MESSAGES:
-        hint = (f" (rtol = {options.rtol:g} is loose: the state reaching the impact is not accurate "
-                f"enough; tighten it, e.g. --rtol 1e-9)" if options.rtol > LOOSE_RTOL else "")
+        hint = (
+            f" (rtol = {options.rtol:g} is loose: the state reaching the impact is not accurate "
+            f"enough; tighten it, e.g. --rtol 1e-9)"
+            if options.rtol > LOOSE_RTOL
+            else ""
+        )
         return f"{ERROR_MESSAGES[code]} at t = {t:.17g}{hint}"
     return None
 
@@ -65,8 +71,15 @@ def _failure(code: int, t: float, h: float, t_ff: float, options) -> str | None:
 def _arm(model, chain, watch, sc, books) -> None:
     """Arm the event functions of the starting state."""
     hinge_gaps(chain.Y[0], model.cos_alpha, sc.hs.gaps)
-    arm_functions(model, chain, watch, sc.hs.gaps, np.zeros_like(sc.acc.lam), not math.isnan(books.t_fall[0]),
-                  np.zeros(chain.anchored.shape[0]))
+    arm_functions(
+        model,
+        chain,
+        watch,
+        sc.hs.gaps,
+        np.zeros_like(sc.acc.lam),
+        not math.isnan(books.t_fall[0]),
+        np.zeros(chain.anchored.shape[0]),
+    )
 
 
 def run(setup, progress, stop) -> RunOutput:
@@ -74,8 +87,9 @@ def run(setup, progress, stop) -> RunOutput:
     chain, log, books)`` is called on each return from compiled code; ``stop.reason``
     (not None) asks the run to stop there (status ``interrupted``)."""
     p, o, n = setup.params, setup.options, setup.params.segments
-    model = new_model(p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, ZENO_WINDOW * setup.t_ff,
-                      RETURN_EVERY)
+    model = new_model(
+        p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, ZENO_WINDOW * setup.t_ff, RETURN_EVERY
+    )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     watch, ws, st, sc, books = new_watch(n), new_work(n), new_stepper(n), new_instant(n), new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
@@ -89,8 +103,9 @@ def run(setup, progress, stop) -> RunOutput:
                 status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
                 break
             log.reserve(4 * log_room(n))
-            code, t, h = run_events(t, h, model, chain, watch, ws, st, sc, books, frames.compiled, trace.compiled,
-                                    log.compiled)
+            code, t, h = run_events(
+                t, h, model, chain, watch, ws, st, sc, books, frames.compiled, trace.compiled, log.compiled
+            )
             stop.started = True
             if code == ADV_BUFFER:
                 trace.flush()
@@ -112,6 +127,8 @@ def run(setup, progress, stop) -> RunOutput:
         status, message = "error", str(exc)
     except MemoryError:
         status = "error"
-        message = (f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {frames.written()} frames "
-                   f"(lower --frames-per-tff or --until)")
+        message = (
+            f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {frames.written()} frames "
+            f"(lower --frames-per-tff or --until)"
+        )
     return RunOutput(status, message, t, chain, books, frames, trace, log)

@@ -213,8 +213,7 @@ def _impact_candidates(model, chain, hs, ct):
         hs.in_force[k] = 1 if limit_in_force(anchored, k, model.cone, model.alpha) else 0
         if not hs.in_force[k]:
             locked[k] = 0
-        hs.cand[k] = 1 if (hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0) and hs.exclude[k] == 0) \
-            else 0
+        hs.cand[k] = 1 if (hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0) and hs.exclude[k] == 0) else 0
         approaching = hs.cand[k] != 0 and hs.rates[k] < -RATE_TOL
         any_approaching = any_approaching or approaching
         hs.was_locked[k] = locked[k]
@@ -277,8 +276,9 @@ def _lock_set(chain, ws, hs, acc):
     acceleration-level LCP.  Returns False if it failed."""
     e, w, locked = chain.Y[0], chain.Y[1], chain.locked
     for k in range(locked.shape[0]):
-        c2 = (((hs.in_force[k] and hs.gaps[k] <= GAP_TOL and abs(hs.rates[k]) <= RATE_TOL) or locked[k] != 0)
-              and hs.exclude[k] == 0)
+        c2 = (
+            (hs.in_force[k] and hs.gaps[k] <= GAP_TOL and abs(hs.rates[k]) <= RATE_TOL) or locked[k] != 0
+        ) and hs.exclude[k] == 0
         hs.cand[k] = 1 if c2 else 0
         hs.active[k] = 1 if (locked[k] != 0 and c2) else 0
     if lock_set(e, w, chain.anchored, hs.cand, hs.active, ws, acc.de, acc.dw, acc.ddg, acc.lam) < 0:
@@ -298,16 +298,26 @@ def _hold_returning(model, chain, hs, acc):
     nh = locked.shape[0]
     nhold = 0
     for k in range(nh):
-        if (locked[k] or hs.forced[k] or not (hs.was_locked[k] or hs.new_lock[k]) or hs.exclude[k]
-                or hs.gaps[k] > GAP_TOL):
+        if (
+            locked[k]
+            or hs.forced[k]
+            or not (hs.was_locked[k] or hs.new_lock[k])
+            or hs.exclude[k]
+            or hs.gaps[k] > GAP_TOL
+        ):
             continue
         if must_hold(hs.rates[k], acc.ddg[k], model.hold_rate, model.hold_apex):
             hs.forced[k] = 1
             nhold += 1
     if nhold > 0:
         for k in range(nh):
-            hs.cand[k] = 1 if ((hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0 or hs.forced[k]))
-                               and not hs.exclude[k]) else 0
+            hs.cand[k] = (
+                1
+                if (
+                    (hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0 or hs.forced[k])) and not hs.exclude[k]
+                )
+                else 0
+            )
             hs.active[k] = 1 if (locked[k] or hs.forced[k]) else 0
     return nhold
 

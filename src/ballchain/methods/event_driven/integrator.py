@@ -67,33 +67,41 @@ from .watch import EV_LANDING, EV_LOCK, EV_TOP, EV_UNLOCK, arm_departed
 
 # Dormand-Prince 5(4) (Hairer's DOPRI5; the coefficients of scipy's RK45)
 C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
-A = np.array([
-    [0, 0, 0, 0, 0],
-    [1 / 5, 0, 0, 0, 0],
-    [3 / 40, 9 / 40, 0, 0, 0],
-    [44 / 45, -56 / 15, 32 / 9, 0, 0],
-    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0],
-    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
-])
+A = np.array(
+    [
+        [0, 0, 0, 0, 0],
+        [1 / 5, 0, 0, 0, 0],
+        [3 / 40, 9 / 40, 0, 0, 0],
+        [44 / 45, -56 / 15, 32 / 9, 0, 0],
+        [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0],
+        [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
+    ]
+)
 B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
 E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-P = np.array([
-    [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
-    [0, 0, 0, 0],
-    [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
-    [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
-    [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
-    [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
-    [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
-])
+P = np.array(
+    [
+        [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
+        [0, 0, 0, 0],
+        [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
+        [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
+        [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
+        [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
+        [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
+    ]
+)
 
 
 def _hermite_birkhoff_inverse(sa, sb):
     """Exact inverse of the 4 x 4 system for the coefficients a_2..a_5 of the quintic
     p(s) = y0 + s h f0 + sum_m a_m s^m with p(1) = y1, p'(1) = h f1, p'(sa) = h fa,
     p'(sb) = h fb (rows in that order)."""
-    m = [[Fr(1)] * 4, [Fr(2), Fr(3), Fr(4), Fr(5)],
-         [2 * sa, 3 * sa ** 2, 4 * sa ** 3, 5 * sa ** 4], [2 * sb, 3 * sb ** 2, 4 * sb ** 3, 5 * sb ** 4]]
+    m = [
+        [Fr(1)] * 4,
+        [Fr(2), Fr(3), Fr(4), Fr(5)],
+        [2 * sa, 3 * sa**2, 4 * sa**3, 5 * sa**4],
+        [2 * sb, 3 * sb**2, 4 * sb**3, 5 * sb**4],
+    ]
     inv = [[Fr(int(i == j)) for j in range(4)] for i in range(4)]
     for col in range(4):  # Gauss-Jordan in exact rationals
         piv = next(r for r in range(col, 4) if m[r][col] != 0)
@@ -164,10 +172,25 @@ def new_stepper(n: int) -> Stepper:
     nh = max(n - 1, 1)
     m = 3 * n + 4
     found = Found(np.zeros(m, np.int64), np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
-    return Stepper(np.zeros((7, 2, n, 3)), np.zeros((7, 2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)),
-                   np.zeros((2, n, 3)), np.zeros(nh), np.zeros(nh), np.zeros((7, 3)), np.zeros((7, 3)),
-                   np.zeros(1, np.int64), np.zeros(n + 1), np.zeros(n + 1), np.zeros(3), np.zeros((2, 3)),
-                   np.zeros((n + 1, 3)), np.zeros((n, 3)), found)
+    return Stepper(
+        np.zeros((7, 2, n, 3)),
+        np.zeros((7, 2, n, 3)),
+        np.zeros((2, n, 3)),
+        np.zeros((2, n, 3)),
+        np.zeros((2, n, 3)),
+        np.zeros(nh),
+        np.zeros(nh),
+        np.zeros((7, 3)),
+        np.zeros((7, 3)),
+        np.zeros(1, np.int64),
+        np.zeros(n + 1),
+        np.zeros(n + 1),
+        np.zeros(3),
+        np.zeros((2, 3)),
+        np.zeros((n + 1, 3)),
+        np.zeros((n, 3)),
+        found,
+    )
 
 
 @njit(cache=True)
@@ -278,15 +301,26 @@ def _event_state(Y, st, h, theta, anchored, locked, ws, n_landed, fint):
             for q in range(3):
                 y0 = Y[a, i, q]
                 k0 = h * K[0, a, i, q]
-                Y[a, i, q] = (y0 + theta * k0 + c0 * (Y1[a, i, q] - y0 - k0) + c1 * (h * K[6, a, i, q] - k0)
-                              + c2 * (h * K2[1, a, i, q] - k0) + c3 * (h * K2[2, a, i, q] - k0))
+                Y[a, i, q] = (
+                    y0
+                    + theta * k0
+                    + c0 * (Y1[a, i, q] - y0 - k0)
+                    + c1 * (h * K[6, a, i, q] - k0)
+                    + c2 * (h * K2[1, a, i, q] - k0)
+                    + c3 * (h * K2[2, a, i, q] - k0)
+                )
     for q in range(3):
         acc = 0.0
         for s in range(6):
             acc += B[s] * F[s, q]
         k0 = h * F[0, q]
-        fint[q] += (theta * k0 + c0 * (h * acc - k0) + c1 * (h * F[6, q] - k0) + c2 * (h * F2[1, q] - k0)
-                    + c3 * (h * F2[2, q] - k0))
+        fint[q] += (
+            theta * k0
+            + c0 * (h * acc - k0)
+            + c1 * (h * F[6, q] - k0)
+            + c2 * (h * F2[1, q] - k0)
+            + c3 * (h * F2[2, q] - k0)
+        )
     fint[2] += theta * h * n_landed
 
 
@@ -753,7 +787,7 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
             h *= 0.1
             continue
         if err > 1.0:
-            h *= max(0.2, 0.9 * err ** -0.2)
+            h *= max(0.2, 0.9 * err**-0.2)
             continue
         nfail = 0
         theta_stop, fire = _detect_events(t, h, model, watch, dense, ws, st, books)
@@ -767,4 +801,4 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
             return ADV_EVENT, _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace), h
         _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace)
         t = t_end
-        h *= 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
+        h *= 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err**-0.2))

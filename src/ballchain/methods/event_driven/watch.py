@@ -43,9 +43,18 @@ Watch = namedtuple(
 def new_watch(n: int) -> Watch:
     """Nothing watched yet (``arm_functions`` sets it up)."""
     nh = max(n - 1, 0)
-    return Watch(np.zeros(nh, np.int8), np.zeros(nh, np.int8), np.zeros(n + 1, np.int8), np.zeros(1, np.int8),
-                 np.zeros(nh), np.zeros(nh), np.zeros(n + 1), np.zeros(1), np.full(nh, np.inf),
-                 np.full(n + 1, np.inf))
+    return Watch(
+        np.zeros(nh, np.int8),
+        np.zeros(nh, np.int8),
+        np.zeros(n + 1, np.int8),
+        np.zeros(1, np.int8),
+        np.zeros(nh),
+        np.zeros(nh),
+        np.zeros(n + 1),
+        np.zeros(1),
+        np.full(nh, np.inf),
+        np.full(n + 1, np.inf),
+    )
 
 
 @entry
