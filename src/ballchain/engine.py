@@ -27,6 +27,7 @@ from .initial import check_inside_cone, initial_directions
 from .methods import method_runner
 from .methods.outputs import FRAME_CHUNK_BYTES, RunOutput, SimulationError, frame_bytes  # noqa: F401  (re-exported)
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from .records.audit import audited
 from .records.result import Result
 
 
@@ -242,7 +243,7 @@ def simulate(
     with _StopOnSignals() as stopper:
         out = method_runner(options.method)(setup, report, stopper)
     report(out.t, out.chain, out.log, out.books, final=True)
-    return _make_result(setup, out, wall0)
+    return audited(_make_result(setup, out, wall0))
 
 
 def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:

@@ -21,6 +21,8 @@ FLOORS = {
 }
 FLOOR_MODELS = tuple(FLOORS)  # the names ChainParams.floor accepts
 FLOOR_CODES = {name: code for name, (code, _, _) in FLOORS.items()}
+# floor models that watch every free point (no point may pass below the floor)
+WATCHES_EVERY_POINT = ("all",)
 FLOOR_ALL = FLOOR_CODES["all"]
 FLOOR_PIVOT = FLOOR_CODES["pivot"]
 

@@ -1,0 +1,55 @@
+"""Every run checks its own books (the rule is here, once).
+
+At the end of every run (and so of every sweep row) the energy books and the floor depth
+are checked against stated tolerances; a run that fails them ends with status ``error``
+and a message that names the book and the amounts (its data is kept).
+
+* Energy: E0 = U + T + E_lock + E_land at the end, to ``ENERGY_RTOL`` of E0.  Each term
+  comes from its own source (the state for U and T, the impulses for the losses), so the
+  imbalance measures what the integrator, the projections and the impacts did not
+  conserve; well-conditioned falls close it to 1e-9 of E0 and below at the default
+  tolerance (``tests/test_events.py``), so 1e-8 flags a run whose books do not close.
+* Depth: under a floor model that watches every free point, no point goes below the
+  floor by more than ``DEPTH_TOL`` (units b): a deeper point is a missed landing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from ..floors.registry import WATCHES_EVERY_POINT
+from .result import Result
+
+ENERGY_RTOL = 1e-8  # |E0 - U - T - E_lock - E_land| / E0 at most
+DEPTH_TOL = 1e-8  # deepest point below a floor that watches every point, units b
+
+
+def audit(result: Result) -> list[str]:
+    """The books of ``result`` that do not close, each as a sentence (empty: all close)."""
+    failed = []
+    e = result.energy
+    e0 = abs(float(e.get("initial", math.nan)))
+    imbalance = float(e.get("imbalance", math.nan))
+    if not (math.isfinite(imbalance) and abs(imbalance) <= ENERGY_RTOL * e0):
+        kind = "created" if imbalance < 0 else "lost unaccounted"
+        failed.append(
+            f"the energy books do not close: {abs(imbalance) / e0:.3g} of E0 {kind} "
+            f"(E0 - U - T - E_lock - E_land = {imbalance:.6g}; tolerance {ENERGY_RTOL:g} of E0)"
+        )
+    if result.params.floor in WATCHES_EVERY_POINT:
+        depth = float(result.max_depth) / result.params.half_length
+        if not depth <= DEPTH_TOL:
+            failed.append(f"a point went {depth:.3g} b below the floor (tolerance {DEPTH_TOL:g} b): a missed landing")
+    return failed
+
+
+def audited(result: Result) -> Result:
+    """``result`` with status ``error`` and the failed books in its message if any does
+    not close (a run that already failed keeps its status and gets them appended)."""
+    failed = audit(result)
+    if not failed:
+        return result
+    books = "; ".join(failed)
+    message = f"{result.message}; {books}" if result.message else books
+    return dataclasses.replace(result, status="error", message=message)

@@ -1,0 +1,51 @@
+"""Every run checks its own books: a doctored result fails the audit naming the book and
+the amounts; real runs pass it; a run that breaks the model ends with status error."""
+
+import dataclasses
+import json
+import math
+
+from typer.testing import CliRunner
+
+from ballchain.cli import app
+from ballchain.engine import simulate
+from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.records.audit import DEPTH_TOL, ENERGY_RTOL, audit, audited
+
+
+def _run(**kw):
+    return simulate(ChainParams(segments=6, **kw), InitialCondition(eps=0.05), SolverOptions())
+
+
+def test_real_runs_pass_the_audit():
+    for floor in ("all", "pivot"):
+        for alpha in (math.pi / 4, math.pi):
+            r = _run(alpha=alpha, floor=floor)
+            assert r.status == "landed", (r.status, r.message)
+            assert audit(r) == []
+            assert abs(r.energy["imbalance"]) <= ENERGY_RTOL * r.energy["initial"]
+
+
+def test_doctored_books_fail_loudly():
+    r = _run(alpha=math.pi / 4)
+    e = dict(r.energy)
+    e["imbalance"] = -1e-3 * e["initial"]  # energy created
+    bad = audited(dataclasses.replace(r, energy=e))
+    assert bad.status == "error" and "energy books do not close" in bad.message and "created" in bad.message
+    assert "0.001 of E0" in bad.message
+    deep = audited(dataclasses.replace(r, max_depth=1e-3 * r.params.half_length))
+    assert deep.status == "error" and "below the floor" in deep.message
+    # a depth within tolerance, or under a floor that does not watch every point, passes
+    ok = dataclasses.replace(r, max_depth=0.5 * DEPTH_TOL * r.params.half_length)
+    assert audit(ok) == []
+    pivot = _run(alpha=math.pi / 4, floor="pivot")
+    assert audit(dataclasses.replace(pivot, max_depth=1.0)) == []
+
+
+def test_a_run_that_breaks_the_model_exits_1_and_says_which_book():
+    """N = 2 at alpha = pi: the top end lands on the pivot and the middle point hovers
+    (a degenerate landing): not a silent max_time with exit code 0 any more."""
+    res = CliRunner().invoke(app, ["simulate", "-N", "2", "--alpha", "pi", "--json", "-q"])
+    assert res.exit_code == 1
+    s = json.loads(res.stdout)
+    assert s["status"] == "error" and "energy books do not close" in s["message"]
