@@ -536,3 +536,21 @@ def test_cli_defaults_are_the_dataclasses_defaults(command):
     assert i.eps == InitialCondition().eps
     if command == "simulate":
         assert i == InitialCondition()
+
+
+def test_the_time_cap_and_the_event_limit_are_options():
+    """--max-time: a chain held up (the anchor cone's cantilever) or just slow stops with
+    status max_time, a message that says it had not landed, a warning and exit code 0;
+    --max-events: status error, exit code 1."""
+    runner = CliRunner()
+    res = runner.invoke(app, ["simulate", "-N", "4", "--max-time", "0.5", "--json", "-q"])
+    assert res.exit_code == 0, res.output
+    s = json.loads(res.stdout)
+    assert s["status"] == "max_time" and "had not landed by t = 0.5 t_ff" in s["message"]
+    assert s["t_landed"] is None
+    res = runner.invoke(app, ["simulate", "-N", "8", "--max-events", "3", "--json", "-q"])
+    assert res.exit_code == 1
+    assert "max_events = 3" in json.loads(res.stdout)["message"]
+    for bad in (["--max-time", "0"], ["--max-events", "0"]):
+        res = runner.invoke(app, ["simulate", "-N", "4", *bad])
+        assert res.exit_code == 2 and res.output.count("\n") == 1, res.output

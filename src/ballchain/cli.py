@@ -164,6 +164,8 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         rtol=v.get("rtol", _SOLVER.rtol),
         until=v.get("until", _SOLVER.until),
         frames_per_tff=v.get("frames_per_tff", _SOLVER.frames_per_tff),
+        max_time=v.get("max_time", _SOLVER.max_time),
+        max_events=v.get("max_events", _SOLVER.max_events),
     )
     return params, init, options
 
@@ -380,7 +382,20 @@ def simulate(
     ),
     rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
     until: float | None = typer.Option(
-        None, "--until", help="Stop at this time, in units of t_ff (default: until every segment has landed)."
+        None,
+        "--until",
+        help="Stop at this time, in units of t_ff, landed or not (status until; replaces the --max-time cap).",
+    ),
+    max_time: float = typer.Option(
+        _SOLVER.max_time,
+        "--max-time",
+        help="The time cap, in units of t_ff: a chain not landed by then stops with status max_time, a warning "
+        "on stderr and exit code 0 (its numbers are those of an unfinished fall: t_fall may be NaN).",
+    ),
+    max_events: int = typer.Option(
+        _SOLVER.max_events,
+        "--max-events",
+        help="Stop with status error after this many event instants (a guard against event accumulation).",
     ),
     frames_per_tff: float = typer.Option(
         _SOLVER.frames_per_tff,
@@ -428,6 +443,8 @@ def simulate(
                 rtol=rtol,
                 until=until,
                 frames_per_tff=frames_per_tff,
+                max_time=max_time,
+                max_events=max_events,
                 length=length,
                 mass=mass,
                 gravity=gravity,
@@ -675,6 +692,9 @@ def sweep(
         "--frames-per-tff",
         help="Output frames per t_ff (as simulate: what is written; the falls do not depend on it).",
     ),
+    max_time: float = typer.Option(
+        _SOLVER.max_time, "--max-time", help="The time cap of each run, in t_ff (as simulate: status max_time)."
+    ),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
     ),
@@ -707,6 +727,7 @@ def sweep(
             rtol=rtol,
             until=until,
             frames_per_tff=frames_per_tff,
+            max_time=max_time,
             save_runs=save_runs,
         )
         from .sweep.execute import check_scheduler, run_sweep

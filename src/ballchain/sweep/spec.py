@@ -126,6 +126,7 @@ class SweepSpec:
     rtol: float = SolverOptions.rtol
     until: float | None = SolverOptions.until
     frames_per_tff: float = SolverOptions.frames_per_tff
+    max_time: float = SolverOptions.max_time
     save_runs: str | None = None
     options: SolverOptions = field(init=False, repr=False, compare=False)
 
@@ -148,7 +149,9 @@ class SweepSpec:
             if f not in FLOOR_MODELS:
                 raise ParameterError(f"floor must be one of {', '.join(FLOOR_MODELS)}; got {f!r}")
         object.__setattr__(
-            self, "options", SolverOptions(rtol=self.rtol, until=self.until, frames_per_tff=self.frames_per_tff)
+            self,
+            "options",
+            SolverOptions(rtol=self.rtol, until=self.until, frames_per_tff=self.frames_per_tff, max_time=self.max_time),
         )
         InitialCondition(eps=self.eps)  # validates eps
         n = self.size
@@ -202,4 +205,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         f"{'_cone' if params.anchor_cone else ''}_{ic.kind}_eps{ic.eps:.12g}_q{ic.turns:.12g}"
         f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
         f"_fr{options.frames_per_tff:.12g}"
+        + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
     )

@@ -118,7 +118,11 @@ def run(setup, progress, stop) -> RunOutput:
                 raise SimulationError(failure)
             if code == ADV_STOP:
                 status = "until" if o.until is not None else "max_time"
-                message = f"not all segments landed by t = {o.max_time} t_ff" if status == "max_time" else ""
+                message = (
+                    f"the chain had not landed by t = {o.max_time} t_ff (the time cap, --max-time)"
+                    if status == "max_time"
+                    else ""
+                )
                 break
             if code != EV_RETURN:  # pragma: no cover - every code is handled above
                 raise SimulationError(f"unknown code {code} from the compiled loop")
