@@ -355,3 +355,43 @@ def test_file_info(tmp_path):
     info = files.file_info(p)
     assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 2
     assert info["units"] == "nondimensional" and info["status"] == "landed"
+
+
+def test_outputs_are_checked_before_any_work(tmp_path):
+    """--force replaces only a regular file: a device, a FIFO, a directory or a symbolic link
+    is refused in one line with exit code 2, as is every output path of every command whose
+    directory is missing or that is the wrong kind of thing, before any work is done."""
+    import os
+    import stat
+
+    from typer.testing import CliRunner
+
+    from ballchain.cli import app
+
+    afile = tmp_path / "afile.h5"
+    afile.write_bytes(b"keep me")
+    link = tmp_path / "alink.h5"
+    link.symlink_to(afile)
+    fifo = tmp_path / "fifo.h5"
+    os.mkfifo(fifo)
+    runner = CliRunner()
+    sim = ["simulate", "-N", "2", "--until", "0.1", "-q", "--force", "--output"]
+    cases = [
+        (sim + ["/dev/full"], "not a regular file"),
+        (sim + [str(fifo)], "not a regular file"),
+        (sim + [str(link)], "symbolic link"),
+        (sim + [str(tmp_path)], "is a directory"),
+        (["paper", "--quick", "--out", str(afile)], "is not a directory"),
+        (["sweep", "-N", "4", "-q", "--out", str(tmp_path / "nodir" / "t.parquet")], "does not exist"),
+        (
+            ["sweep", "-N", "4", "-q", "--out", str(tmp_path / "t.parquet"), "--save-runs", str(afile)],
+            "not a directory",
+        ),
+        (["stats", str(afile), "--plot", str(tmp_path / "nodir" / "x.png")], "does not exist"),
+    ]
+    for args, words in cases:
+        res = runner.invoke(app, args)
+        assert res.exit_code == 2, (args, res.output)
+        assert words in res.output and res.output.count("\n") == 1, (args, res.output)
+    assert afile.read_bytes() == b"keep me" and link.is_symlink() and stat.S_ISFIFO(fifo.lstat().st_mode)
+    assert not (tmp_path / "t.parquet").exists()

@@ -24,7 +24,7 @@ from typer.core import TyperGroup
 
 from . import __version__
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
-from .records.files import ResultFileError, check_writable, file_info, load_result, save_result
+from .records.files import ResultFileError, check_output_dir, check_writable, file_info, load_result, save_result
 
 try:  # typer >= 0.16 vendors click
     from typer._click.exceptions import ClickException, NoArgsIsHelpError
@@ -593,6 +593,11 @@ def paper(
     except (ParameterError, ValueError) as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
+    try:
+        check_output_dir(out, "--out")
+    except ResultFileError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
     for p in paper_figures(setup, out, fmts, note=lambda msg: typer.echo(msg, err=True)):
         typer.echo(str(p))
 
@@ -733,12 +738,17 @@ def sweep(
         from .sweep.execute import check_scheduler, run_sweep
 
         spec.tasks()  # every run validated before anything starts
+        if Path(out).suffix.lower() != ".parquet":
+            raise ParameterError(f"--out: expected a .parquet file name, got {out!r}")
+        check_writable(out, force=True)  # (an existing table is resumed, then rewritten)
+        if save_runs is not None:
+            check_output_dir(save_runs, "--save-runs")
         if scheduler is not None:
             check_scheduler(scheduler)
         report = run_sweep(
             spec, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors, progress=not quiet
         )
-    except ParameterError as e:
+    except (ParameterError, ResultFileError) as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
     if json_out:
@@ -775,6 +785,12 @@ def stats(
         if value is not None and Path(value).suffix.lower() not in (".png", ".pdf", ".svg"):
             _error(f"{name}: expected a .png, .pdf or .svg file name, got {value!r}")
             raise typer.Exit(EXIT_USAGE)
+        if value is not None:
+            try:  # a figure is replaced if it exists (a regular file only)
+                check_writable(value, force=True)
+            except ResultFileError as e:
+                _error(f"{name}: {e}".replace(f"{name}: output: ", f"{name}: "))
+                raise typer.Exit(EXIT_USAGE)
     try:
         res = table_stats(table)
     except ParameterError as e:

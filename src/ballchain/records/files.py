@@ -39,6 +39,7 @@ import datetime as _dt
 import json
 import os
 import secrets
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -236,15 +237,20 @@ def check_writable(path, force: bool = False) -> Path:
     """Fail early (before any simulation work) if ``path`` cannot be written.
 
     Raises FileExistsError if the file exists and ``force`` is false, ResultFileError
-    if the path is a directory or its directory is missing or not writable.
-    Returns the path as a ``Path``.
+    if the path is a directory, a symbolic link (refused: name the file it points to), a
+    device, FIFO or socket (``force`` replaces only a regular file), or its directory is
+    missing or not writable.  Returns the path as a ``Path``.
     """
     p = Path(path)
     if str(path) == "" or p.name == "":
         raise ResultFileError(f"output: {str(path)!r} is not a file name")
+    if p.is_symlink():
+        raise ResultFileError(f"output: {str(p)!r} is a symbolic link (refused: give the file it points to)")
     if p.is_dir():
         raise ResultFileError(f"output: {str(p)!r} is a directory")
-    if p.exists() or p.is_symlink():
+    if p.exists():
+        if not stat.S_ISREG(p.stat().st_mode):
+            raise ResultFileError(f"output: {str(p)!r} is not a regular file (a device, FIFO or socket): refused")
         if not force:
             raise FileExistsError(
                 f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
@@ -252,6 +258,24 @@ def check_writable(path, force: bool = False) -> Path:
     reason = _writable_dir(p.parent if str(p.parent) else Path("."))
     if reason is not None:
         raise ResultFileError(f"output: cannot write {str(p)!r}: {reason}")
+    return p
+
+
+def check_output_dir(path, what: str = "--out") -> Path:
+    """Fail early if ``path`` cannot be (or become) a directory to write files into: an
+    existing path must be a writable directory; a new one needs a writable parent
+    (it is created when the work starts).  Raises ResultFileError naming ``what``."""
+    p = Path(path)
+    if str(path) == "":
+        raise ResultFileError(f"{what}: empty directory name")
+    if p.exists() or p.is_symlink():
+        if not p.is_dir():
+            raise ResultFileError(f"{what}: {str(p)!r} exists and is not a directory")
+        reason = _writable_dir(p)
+    else:
+        reason = _writable_dir(p.parent if str(p.parent) else Path("."))
+    if reason is not None:
+        raise ResultFileError(f"{what}: cannot write into {str(p)!r}: {reason}")
     return p
 
 
