@@ -796,6 +796,12 @@ def stats(
     except ParameterError as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
+    if len(res.get("engines", [])) > 1:
+        typer.echo(
+            f"warning: the table mixes {len(res['engines'])} engines ({', '.join(res['engines'])}): its rows are "
+            f"not all reruns of one engine, and a chaotic fall differs between engines",
+            err=True,
+        )
     if plot is not None:
         from .plots.sweep import write_alpha_figure
 

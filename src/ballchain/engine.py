@@ -27,6 +27,7 @@ from .initial import check_inside_cone, initial_directions
 from .methods import method_runner
 from .methods.outputs import FRAME_CHUNK_BYTES, RunOutput, SimulationError, frame_bytes  # noqa: F401  (re-exported)
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from .provenance import engine_fingerprint
 from .records.audit import audited
 from .records.result import Result
 
@@ -313,4 +314,5 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         n_evals=int(books.n_evals[0]),
         n_instants=int(books.n_instants[0]),
         units="SI" if params.is_si else "nondimensional",
+        engine=engine_fingerprint(),
     )

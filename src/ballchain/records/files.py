@@ -302,6 +302,7 @@ def _write(f, result: Result) -> None:
     f.attrs["format_version"] = np.int64(FORMAT_VERSION)
     f.attrs["package_version"] = __version__
     f.attrs["version"] = str(result.version)
+    f.attrs["engine"] = str(result.engine)
     f.attrs["units"] = units
     f.attrs["created"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     f.attrs["status"] = str(result.status)
@@ -451,6 +452,7 @@ def _read(f, where: str) -> Result:
         energy=energy,
         units=str(need_attr("units")),
         extra=extra,
+        engine=_str_attr(f.attrs, "engine", "unknown"),
         **kw,
     )
 

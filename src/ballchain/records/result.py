@@ -140,6 +140,7 @@ class Result:
     n_instants: int
     units: str = "nondimensional"
     extra: dict = field(default_factory=dict)
+    engine: str = "unknown"  # fingerprint of the engine's sources (provenance.engine_fingerprint)
 
     # ----------------------------------------------------------------- summaries
     def event_counts(self) -> dict:
@@ -203,4 +204,5 @@ class Result:
             "n_instants": int(self.n_instants),
             "wall_seconds": num(self.wall_seconds),
             "version": self.version,
+            "engine": self.engine,
         }

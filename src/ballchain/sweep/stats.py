@@ -163,6 +163,8 @@ def table_stats(path) -> dict:
         {
             "table": str(path),
             "rows": int(len(df)),
+            # the engines that made the rows (a table of several mixes numerical realizations)
+            "engines": sorted({str(e) or "unknown" for e in df["engine"]}) if "engine" in df and len(df) else [],
             "status": {str(k): int(v) for k, v in df["status"].value_counts().items()} if len(df) else {},
             "points": point_stats(df) if len(df) else [],
             "optimal_alpha": optimal_alpha(df) if len(df) else [],

@@ -43,6 +43,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
     "version": ("string", "ballchain version that ran it"),
+    "engine": ("string", "fingerprint of the engine's sources that ran it (rows of one engine rerun exactly)"),
     "status": ("string", "landed, until, max_time, error, interrupted"),
     "message": ("string", "why a run stopped early ('' if it did not)"),
     "ratio": ("float64", "t_fall / t_ff: top end first at z = 0 (NaN: not reached)"),
@@ -152,6 +153,7 @@ def result_row(task, result, worker: str = "") -> dict:
     row.update(
         {
             "version": str(result.version),
+            "engine": str(result.engine),
             "status": str(result.status),
             "message": str(result.message or ""),
             "ratio": ratio,
@@ -185,10 +187,18 @@ def result_row(task, result, worker: str = "") -> dict:
 def error_row(task, message: str, wall_seconds: float = math.nan, worker: str = "") -> dict:
     """The row of a run that raised (or whose worker died): its inputs, status error, the message."""
     from .. import __version__
+    from ..provenance import engine_fingerprint
 
     row = input_row(task)
     row.update(
-        {"version": __version__, "status": "error", "message": message, "wall_seconds": wall_seconds, "worker": worker}
+        {
+            "version": __version__,
+            "engine": engine_fingerprint(),
+            "status": "error",
+            "message": message,
+            "wall_seconds": wall_seconds,
+            "worker": worker,
+        }
     )
     return row
 
