@@ -554,3 +554,24 @@ def test_the_time_cap_and_the_event_limit_are_options():
     for bad in (["--max-time", "0"], ["--max-events", "0"]):
         res = runner.invoke(app, ["simulate", "-N", "4", *bad])
         assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+
+
+def test_the_compile_notice_counts_the_seconds(monkeypatch):
+    """On a terminal the notice shows the seconds elapsed while the kernels compile (it is
+    redrawn as they pass); elsewhere a line when it starts and one when it is done."""
+    import io
+    import time as _t
+
+    from rich.console import Console
+
+    buf = io.StringIO()
+    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=120))
+    cli._compile_with_notice(lambda: _t.sleep(1.3), show_progress=True)
+    drawn = buf.getvalue()
+    assert "compiling the numba kernels" in drawn and ": 1 s" in drawn  # redrawn after a second
+    plain = io.StringIO()
+    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=plain, force_terminal=False))
+    lines = []
+    monkeypatch.setattr(cli.typer, "echo", lambda msg, err=False: lines.append(msg))
+    cli._compile_with_notice(lambda: None, show_progress=True)
+    assert lines[0].startswith("compiling the numba kernels") and lines[1].startswith("compiled the kernels in")

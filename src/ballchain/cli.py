@@ -291,14 +291,44 @@ def _progress_console():
     return Console(stderr=True)
 
 
+COMPILE_NOTICE = "compiling the numba kernels (first run only; about a minute, cached afterwards)"
+
+
+class _Elapsed:
+    """A line that shows the seconds since it was made each time it is drawn."""
+
+    def __init__(self, text: str):
+        self.text = text
+        self.t0 = time.perf_counter()
+
+    def __rich__(self) -> str:
+        return f"{self.text}: {time.perf_counter() - self.t0:.0f} s"
+
+
+def _compile_with_notice(load_kernels, show_progress: bool) -> None:
+    """Compile the kernels (``load_kernels``) saying so on stderr: a line with the elapsed
+    seconds, kept up to date while it works on a terminal; elsewhere (a log, a pipe) the
+    line when it starts and one when it is done."""
+    console = _progress_console()
+    t0 = time.perf_counter()
+    if show_progress and console.is_terminal:
+        with console.status(_Elapsed(COMPILE_NOTICE)):
+            load_kernels()
+    else:
+        typer.echo(f"{COMPILE_NOTICE}...", err=True)
+        load_kernels()
+    typer.echo(f"compiled the kernels in {time.perf_counter() - t0:.0f} s", err=True)
+
+
 def _run_engine(params, init, options, show_progress: bool, state=None):
     from .engine import kernels_cached, load_kernels, simulate  # lazy: the engine (numba) is heavy to import
 
     cold = not kernels_cached()
-    if cold:
-        typer.echo("compiling the numba kernels (first run only; about a minute, cached afterwards)...", err=True)
     t0 = time.perf_counter()
-    load_kernels()  # before the run: its wall time is the integration alone
+    if cold:
+        _compile_with_notice(load_kernels, show_progress)
+    else:
+        load_kernels()  # before the run: its wall time is the integration alone
     setup = time.perf_counter() - t0
     result = _simulate_with_progress(simulate, params, init, options, show_progress, state)
     result.extra["setup_seconds"] = setup
