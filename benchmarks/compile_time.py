@@ -66,7 +66,7 @@ print(json.dumps({"wall": time.perf_counter() - t0, "cpu": r.ru_utime + r.ru_sti
 
 BREAKDOWN = (
     """
-import collections, time
+import collections, os, time
 import numba.core.codegen as cg
 import ballchain.core.jit  # its policy wraps numba's methods first: time them as installed
 llvm, count = collections.defaultdict(float), collections.Counter()
@@ -94,7 +94,7 @@ for name, sec in sorted(llvm.items(), key=lambda kv: -kv[1])[:12]:
 
 FUNCTIONS = (
     """
-import collections, time
+import collections, os, time
 from numba.core import event
 class Compiles(event.Listener):  # numba's compile events nest: a callee inside its caller
     def __init__(self):
@@ -126,7 +126,7 @@ def chain(name):  # the compiles that must follow one another down to this one, 
 longest = max((chain(name) for name in c.excl), key=lambda ch: sum(c.excl[x] for x in ch))
 span = sum(c.excl[x] for x in longest)
 print(f"wall {time.perf_counter() - t0:.1f} s; {len(c.excl)} compiled functions, {work:.1f} s compiling them")
-for name, sec in sorted(c.excl.items(), key=lambda kv: -kv[1])[:15]:
+for name, sec in sorted(c.excl.items(), key=lambda kv: -kv[1])[: int(os.environ.get("BALLCHAIN_TOP", "15"))]:
     print(f"  {sec:6.2f} s own  {c.incl[name]:6.2f} s with its callees  {name}")
 print(f"longest chain of compiles that must follow one another: {span:.1f} s "
       f"({' <- '.join(x.rpartition('.')[2] for x in longest)})")

@@ -28,8 +28,8 @@ def _chain():
 def _step(Y, h, anchored, locked, ws):
     """One Dormand-Prince step: (stages K, anchor forces F, 5th-order end Y1)."""
     st = itg.new_stepper(Y.shape[1])
-    itg._stage_rhs(Y, anchored, locked, ws, st.K[0], st.F[0])
-    itg._rk_stages(Y, h, st, anchored, locked, ws)
+    itg._stage_rhs(Y, anchored, locked, ws, st.sg.K[0], st.sg.F[0])
+    itg._rk_stages(Y, h, st.sg, anchored, locked, ws)
     return st
 
 
@@ -39,8 +39,8 @@ def _fine(Y, t, anchored, locked, ws, m=200):
     imp = np.zeros(4)
     for _ in range(m):
         st = _step(Y, t / m, anchored, locked, ws)
-        itg.floor_impulse_step(t / m, st.F, np.int64(0), imp)
-        Y = st.Y1.copy()
+        itg.floor_impulse_step(t / m, st.sg.F, np.int64(0), imp)
+        Y = st.sg.Y1.copy()
     return Y, imp[:3]
 
 
@@ -49,12 +49,12 @@ def _errors(h):
     full step's error at h."""
     Y, anchored, locked, ws = _chain()
     st = _step(Y, h, anchored, locked, ws)
-    K, Y1 = st.K, st.Y1.copy()
+    K, Y1 = st.sg.K, st.sg.Y1.copy()
     ref, imp_ref = _fine(Y, THETA * h, anchored, locked, ws)
     ref_end, _ = _fine(Y, h, anchored, locked, ws)
     Ye = Y.copy()
     fint = np.zeros(4)
-    itg._event_state(Ye, st, h, THETA, anchored, locked, ws, np.int64(0), fint)
+    itg._event_state(Ye, st.sg, st.hb, h, THETA, anchored, locked, ws, np.int64(0), fint)
     Yd = np.empty_like(Y)
     itg._dense(Y, K, h, THETA, Yd)
     return (

@@ -440,7 +440,7 @@ def run_events(t, h, model, chain, watch, ws, st, sc, books, frames, trace, log)
         fill_frame_books(frames, books)
         if code != ADV_EVENT:
             return code, t, h
-        status = handle_event(t, model, chain, watch, ws, sc, books, log, st.found)
+        status = handle_event(t, model, chain, watch, ws, sc, books, log, st.det.found)
         if status < 0:
             return status, t, h
         status = _count_instant(t, model, sc.recent, books)

@@ -139,26 +139,46 @@ Found = namedtuple(
     ],
 )
 
-Stepper = namedtuple(
-    "Stepper",
+# The integrator's buffers, in bundles by purpose (each step function receives only the
+# bundles it uses):
+Stages = namedtuple(
+    "Stages",
     [
         "K",  # (7, 2, N, 3): the stages of the step (K[0] = f(Y), K[6] = f(Y1))
-        "K2",  # (7, 2, N, 3): f at the nodes of the event-state quintic
+        "F",  # (7, 3): the anchors' total force at the stages of K
         "Y1",  # (2, N, 3): the step's 5th-order end
         "Ytmp",  # (2, N, 3): scratch state (stages, the midpoint, dense output)
         "dYtmp",  # (2, N, 3): scratch derivative
-        "lam",  # lock multipliers (scratch of event_value)
+    ],
+)
+Hermite = namedtuple("Hermite", ["K2", "F2"])  # f and the anchors' force at the event-state quintic's nodes
+Detect = namedtuple(
+    "Detect",
+    [
         "lam1",  # lock multipliers at the step's end
-        "F",  # (7, 3): the anchors' total force at the stages of K
-        "F2",  # (7, 3): the same at the stages of K2
-        "fsal",  # (1,) int64: 1 when K[0], F[0] hold f(Y) of a step to redo (after ADV_BUFFER)
         "fv_mid",  # (N+1,): floor event functions at the step's midpoint
         "fv_end",  # (N+1,): and at its end
-        "fpart",  # (3,): the floor's impulse from the step's start to a frame
-        "pair",  # (2, 3): scratch, the two axes of a hinge on the dense output
-        "pts",  # (N+1, 3): scratch, point positions or velocities
-        "vel",  # (N, 3): scratch, centre velocities
         "found",  # the events found in the last step (Found)
+    ],
+)
+Scratch = namedtuple(
+    "Scratch",
+    [
+        "lam",  # lock multipliers (scratch of event_value)
+        "pair",  # (2, 3): the two axes of a hinge on the dense output
+        "fpart",  # (3,): the floor's impulse from the step's start to a frame
+        "pts",  # (N+1, 3): point positions or velocities
+        "vel",  # (N, 3): centre velocities
+    ],
+)
+Stepper = namedtuple(
+    "Stepper",
+    [
+        "sg",  # Stages
+        "hb",  # Hermite
+        "det",  # Detect
+        "scr",  # Scratch
+        "fsal",  # (1,) int64: 1 when K[0], F[0] hold f(Y) of a step to redo (after ADV_BUFFER)
     ],
 )
 
@@ -172,25 +192,11 @@ def new_stepper(n: int) -> Stepper:
     nh = max(n - 1, 1)
     m = 3 * n + 4
     found = Found(np.zeros(m, np.int64), np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
-    return Stepper(
-        np.zeros((7, 2, n, 3)),
-        np.zeros((7, 2, n, 3)),
-        np.zeros((2, n, 3)),
-        np.zeros((2, n, 3)),
-        np.zeros((2, n, 3)),
-        np.zeros(nh),
-        np.zeros(nh),
-        np.zeros((7, 3)),
-        np.zeros((7, 3)),
-        np.zeros(1, np.int64),
-        np.zeros(n + 1),
-        np.zeros(n + 1),
-        np.zeros(3),
-        np.zeros((2, 3)),
-        np.zeros((n + 1, 3)),
-        np.zeros((n, 3)),
-        found,
-    )
+    sg = Stages(np.zeros((7, 2, n, 3)), np.zeros((7, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)))
+    hb = Hermite(np.zeros((7, 2, n, 3)), np.zeros((7, 3)))
+    det = Detect(np.zeros(nh), np.zeros(n + 1), np.zeros(n + 1), found)
+    scr = Scratch(np.zeros(nh), np.zeros((2, 3)), np.zeros(3), np.zeros((n + 1, 3)), np.zeros((n, 3)))
+    return Stepper(sg, hb, det, scr, np.zeros(1, np.int64))
 
 
 @njit(cache=True)
@@ -242,11 +248,11 @@ def _stage_rhs(Y, anchored, locked, ws, dY, F):
 
 
 @njit(cache=True)
-def _rk_stages(Y, h, st, anchored, locked, ws):
-    """Stages 2..7 of a Dormand-Prince step of size h from Y (st.K[0] = f(Y), st.F[0]
-    given); st.Y1 = the 5th-order solution, st.K[6] = f(Y1); st.F[s] the anchors' force
+def _rk_stages(Y, h, sg, anchored, locked, ws):
+    """Stages 2..7 of a Dormand-Prince step of size h from Y (sg.K[0] = f(Y), sg.F[0]
+    given); sg.Y1 = the 5th-order solution, sg.K[6] = f(Y1); sg.F[s] the anchors' force
     at stage s."""
-    K, Ytmp, Y1, F = st.K, st.Ytmp, st.Y1, st.F
+    K, Ytmp, Y1, F = sg.K, sg.Ytmp, sg.Y1, sg.F
     n = Y.shape[1]
     for s in range(1, 7):
         for a in range(2):
@@ -271,8 +277,8 @@ def _rk_stages(Y, h, st, anchored, locked, ws):
 
 
 @njit(cache=True)
-def _event_state(Y, st, h, theta, anchored, locked, ws, n_landed, fint):
-    """Y <- the state at t0 + theta h of the step from Y (stages st.K, st.F; st.Y1 its
+def _event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint):
+    """Y <- the state at t0 + theta h of the step from Y (stages sg.K, sg.F; sg.Y1 its
     5th-order end, K[6] = f(Y1)), fint advanced to that time.  The quintic p(s), s in
     [0, 1], with p(0) = y0, p'(0) = h f0, p(1) = y1, p'(1) = h f(y1) and p'(s_r) = h
     f(y(s_r)) at the nodes s_r = 1/3, 2/3, y(s_r) from the 4th-order continuous
@@ -283,7 +289,7 @@ def _event_state(Y, st, h, theta, anchored, locked, ws, n_landed, fint):
       p(theta) = y0 + theta h f0 + c0 (y1 - y0 - h f0) + c1 h (f1 - f0)
                  + c2 h (f(y(1/3)) - f0) + c3 h (f(y(2/3)) - f0).
     The floor's impulse, the integral of F (an extra state J' = F), the same way."""
-    K, K2, F, F2, Y1, Ytmp = st.K, st.K2, st.F, st.F2, st.Y1, st.Ytmp
+    K, K2, F, F2, Y1, Ytmp = sg.K, hb.K2, sg.F, hb.F2, sg.Y1, sg.Ytmp
     n = Y.shape[1]
     for r in range(2):
         _dense(Y, K, h, HB_NODES[r], Ytmp)
@@ -540,73 +546,73 @@ def _step_error(Y, Y1, K, h, rtol, atol):
 
 
 @njit(cache=True)
-def _detect_kind(kd, nev, t, h, model, watch, dense, ws, st):
+def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
     """The event functions of kind kd that fire in the step: each watched function is
-    checked at the step's midpoint (st.Ytmp) and end (st.Y1) and located where it
-    crossed (``_locate``); they are appended to st.found from row nev on.  Returns the
+    checked at the step's midpoint (sg.Ytmp) and end (sg.Y1) and located where it
+    crossed (``_locate``); they are appended to det.found from row nev on.  Returns the
     new count."""
-    found = st.found
+    found = det.found
     nh = dense.locked.shape[0]
     m = nh if kd == EV_LOCK or kd == EV_UNLOCK else (dense.anchored.shape[0] if kd == EV_LANDING else 1)
     if kd == EV_LANDING:
-        floor_values(model.floor, st.Ytmp[0], dense.anchored, st.fv_mid)
-        floor_values(model.floor, st.Y1[0], dense.anchored, st.fv_end)
+        floor_values(model.floor, sg.Ytmp[0], dense.anchored, det.fv_mid)
+        floor_values(model.floor, sg.Y1[0], dense.anchored, det.fv_end)
     for i in range(m):
         if kd == EV_LOCK:
             if watch.arm_lock[i] == OFF or dense.locked[i]:
                 continue
             mode, ref, tha = watch.arm_lock[i], watch.ref_lock[i], (watch.apex_lock[i] - t) / h
-            fm = hinge_gap(st.Ytmp[0], i, model.cos_alpha)
-            fe = hinge_gap(st.Y1[0], i, model.cos_alpha)
+            fm = hinge_gap(sg.Ytmp[0], i, model.cos_alpha)
+            fe = hinge_gap(sg.Y1[0], i, model.cos_alpha)
         elif kd == EV_UNLOCK:  # the multiplier, known at the end only (each sample costs an evaluation)
             if watch.arm_unlock[i] == OFF or not dense.locked[i]:
                 continue
             mode, ref, tha = watch.arm_unlock[i], watch.ref_unlock[i], 2.0
-            fm, fe = math.inf, st.lam1[i]
+            fm, fe = math.inf, det.lam1[i]
         elif kd == EV_LANDING:
             if watch.arm_land[i] == OFF:
                 continue
             mode, ref, tha = watch.arm_land[i], watch.ref_land[i], (watch.apex_land[i] - t) / h
-            fm, fe = st.fv_mid[i], st.fv_end[i]
+            fm, fe = det.fv_mid[i], det.fv_end[i]
         else:
             if watch.arm_top[0] == OFF:
                 continue
             mode, ref, tha = watch.arm_top[0], watch.ref_top[0], 2.0
-            fm, fe = point_height(st.Ytmp[0], 0), point_height(st.Y1[0], 0)
+            fm, fe = point_height(sg.Ytmp[0], 0), point_height(sg.Y1[0], 0)
         if fm <= 0.0 or fe <= 0.0:
             found.kind[nev] = kd
             found.idx[nev] = i
             found.time[nev] = _locate(kd, i, mode, ref, tha, fm, fe, h, model, dense, ws)
             nev += 1
             if kd == EV_LANDING:
-                _dense(dense.Y, dense.K, h, 0.5, st.Ytmp)  # (the locating used Ytmp)
+                _dense(dense.Y, dense.K, h, 0.5, sg.Ytmp)  # (the locating used Ytmp)
     return nev
 
 
 @njit(cache=True)
-def _detect_events(t, h, model, watch, dense, ws, st, books):
+def _detect_events(t, h, model, watch, dense, ws, sg, det, n_evals):
     """Every event function that fires in the step, kind by kind (watch.EVENT_FUNCTIONS
-    order), into st.found; returns (theta of the first, whether any fires)."""
-    _dense(dense.Y, dense.K, h, 0.5, st.Ytmp)  # midpoint state, for the midpoint checks
+    order), into det.found; returns (theta of the first, whether any fires)."""
+    _dense(dense.Y, dense.K, h, 0.5, sg.Ytmp)  # midpoint state, for the midpoint checks
     nev = 0
     for kd in range(EV_LOCK, EV_TOP + 1):
         n0 = nev
-        nev = _detect_kind(kd, nev, t, h, model, watch, dense, ws, st)
+        nev = _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det)
         if kd == EV_UNLOCK:
-            books.n_evals[0] += 2 * (nev - n0)
+            n_evals[0] += 2 * (nev - n0)
             if nev > 0:
-                _dense(dense.Y, dense.K, h, 0.5, st.Ytmp)  # (the locating may have used Ytmp)
-    st.found.n[0] = nev
+                _dense(dense.Y, dense.K, h, 0.5, sg.Ytmp)  # (the locating may have used Ytmp)
+    det.found.n[0] = nev
     theta_stop = 1.0
     fire = False
     for r in range(nev):
-        theta_stop = min(theta_stop, st.found.time[r])
-        fire = fire or st.found.time[r] <= 1.0
+        theta_stop = min(theta_stop, det.found.time[r])
+        fire = fire or det.found.time[r] <= 1.0
     return theta_stop, fire
 
 
 @njit(cache=True)
-def _record_frame(Yt, tf, n_landed, chain, ws, st, frames):
+def _record_frame(Yt, dYt, tf, n_landed, chain, ws, scr, frames):
     """Frame frames.count[0] at time tf from the state Yt: the state, the anchors' force
     on the airborne chain, the pile's pull (``pile_pull``), the vertical force a scale
     under the floor reads (anchors' z force + the weight of the landed segments),
@@ -622,16 +628,16 @@ def _record_frame(Yt, tf, n_landed, chain, ws, st, frames):
         frames.anchored[k, j] = chain.anchored[j]
     for j in range(n - 1):
         frames.locked[k, j] = chain.locked[j]
-    _rhs(Yt, chain.anchored, chain.locked, ws, st.dYtmp)
+    _rhs(Yt, chain.anchored, chain.locked, ws, dYt)
     anchor_force_total(ws.kind, ws.nrow, ws.x, frames.floor_force[k])
     pile_pull(chain.anchored, ws.kind, ws.nrow, ws.x, frames.pile_pull[k])
     frames.scale_force[k] = frames.floor_force[k, 2] + n_landed
-    frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], st.pts, st.vel)
+    frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], scr.pts, scr.vel)
     frames.potential[k] = potential_energy(Yt[0])
 
 
 @njit(cache=True)
-def _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
+def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, floor_flow, n_evals, frames):
     """The frames due up to t_end, from the step's dense output; False if the buffers
     filled first (the caller returns ADV_BUFFER and redoes the step once they are
     emptied)."""
@@ -640,12 +646,12 @@ def _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
         if frames.count[0] >= cap:
             return False
         th = (frames.next[0] - t) / h
-        _dense(chain.Y, st.K, h, th, st.Ytmp)
-        _record_frame(st.Ytmp, frames.next[0], n_landed, chain, ws, st, frames)
-        floor_impulse_dense(h, th, st.F, n_landed, st.fpart)
+        _dense(chain.Y, sg.K, h, th, sg.Ytmp)
+        _record_frame(sg.Ytmp, sg.dYtmp, frames.next[0], n_landed, chain, ws, scr, frames)
+        floor_impulse_dense(h, th, sg.F, n_landed, scr.fpart)
         for q in range(3):
-            frames.floor_impulse[frames.count[0], q] = books.floor_flow[q] + st.fpart[q]
-        books.n_evals[0] += 1
+            frames.floor_impulse[frames.count[0], q] = floor_flow[q] + scr.fpart[q]
+        n_evals[0] += 1
         frames.count[0] += 1
         frames.next[0] += frames.dt
     return True
@@ -660,7 +666,7 @@ def _trace_point(trace, t, e):
 
 
 @njit(cache=True)
-def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
+def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, floor_flow, n_evals, trace):
     """End the step at its first event: the state at the event time to the step's order
     (the 4th-order interpolant is good enough to locate the event, not to restart
     from), the floor's impulse to that time, the found events' absolute times (inf: not
@@ -668,12 +674,11 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
     Y = chain.Y
     if theta_stop < 1.0:
         if theta_stop > 0.0:
-            _event_state(Y, st, h, theta_stop, chain.anchored, chain.locked, ws, n_landed, books.floor_flow)
-            books.n_evals[0] += 2
+            _event_state(Y, sg, hb, h, theta_stop, chain.anchored, chain.locked, ws, n_landed, floor_flow)
+            n_evals[0] += 2
     else:
-        floor_impulse_step(h, st.F, n_landed, books.floor_flow)
-        _copy_state(Y, st.Y1)
-    found = st.found
+        floor_impulse_step(h, sg.F, n_landed, floor_flow)
+        _copy_state(Y, sg.Y1)
     for r in range(found.n[0]):
         found.time[r] = t + found.time[r] * h if found.time[r] <= 1.0 else math.inf
     t_event = t + theta_stop * h
@@ -682,36 +687,36 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace):
 
 
 @njit(cache=True)
-def _lowest_point(e, books):
-    """books.lowest <- the lowest point height seen (for the max depth)."""
+def _lowest_point(e, lowest):
+    """lowest <- the lowest point height seen (for the max depth)."""
     zlow = 0.0
     zacc = 0.0
     for j in range(e.shape[0] - 1, -1, -1):
         zacc += 2.0 * e[j, 2]
         if zacc < zlow:
             zlow = zacc
-    if zlow < books.lowest[0]:
-        books.lowest[0] = zlow
+    if zlow < lowest[0]:
+        lowest[0] = zlow
 
 
 @njit(cache=True)
-def _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace):
+def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, books, trace):
     """Accept the full step: the state at its end, the floor's impulse, the projection
     onto the constraints (f(Y) recomputed if it moved the state, else the last stage
     reused), departing functions armed, the lowest point and the trace."""
     Y = chain.Y
-    floor_impulse_step(h, st.F, n_landed, books.floor_flow)
-    _copy_state(Y, st.Y1)
-    res = project_state(chain, ws, st.pts, st.vel, PROJ_TOL, np.int64(3))
+    floor_impulse_step(h, sg.F, n_landed, books.floor_flow)
+    _copy_state(Y, sg.Y1)
+    res = project_state(chain, ws, scr.pts, scr.vel, PROJ_TOL, np.int64(3))
     if res > PROJ_TOL:
-        _stage_rhs(Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
+        _stage_rhs(Y, chain.anchored, chain.locked, ws, sg.K[0], sg.F[0])
         books.n_evals[0] += 1
     else:
-        _copy_state(st.K[0], st.K[6])
+        _copy_state(sg.K[0], sg.K[6])
         for q in range(3):
-            st.F[0, q] = st.F[6, q]
-    arm_departed(model, chain, watch, st.lam1, st.fv_end)
-    _lowest_point(Y[0], books)
+            sg.F[0, q] = sg.F[6, q]
+    arm_departed(model, chain, watch, det.lam1, det.fv_end)
+    _lowest_point(Y[0], books.lowest)
     _trace_point(trace, t_end, Y[0])
 
 
@@ -726,9 +731,9 @@ def _count_landed(anchored):
 
 
 @njit(cache=True)
-def _why_stop(t, h, model, fsal, books, trace):
+def _why_stop(t, h, model, fsal, n_steps, trace):
     """A reason to return before the next step (ADV_*), or ADV_GO."""
-    if books.n_steps[0] >= model.max_steps:
+    if n_steps[0] >= model.max_steps:
         return ADV_MAX_STEPS
     if trace.count[0] >= trace.t.shape[0] - 2:
         fsal[0] = 1
@@ -741,15 +746,15 @@ def _why_stop(t, h, model, fsal, books, trace):
 
 
 @njit(cache=True)
-def _try_step(t, h, model, chain, ws, st, books):
-    """One Dormand-Prince step of size h (st.Y1, st.K, st.F); returns its error in units
-    of the tolerance (inf: non-finite) and the lock multipliers at its end (st.lam1)."""
-    _rk_stages(chain.Y, h, st, chain.anchored, chain.locked, ws)
-    books.n_evals[0] += 6
-    err = _step_error(chain.Y, st.Y1, st.K, h, model.rtol, model.rtol)
-    if not math.isfinite(err) or _nonfinite(st.Y1):
+def _try_step(h, model, chain, ws, sg, lam1, n_evals):
+    """One Dormand-Prince step of size h (sg.Y1, sg.K, sg.F); returns its error in units
+    of the tolerance (inf: non-finite) and the lock multipliers at its end (lam1)."""
+    _rk_stages(chain.Y, h, sg, chain.anchored, chain.locked, ws)
+    n_evals[0] += 6
+    err = _step_error(chain.Y, sg.Y1, sg.K, h, model.rtol, model.rtol)
+    if not math.isfinite(err) or _nonfinite(sg.Y1):
         return math.inf
-    lock_multipliers(ws.kind, ws.nrow, ws.x, st.lam1)  # lambda at Y1 (last stage)
+    lock_multipliers(ws.kind, ws.nrow, ws.x, lam1)  # lambda at Y1 (last stage)
     return err
 
 
@@ -758,28 +763,29 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
     """Integrate from t until model.t_stop or the first event.
 
     Returns (code, t, h).  On ADV_EVENT, chain.Y holds the state at the event time t,
-    and st.found (st.found.n[0] rows) the triggered events with their located times (absolute; inf: not confirmed).  books: steps, evaluations, the lowest
+    and st.det.found (its n[0] rows) the triggered events with their located times (absolute; inf: not confirmed).  books: steps, evaluations, the lowest
     point, the floor's continuous impulse (``floor_impulse_step``).  Frames fill the
     buffers; a step with more frames than fit returns ADV_BUFFER before it is accepted
     (the caller empties the buffers and calls again: the step is redone from the same
-    state and goes on where the frames stopped); st.fsal[0] = 1 then: st.K[0], st.F[0]
+    state and goes on where the frames stopped); st.fsal[0] = 1 then: st.sg.K[0], st.sg.F[0]
     still hold f(Y) of the step in progress, and the next call starts from them (so
     buffer sizes change no number).
     """
     n_landed = _count_landed(chain.anchored)
-    dense = Dense(chain.Y, st.K, st.Ytmp, st.dYtmp, st.lam, st.pair, chain.anchored, chain.locked)
+    sg, hb, det, scr = st.sg, st.hb, st.det, st.scr
+    dense = Dense(chain.Y, sg.K, sg.Ytmp, sg.dYtmp, scr.lam, scr.pair, chain.anchored, chain.locked)
     if st.fsal[0] == 0:  # FSAL: derivative at the current state (kept across an ADV_BUFFER return)
-        _stage_rhs(chain.Y, chain.anchored, chain.locked, ws, st.K[0], st.F[0])
+        _stage_rhs(chain.Y, chain.anchored, chain.locked, ws, sg.K[0], sg.F[0])
         books.n_evals[0] += 1
     st.fsal[0] = 0
     reuse_factors(ws.S, np.bool_(False))  # the steps have new axes at every stage
     nfail = 0
     while True:
-        code = _why_stop(t, h, model, st.fsal, books, trace)
+        code = _why_stop(t, h, model, st.fsal, books.n_steps, trace)
         if code != ADV_GO:
             return code, t, h
         h = min(h, model.t_stop - t)
-        err = _try_step(t, h, model, chain, ws, st, books)
+        err = _try_step(h, model, chain, ws, sg, det.lam1, books.n_evals)
         if err == math.inf:
             nfail += 1
             if nfail > 20:
@@ -790,15 +796,18 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
             h *= max(0.2, 0.9 * err**-0.2)
             continue
         nfail = 0
-        theta_stop, fire = _detect_events(t, h, model, watch, dense, ws, st, books)
+        theta_stop, fire = _detect_events(t, h, model, watch, dense, ws, sg, det, books.n_evals)
         books.n_steps[0] += 1
         t_end = t + theta_stop * h
-        if not _emit_frames(t, h, t_end, n_landed, chain, ws, st, books, frames):
+        if not _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books.floor_flow, books.n_evals, frames):
             books.n_steps[0] -= 1  # buffers full: redo this step once they are emptied
             st.fsal[0] = 1
             return ADV_BUFFER, t, h
         if fire:
-            return ADV_EVENT, _stop_at_event(t, h, theta_stop, n_landed, chain, ws, st, books, trace), h
-        _accept_step(t_end, h, n_landed, model, chain, watch, ws, st, books, trace)
+            t_event = _stop_at_event(
+                t, h, theta_stop, n_landed, chain, ws, sg, hb, det.found, books.floor_flow, books.n_evals, trace
+            )
+            return ADV_EVENT, t_event, h
+        _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, books, trace)
         t = t_end
         h *= 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err**-0.2))
