@@ -2,7 +2,7 @@
 
     python benchmarks/study_report.py docs/data/optimal-alpha.parquet
 
-Prints, from ``ballchain.sweep.stats`` (the same numbers as ``ballchain stats --json``):
+Prints, from ``ballchain.sweeps.stats`` (the same numbers as ``ballchain stats --json``):
 the points (mean, 95% interval, median of t_fall/t_ff and t_landed/t_ff, the fraction
 faster than free fall with its Wilson interval), the optimal alpha per (N, floor), and
 the crossover: for each (alpha, floor) measured at several N, the N where the mean
@@ -18,7 +18,7 @@ import sys
 import numpy as np
 import pandas as pd
 
-from ballchain.sweep.stats import table_stats
+from ballchain.sweeps.stats import table_stats
 
 
 def f(x, spec=".3f"):

@@ -33,8 +33,8 @@ def main() -> None:
     args = ap.parse_args()
 
     from ballchain.engine import simulate
-    from ballchain.sweep import SweepSpec, parse_alphas
-    from ballchain.sweep.execute import run_sweep, warm_kernels
+    from ballchain.sweeps import SweepSpec, parse_alphas
+    from ballchain.sweeps.execute import run_sweep, warm_kernels
 
     print(machine_info(("numpy", "numba", "scipy", "dask", "distributed", "pyarrow", "ballchain")))
     warm_kernels()

@@ -19,10 +19,10 @@ from typer.testing import CliRunner
 from ballchain.cli import app
 from ballchain.initial import initial_directions
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from ballchain.sweep import SweepSpec, Task, parse_alphas, parse_segments, run_id
-from ballchain.sweep.execute import run_sweep, run_tasks
-from ballchain.sweep.stats import mean_interval, table_stats
-from ballchain.sweep.table import COLUMNS, VOLATILE, read_table, write_table
+from ballchain.sweeps import SweepSpec, Task, parse_alphas, parse_segments, run_id
+from ballchain.sweeps.execute import run_sweep, run_tasks
+from ballchain.sweeps.stats import mean_interval, table_stats
+from ballchain.sweeps.table import COLUMNS, VOLATILE, read_table, write_table
 
 runner = CliRunner()
 
@@ -187,7 +187,7 @@ def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
         "--alpha",
         "30deg,45deg,60deg,pi",
         "--runs",
-        "4",
+        "16",  # long enough to be killed mid-way
         "--out",
         str(out),
         "--workers",
@@ -211,13 +211,13 @@ def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     before = _table(out)  # a complete table: the file is replaced atomically
-    assert 3 <= len(before) < 64 and before["run_id"].is_unique
+    assert 3 <= len(before) < 256 and before["run_id"].is_unique
     res = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     rep = json.loads(res.stdout)
     after = _table(out)
-    assert rep["skipped"] >= len(before) and rep["ran"] == 64 - rep["skipped"]
-    assert len(after) == 64 and after["run_id"].is_unique
+    assert rep["skipped"] >= len(before) and rep["ran"] == 256 - rep["skipped"]
+    assert len(after) == 256 and after["run_id"].is_unique
     kept = after.set_index("run_id").loc[before["run_id"]]
     stable = [c for c in COLUMNS if c not in VOLATILE and c != "run_id"]
     pd.testing.assert_frame_equal(kept[stable].reset_index(drop=True), before[stable].reset_index(drop=True))

@@ -23,7 +23,8 @@ import typer
 from typer.core import TyperGroup
 
 from . import __version__
-from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
+from .inputs import _CHAIN, _SOLVER, _START, _parse_angle, build_inputs  # noqa: F401  (build_inputs: part of the CLI)
+from .model import InitialCondition, ParameterError, parse_angle
 from .records.files import ResultFileError, check_output_dir, check_writable, file_info, load_result, save_result
 
 try:  # typer >= 0.16 vendors click
@@ -101,73 +102,6 @@ def _main(
 def _error(message: str) -> None:
     text = " ".join(str(message).split())  # one line, always
     typer.echo(f"error: {text}", err=True)
-
-
-def _parse_angle(name: str, text: str) -> float:
-    try:
-        return parse_angle(text)
-    except (ParameterError, ValueError):
-        raise ParameterError(f"{name}: cannot parse angle {text!r} (use e.g. 45deg, pi/4 or 0.785)") from None
-
-
-def _parse_spawn_key(text: str) -> tuple[int, ...]:
-    """``""`` -> (), ``"3"`` -> (3,), ``"3,1"`` -> (3, 1)."""
-    text = str(text or "").strip()
-    if not text:
-        return ()
-    try:
-        return tuple(int(k) for k in text.split(","))
-    except ValueError:
-        raise ParameterError(
-            f"spawn-key must be comma-separated integers >= 0 (as a sweep table's spawn_key), got {text!r}"
-        ) from None
-
-
-# the defaults of the options are those of the parameter dataclasses (stated once, there)
-_CHAIN, _START, _SOLVER = ChainParams(), InitialCondition(), SolverOptions()
-
-
-def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition, SolverOptions]:
-    """The CLI's option values (by the dataclasses' field names, plus ``ic`` for the start's
-    kind, ``spawn_key`` as text and ``length``/``mass``/``gravity`` for a chain in SI units;
-    a missing value takes the dataclass's default) -> validated dataclasses (raises
-    ParameterError)."""
-    v = dict(values)
-    chain_kw = dict(
-        alpha=_parse_angle("alpha", v.get("alpha", _CHAIN.alpha)),
-        floor=v.get("floor", _CHAIN.floor),
-        anchor_cone=v.get("anchor_cone", _CHAIN.anchor_cone),
-    )
-    segments = v.get("segments", _CHAIN.segments)
-    length, mass, gravity = v.get("length"), v.get("mass"), v.get("gravity")
-    if length is None and mass is None and gravity is None:
-        params = ChainParams(segments=segments, **chain_kw)
-    else:
-        missing = [n for n, x in (("--length", length), ("--mass", mass)) if x is None]
-        if missing:
-            raise ParameterError(
-                f"{' and '.join(missing)} required: SI units (--length/--mass/--gravity) "
-                f"need the total length (m) and total mass (kg)"
-            )
-        if isinstance(segments, int) and segments < 1:
-            raise ParameterError(f"segments must be >= 1, got {segments}")
-        params = ChainParams.from_chain(segments, length, mass, 9.81 if gravity is None else gravity, **chain_kw)
-    init = InitialCondition(
-        kind=v.get("ic", _START.kind),
-        eps=v.get("eps", _START.eps),
-        turns=v.get("turns", _START.turns),
-        phase=_parse_angle("phase", v.get("phase", _START.phase)),
-        seed=v.get("seed", _START.seed),
-        spawn_key=_parse_spawn_key(v.get("spawn_key", "")),
-    )
-    options = SolverOptions(
-        rtol=v.get("rtol", _SOLVER.rtol),
-        until=v.get("until", _SOLVER.until),
-        frames_per_tff=v.get("frames_per_tff", _SOLVER.frames_per_tff),
-        max_time=v.get("max_time", _SOLVER.max_time),
-        max_events=v.get("max_events", _SOLVER.max_events),
-    )
-    return params, init, options
 
 
 def run_summary(result) -> dict:
@@ -284,6 +218,34 @@ def _print_json(obj: dict) -> None:
     typer.echo(json.dumps(obj, allow_nan=False))
 
 
+def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tuple[dict, tuple | None]:
+    """``--from``: the option values of the run saved in ``path`` (``values`` given on the
+    command line override them) and, for a run started from an explicit state
+    (``--initial``), that state (its first frame)."""
+    import numpy as np
+
+    r = load_result(path)
+    p, o = r.params, r.options
+    base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone, rtol=o.rtol,
+                until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
+                method=o.method)  # fmt: skip
+    if p.is_si:
+        base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
+    state = None
+    if r.ic is not None:
+        base.update(ic=r.ic.kind, eps=r.ic.eps, turns=r.ic.turns, phase=r.ic.phase, seed=r.ic.seed,
+                    spawn_key=",".join(str(k) for k in r.ic.spawn_key))  # fmt: skip
+    elif use_its_start:
+        if len(r.frame_t) == 0 or r.frame_t[0] != 0.0:
+            raise ParameterError(f"--from {path!r}: its run started from an explicit state and has no frame at t = 0")
+        state = (np.array(r.frame_e[0]), np.array(r.frame_omega[0]) * p.time_unit)
+    given = {k for k in values if getattr(ctx.get_parameter_source(k), "name", "") == "COMMANDLINE"}
+    if state is not None and "segments" in given and values["segments"] != p.segments:
+        raise ParameterError(f"--segments {values['segments']} disagrees with the {p.segments} segments of {path!r}")
+    base.update({k: values[k] for k in given})
+    return base, state
+
+
 def _progress_console():
     """Where the progress bar goes: stderr, never stdout."""
     from rich.console import Console
@@ -381,6 +343,7 @@ def _simulate_with_progress(simulate, params, init, options, show_progress: bool
 # --------------------------------------------------------------------------- commands
 @app.command()
 def simulate(
+    ctx: typer.Context,
     segments: int | None = typer.Option(
         None,
         "--segments",
@@ -441,6 +404,11 @@ def simulate(
     mass: float | None = typer.Option(None, "--mass", help="Total mass of the chain in kg (SI units; needs --length)."),
     gravity: float | None = typer.Option(None, "--gravity", help="Gravity in m/s^2 (SI units; default 9.81)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    from_: str | None = typer.Option(
+        None,
+        "--from",
+        help="Rerun a result file's own parameters (chain, start, options); options given beside it override them.",
+    ),
     initial: str | None = typer.Option(
         None,
         "--initial",
@@ -450,6 +418,29 @@ def simulate(
     """Simulate one fall (defaults: the paper's case N = 128, alpha = pi/4, helix)."""
     state = None
     try:
+        values = dict(
+            segments=segments,
+            alpha=alpha,
+            floor=floor,
+            anchor_cone=anchor_cone,
+            ic=ic,
+            eps=eps,
+            turns=turns,
+            phase=phase,
+            seed=seed,
+            spawn_key=spawn_key,
+            rtol=rtol,
+            until=until,
+            frames_per_tff=frames_per_tff,
+            max_time=max_time,
+            max_events=max_events,
+            length=length,
+            mass=mass,
+            gravity=gravity,
+        )
+        if from_ is not None:
+            values, state = _values_from_file(from_, values, ctx, initial is None)
+            segments = values["segments"]
         if initial is not None:
             from .initial import load_initial_state
 
@@ -458,28 +449,8 @@ def simulate(
                 raise ParameterError(f"--segments {segments} disagrees with the {e0.shape[0]} rows of {initial!r}")
             segments = e0.shape[0]
             state = (e0, w0)
-        params, init, options = build_inputs(
-            dict(
-                segments=_CHAIN.segments if segments is None else segments,
-                alpha=alpha,
-                floor=floor,
-                anchor_cone=anchor_cone,
-                ic=ic,
-                eps=eps,
-                turns=turns,
-                phase=phase,
-                seed=seed,
-                spawn_key=spawn_key,
-                rtol=rtol,
-                until=until,
-                frames_per_tff=frames_per_tff,
-                max_time=max_time,
-                max_events=max_events,
-                length=length,
-                mass=mass,
-                gravity=gravity,
-            )
-        )
+        values["segments"] = _CHAIN.segments if segments is None else segments
+        params, init, options = build_inputs(values)
         if output is not None:
             check_writable(output, force)
     except (ParameterError, ResultFileError, FileExistsError) as e:
@@ -490,6 +461,8 @@ def simulate(
         result = _run_engine(params, None if state else init, options, show_progress=not quiet, state=state)
         if initial is not None:
             result.extra["initial"] = str(initial)
+        if from_ is not None:
+            result.extra["from"] = str(from_)
     except KeyboardInterrupt as exc:  # before the run started, or a second signal: stop at once
         _error(f"interrupted ({getattr(exc, 'reason', 'SIGINT')}) before the run could save its work (nothing saved)")
         raise typer.Exit(EXIT_TERMINATED if "SIGTERM" in str(exc) else EXIT_INTERRUPTED)
@@ -746,7 +719,7 @@ def sweep(
 ) -> None:
     """Run a grid of falls on dask.distributed into one Parquet table (resumable)."""
     from .model import FLOOR_MODELS, IC_KINDS
-    from .sweep import SweepSpec, parse_alphas, parse_choices, parse_segments
+    from .sweeps import SweepSpec, parse_alphas, parse_choices, parse_segments
 
     try:
         if workers is not None and workers < 1:
@@ -765,7 +738,7 @@ def sweep(
             max_time=max_time,
             save_runs=save_runs,
         )
-        from .sweep.execute import check_scheduler, run_sweep
+        from .sweeps.execute import check_scheduler, run_sweep
 
         spec.tasks()  # every run validated before anything starts
         if Path(out).suffix.lower() != ".parquet":
@@ -806,7 +779,7 @@ def stats(
     ),
 ) -> None:
     """Means, medians and 95% intervals per point of a sweep; the optimal alpha per N."""
-    from .sweep.stats import table_stats
+    from .sweeps.stats import table_stats
 
     if not Path(table).is_file():
         _error(f"table: no such file {table!r}")

@@ -169,6 +169,62 @@ class Result:
     def ratio(self) -> float:
         return self.t_fall / self.t_ff
 
+    def events_table(self):
+        """The event log as a pandas DataFrame, one row per constraint that acted at an
+        event instant: t, kind (its name, ``EVENT_KINDS``), index (hinge k or point j),
+        impulse_x/y/z, energy (kinetic energy lost there), x, y, z (the point's position).
+        Units of every column in ``DataFrame.attrs["units"]``."""
+        import pandas as pd
+
+        from .files import unit_of
+
+        imp, pos = np.asarray(self.event_impulse), np.asarray(self.event_pos)
+        df = pd.DataFrame({
+            "t": np.asarray(self.event_t),
+            "kind": [EVENT_KINDS.get(int(k), str(int(k))) for k in np.asarray(self.event_kind)],
+            "index": np.asarray(self.event_index),
+            "impulse_x": imp[:, 0], "impulse_y": imp[:, 1], "impulse_z": imp[:, 2],
+            "energy": np.asarray(self.event_energy),
+            "x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2],
+        })  # fmt: skip
+        u = self.units
+        df.attrs["units"] = {
+            "t": unit_of("event_t", u), "impulse": unit_of("event_impulse", u), "energy": unit_of("event_energy", u),
+            "x, y, z": unit_of("event_pos", u),
+        }  # fmt: skip
+        return df
+
+    def frames_table(self):
+        """One row per output frame as a pandas DataFrame: t, z_top (the top end's
+        height), kinetic, potential, lost_locking, lost_landing (the energy books),
+        floor_force_z, pile_pull_z, scale_force, floor_impulse_z, n_landed (segments
+        with both ends anchored), n_locked (locked hinges).  Units in ``attrs["units"]``;
+        the frames' axes and rates stay arrays (``frame_e``, ``points()``)."""
+        import pandas as pd
+
+        from .files import unit_of
+
+        anchored = np.asarray(self.frame_anchored, dtype=bool)
+        landed = anchored[:, :-1] & anchored[:, 1:] if anchored.size else np.zeros((0, 0), bool)
+        pts = self.points() if len(self.frame_t) else np.zeros((0, 1, 3))
+        df = pd.DataFrame({
+            "t": np.asarray(self.frame_t),
+            "z_top": pts[:, 0, 2],
+            "kinetic": np.asarray(self.frame_kinetic), "potential": np.asarray(self.frame_potential),
+            "lost_locking": np.asarray(self.frame_lost_locking), "lost_landing": np.asarray(self.frame_lost_landing),
+            "floor_force_z": np.asarray(self.frame_floor_force)[:, 2],
+            "pile_pull_z": np.asarray(self.frame_pile_pull)[:, 2],
+            "scale_force": np.asarray(self.frame_scale_force),
+            "floor_impulse_z": np.asarray(self.frame_floor_impulse)[:, 2],
+            "n_landed": landed.sum(axis=1), "n_locked": np.asarray(self.frame_locked, dtype=bool).sum(axis=1),
+        })  # fmt: skip
+        u = self.units
+        df.attrs["units"] = {
+            "t": unit_of("frame_t", u), "z_top": unit_of("z_top", u), "energies": unit_of("frame_kinetic", u),
+            "forces": unit_of("frame_floor_force", u), "floor_impulse_z": unit_of("frame_floor_impulse", u),
+        }  # fmt: skip
+        return df
+
     def summary(self) -> dict:
         """The ``--json`` object of ``ballchain simulate`` (keys are a contract)."""
 

@@ -75,7 +75,9 @@ class _Stop(KeyboardInterrupt):
 
 
 def _connect(scheduler: str | None, workers: int, log):
-    """A dask Client: to ``scheduler``, or to a new LocalCluster of ``workers`` processes."""
+    """A dask Client: to ``scheduler``, or to a new LocalCluster of ``workers`` processes
+    (one worker: a thread of this process, which starts no process, so a script that
+    sweeps needs no ``if __name__ == "__main__"`` guard)."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -90,13 +92,9 @@ def _connect(scheduler: str | None, workers: int, log):
     # one thread per worker process; no nested BLAS/numba threads
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
         os.environ.setdefault(var, "1")
+    where = dict(processes=True, host="127.0.0.1") if workers > 1 else dict(processes=False)  # (in-process: inproc://)
     cluster = LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        silence_logs=logging.ERROR,
-        host="127.0.0.1",
+        n_workers=workers, threads_per_worker=1, dashboard_address=":0", silence_logs=logging.ERROR, **where
     )
     return Client(cluster), cluster
 
