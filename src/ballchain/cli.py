@@ -675,6 +675,38 @@ def animate(
 
 
 @app.command()
+def export(
+    file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
+    fmt: str = typer.Option(
+        ..., "--format", help="xyz (extended XYZ: OVITO, ASE) or vtk (VTK polylines and a .pvd collection: ParaView)."
+    ),
+    out: str = typer.Option(
+        ..., "--out", help="The output file: .xyz (or .extxyz), or .pvd for vtk (its frames beside it)."
+    ),
+    every: int | None = typer.Option(None, "--every", help="Every K-th frame of the run (default: every frame)."),
+    frames: int | None = typer.Option(None, "--frames", help="Exactly N frames spread evenly over the run."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+) -> None:
+    """Write a run's frames for OVITO or ParaView (positions in the run's length unit)."""
+    from .plots.animate import AnimationError, frame_indices
+    from .records.export import FORMATS, export_frames
+
+    try:
+        if fmt not in FORMATS:
+            raise ParameterError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+        want = (".xyz", ".extxyz") if fmt == "xyz" else (".pvd",)
+        if Path(out).suffix.lower() not in want:
+            raise ParameterError(f"--out: expected a {' or '.join(want)} file name for --format {fmt}, got {out!r}")
+        check_writable(out, force)
+        result = load_result(file)
+        idx = frame_indices(len(result.frame_t), every=every, frames=frames)
+    except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    typer.echo(str(export_frames(result, fmt, out, idx, force=force)))
+
+
+@app.command()
 def sweep(
     segments: str = typer.Option("64", "--segments", "-N", help="N values: a list (64,128) or range start:stop:step."),
     alpha: str = typer.Option(
