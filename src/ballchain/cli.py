@@ -675,6 +675,35 @@ def animate(
 
 
 @app.command()
+def view(
+    file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
+    out: str = typer.Option("fall.html", "--out", help="The HTML file (self-contained: opens offline in any browser)."),
+    every: int | None = typer.Option(None, "--every", help="Every K-th frame of the run."),
+    frames: int | None = typer.Option(
+        None,
+        "--frames",
+        help="Exactly N frames spread evenly (default: all, at most 1,000,000 chain points in a file).",
+    ),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+) -> None:
+    """An orbitable 3D view of a run with a time slider, in one HTML file (plotly)."""
+    from .plots.animate import AnimationError, frame_indices
+
+    try:
+        if Path(out).suffix.lower() not in (".html", ".htm"):
+            raise ParameterError(f"--out: expected a .html file name, got {out!r}")
+        check_writable(out, force)
+        result = load_result(file)
+        frame_indices(len(result.frame_t), every=every, frames=frames)  # checks the options against the run
+    except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    from .plots.view import write_view  # lazy: plotly
+
+    typer.echo(str(write_view(result, out, every=every, frames=frames)))
+
+
+@app.command()
 def export(
     file: str = typer.Argument(..., help="A result file written by ballchain simulate --output."),
     fmt: str = typer.Option(

@@ -1,0 +1,161 @@
+"""An orbitable 3D view of a run in one self-contained HTML file (plotly, its library
+embedded: it opens offline in any browser).
+
+The chain in 3D with a time slider and play/pause, each segment coloured by its state
+(free; next to a locked hinge; landed), the floor; beside it z_top(t) against free fall,
+with a marker that follows the slider.  Size rule: a file holds at most ``POINT_BUDGET``
+chain points in all (frames x (N + 1)); by default the frames are thinned evenly to that
+(N = 4096: 244 frames, a file of about 30 MB), ``every``/``frames`` choose others.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..records.result import Result
+from .animate import frame_indices
+
+POINT_BUDGET = 1_000_000  # chain points in a file at most, by default
+COLORS = {"free": "#1f5fbf", "locked": "#d62728", "landed": "#7f7f7f"}
+STATES = ("free", "locked", "landed")
+
+
+def default_frames(result: Result) -> int:
+    """The frames a view holds by default: all of them, or as many as POINT_BUDGET allows."""
+    n_points = result.params.segments + 1
+    return max(2, min(len(result.frame_t), POINT_BUDGET // n_points))
+
+
+def segment_states(result: Result, i: int) -> np.ndarray:
+    """State of each segment at frame i: 0 free, 1 next to a locked hinge, 2 landed."""
+    anchored = np.asarray(result.frame_anchored[i], dtype=bool)
+    locked = np.asarray(result.frame_locked[i], dtype=bool)
+    n = result.params.segments
+    state = np.zeros(n, dtype=np.int64)
+    if n > 1:
+        state[:-1] |= locked
+        state[1:] |= locked
+    state[anchored[:-1] & anchored[1:]] = 2
+    return state
+
+
+def _chain_traces(pts: np.ndarray, state: np.ndarray, go, visible: bool = True) -> list:
+    """One Scatter3d per state: its segments as lines separated by gaps (None)."""
+    traces = []
+    for code, name in enumerate(STATES):
+        xs, ys, zs = [], [], []
+        for i in np.flatnonzero(state == code):
+            for arr, q in ((xs, 0), (ys, 1), (zs, 2)):
+                arr.extend([pts[i, q], pts[i + 1, q], None])
+        traces.append(go.Scatter3d(x=xs, y=ys, z=zs, mode="lines", name=name, visible=visible,
+                                   line=dict(color=COLORS[name], width=6), hoverinfo="skip", showlegend=True))  # fmt: skip
+    return traces
+
+
+def view_figure(result: Result, *, every: int | None = None, frames: int | None = None):
+    """The interactive figure (a ``plotly.graph_objects.Figure``) of the frames chosen as
+    ``ballchain animate`` chooses them (``every`` K-th, or ``frames`` spread evenly;
+    default: ``default_frames``)."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    if every is None and frames is None:
+        frames = min(default_frames(result), len(result.frame_t))
+    idx = frame_indices(len(result.frame_t), every=every, frames=frames)
+    unit = result.params.half_length
+    pts_all = np.round(result.points(idx) / unit, 4)  # units of b; 1e-4 b is finer than any screen
+    lo, hi = np.nanmin(pts_all.reshape(-1, 3), axis=0), np.nanmax(pts_all.reshape(-1, 3), axis=0)
+    span = float(max(hi[0] - lo[0], hi[1] - lo[1], 1.0))
+    cx, cy = 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])
+    fig = make_subplots(rows=1, cols=2, column_widths=[0.62, 0.38], specs=[[{"type": "scene"}, {"type": "xy"}]],
+                        subplot_titles=("the chain (drag to orbit)", "the top end"))  # fmt: skip
+    t_ff = result.t_ff
+    tau = np.asarray(result.frame_t)[idx] / t_ff
+    for tr in _chain_traces(pts_all[0], segment_states(result, int(idx[0])), go):
+        fig.add_trace(tr, row=1, col=1)
+    h = 0.6 * span
+    fig.add_trace(go.Mesh3d(x=[cx - h, cx + h, cx + h, cx - h], y=[cy - h, cy - h, cy + h, cy + h], z=[0, 0, 0, 0],
+                            i=[0, 0], j=[1, 2], k=[2, 3], color="#c8b48c", opacity=0.35, name="floor",
+                            hoverinfo="skip", showlegend=False), row=1, col=1)  # fmt: skip
+    z0 = result.z0 / unit
+    tt = np.asarray(result.t) / t_ff
+    fig.add_trace(go.Scatter(x=tt, y=np.asarray(result.z_top) / unit, mode="lines", name="z_top",
+                             line=dict(color="#2ca02c")), row=1, col=2)  # fmt: skip
+    tf = np.linspace(0.0, 1.0, 200)
+    fig.add_trace(go.Scatter(x=tf, y=z0 * (1.0 - tf**2), mode="lines", name="free fall",
+                             line=dict(color="#555555", dash="dash")), row=1, col=2)  # fmt: skip
+    fig.add_trace(go.Scatter(x=[tau[0]], y=[pts_all[0, 0, 2]], mode="markers", name="now",
+                             marker=dict(size=11, color="#d62728")), row=1, col=2)  # fmt: skip
+    marker = len(fig.data) - 1
+    fig.frames = [
+        go.Frame(
+            name=str(k),
+            traces=[0, 1, 2, marker],
+            data=[
+                *_chain_traces(pts_all[k], segment_states(result, int(i)), go),
+                go.Scatter(x=[tau[k]], y=[pts_all[k, 0, 2]]),
+            ],
+        )  # fmt: skip
+        for k, i in enumerate(idx)
+    ]
+    steps = [dict(method="animate", label=f"{tau[k]:.3f}",
+                  args=[[str(k)], dict(mode="immediate", frame=dict(duration=0, redraw=True), transition=dict(duration=0))])
+             for k in range(len(idx))]  # fmt: skip
+    zmax = float(max(hi[2], z0)) * 1.02
+    fig.update_layout(
+        title=f"ballchain: N = {result.params.segments}, alpha = {np.degrees(result.params.alpha):.4g} deg, "
+        f"floor {result.params.floor} (lengths in b, time in t_ff)",
+        scene=dict(
+            xaxis=dict(range=[cx - h, cx + h], title="x"),
+            yaxis=dict(range=[cy - h, cy + h], title="y"),
+            zaxis=dict(range=[min(lo[2], 0.0) - 0.5, zmax], title="z"),
+            aspectmode="manual",
+            aspectratio=dict(x=1, y=1, z=max(0.6, min(2.0, zmax / (2 * h)))),
+            camera=dict(eye=dict(x=1.7, y=1.7, z=0.8)),
+        ),  # fmt: skip
+        xaxis=dict(title="t / t_ff"),
+        yaxis=dict(title="z_top / b", range=[min(0.0, float(np.nanmin(pts_all[:, 0, 2]))) - 0.5, zmax]),
+        sliders=[dict(active=0, steps=steps, currentvalue=dict(prefix="t / t_ff = "), pad=dict(t=40))],
+        updatemenus=[
+            dict(
+                type="buttons",
+                direction="left",
+                x=0.0,
+                y=-0.05,
+                xanchor="left",
+                buttons=[
+                    dict(
+                        label="play",
+                        method="animate",
+                        args=[
+                            None,
+                            dict(frame=dict(duration=60, redraw=True), fromcurrent=True, transition=dict(duration=0)),
+                        ],
+                    ),
+                    dict(
+                        label="pause",
+                        method="animate",
+                        args=[
+                            [None],
+                            dict(mode="immediate", frame=dict(duration=0, redraw=False), transition=dict(duration=0)),
+                        ],
+                    ),
+                ],
+            )
+        ],  # fmt: skip
+        legend=dict(x=0.0, y=1.0),
+        margin=dict(l=10, r=10, t=60, b=10),
+    )
+    return fig
+
+
+def write_view(result: Result, path, *, every: int | None = None, frames: int | None = None) -> Path:
+    """Write the view to one self-contained HTML file (plotly.js embedded); returns the path."""
+    p = Path(path)
+    tmp = p.with_name(f".{p.name}.tmp")
+    view_figure(result, every=every, frames=frames).write_html(tmp, include_plotlyjs=True, full_html=True,
+                                                              auto_play=False)  # fmt: skip
+    tmp.replace(p)
+    return p

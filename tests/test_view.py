@@ -1,0 +1,91 @@
+"""ballchain view: one self-contained HTML file, rendered in a real browser (Debian's
+chromium, headless) to a screenshot in which the chain must be drawn: the chain's colour
+is on the picture, and absent from the same page with the chain's traces emptied."""
+
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from PIL import Image
+from typer.testing import CliRunner
+
+from ballchain.cli import app
+from ballchain.engine import simulate
+from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.plots.view import COLORS, POINT_BUDGET, default_frames, segment_states, view_figure
+from ballchain.records.files import save_result
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    r = simulate(ChainParams(segments=10, alpha=0.8), InitialCondition(eps=0.1), SolverOptions(until=0.8))
+    path = tmp_path_factory.mktemp("view") / "run.h5"
+    save_result(r, path)
+    return r, path
+
+
+def screenshot(html, png, tmp_path):
+    if CHROMIUM is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI must have Debian's chromium for the browser test (.ci/run installs it)")
+        pytest.skip("no chromium on this machine (apt-get install chromium)")
+    subprocess.run(
+        [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--enable-unsafe-swiftshader", "--use-angle=swiftshader", f"--user-data-dir={tmp_path / 'profile'}",
+         "--window-size=1400,800", "--virtual-time-budget=15000", f"--screenshot={png}", f"file://{html}"],
+        capture_output=True, timeout=120, check=True,
+    )  # fmt: skip
+    return np.asarray(Image.open(png).convert("RGB")).astype(int)
+
+
+def chain_pixels(img) -> int:
+    """Pixels of the free segments' colour in the 3D panel (the left 60 % of the page)."""
+    rgb = np.array([int(COLORS["free"][k : k + 2], 16) for k in (1, 3, 5)])
+    left = img[:, : int(0.6 * img.shape[1])]
+    return int(np.sum(np.all(np.abs(left - rgb) <= 40, axis=-1)))
+
+
+def test_the_view_is_drawn_in_a_browser(run, tmp_path):
+    r, path = run
+    html = tmp_path / "fall.html"
+    res = CliRunner().invoke(app, ["view", str(path), "--out", str(html)])
+    assert res.exit_code == 0, res.output
+    text = html.read_text()
+    assert 'src="http' not in text and "plotly" in text  # offline: the library is embedded
+    drawn = chain_pixels(screenshot(html, tmp_path / "view.png", tmp_path))
+    fig = view_figure(r)
+    for k in range(3):  # the chain's traces emptied: the negative control
+        fig.data[k].update(x=[], y=[], z=[])
+    fig.frames = []
+    empty = tmp_path / "empty.html"
+    fig.write_html(empty, include_plotlyjs=True, full_html=True)
+    blank = chain_pixels(screenshot(empty, tmp_path / "empty.png", tmp_path))
+    assert drawn > 300 and blank < 20, (drawn, blank)
+
+
+def test_frames_states_and_the_size_rule(run, tmp_path):
+    r, path = run
+    fig = view_figure(r, frames=5)
+    assert len(fig.frames) == 5 and fig.layout.sliders[0].steps[-1].label == f"{r.frame_t[-1] / r.t_ff:.3f}"
+    # the segments' states: landed where both ends are anchored, locked next to a locked hinge
+    i = len(r.frame_t) - 1
+    state = segment_states(r, i)
+    anchored, locked = r.frame_anchored[i], r.frame_locked[i]
+    for s in range(r.params.segments):
+        if anchored[s] and anchored[s + 1]:
+            assert state[s] == 2
+        elif (s > 0 and locked[s - 1]) or (s < r.params.segments - 1 and locked[s]):
+            assert state[s] == 1
+        else:
+            assert state[s] == 0
+    assert default_frames(r) == len(r.frame_t)  # a small run keeps every frame
+    big = type("R", (), {"params": ChainParams(segments=4096), "frame_t": np.zeros(10_000)})()
+    assert default_frames(big) * 4097 <= POINT_BUDGET < (default_frames(big) + 1) * 4097
+    for bad in (["--out", str(tmp_path / "v.png")], ["--out", str(tmp_path / "v.html"), "--every", "0"]):
+        res = CliRunner().invoke(app, ["view", str(path), *bad])
+        assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
