@@ -210,6 +210,8 @@ def main(argv=None):
         intervals.append(bench_interval(int(n_i), float(t_i), 10.0))
     if a.output:
         lines = [
+            "# Engine benchmarks",
+            "",
             f"Command: `{cmd.strip()}`",
             "",
             info,

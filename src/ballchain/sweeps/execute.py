@@ -93,6 +93,8 @@ def _connect(scheduler: str | None, workers: int, log):
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     where = dict(processes=True, host="127.0.0.1") if workers > 1 else dict(processes=False)  # (in-process: inproc://)
+    if workers <= 1:  # in this process: its loggers are ours to quiet
+        logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = LocalCluster(
         n_workers=workers, threads_per_worker=1, dashboard_address=":0", silence_logs=logging.ERROR, **where
     )
