@@ -62,6 +62,8 @@ def test_load_save_sweep_and_stats(tmp_path):
     assert len(table) == 8 and set(table["segments"]) == {4, 6} and set(table["status"]) == {"until"}
     s = bc.stats(table)
     assert s["rows"] == 8 and len(s["points"]) == 4
+    with pytest.raises(TypeError, match="unknown keyword"):
+        bc.sweep(segmets=[4])
 
 
 def test_simulate_from_a_file_reruns_its_parameters(tmp_path):

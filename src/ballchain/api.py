@@ -104,28 +104,29 @@ def save(result, path, *, force: bool = False) -> Path:
     return save_result(result, path, force=force)
 
 
-def sweep(
-    *,
-    segments=(64,),
-    alpha=("45deg",),
-    floor=("all",),
-    ic=("random",),
-    runs: int = 1,
-    seed: int = 0,
-    eps: float = InitialCondition.eps,
-    rtol: float = SolverOptions.rtol,
-    until: float | None = SolverOptions.until,
-    frames_per_tff: float = SolverOptions.frames_per_tff,
-    max_time: float = SolverOptions.max_time,
-    out=None,
-    workers: int | None = 1,
-    progress: bool = False,
-):
+SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` takes them, with their defaults
+    "segments": (64,),
+    "alpha": ("45deg",),
+    "floor": ("all",),
+    "ic": ("random",),
+    "runs": 1,
+    "seed": 0,
+    "eps": InitialCondition.eps,
+    "rtol": SolverOptions.rtol,
+    "until": SolverOptions.until,
+    "frames_per_tff": SolverOptions.frames_per_tff,
+    "max_time": SolverOptions.max_time,
+}
+
+
+def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: Any):
     """A grid of falls (every N x alpha x floor x start family, ``runs`` starts each) on a
     local Dask cluster, as ``ballchain sweep`` runs it; returns the table as a pandas
-    DataFrame (one row per run; columns as ``ballchain sweep`` writes them).  ``out``: the
-    Parquet file to keep (and resume); default a temporary one.  ``workers`` > 1 starts
-    worker processes: in a script, call it under ``if __name__ == "__main__":``."""
+    DataFrame (one row per run; columns as ``ballchain sweep`` writes them).  ``grid``:
+    ``SWEEP_KEYWORDS`` (``segments``, ``alpha``, ``floor``, ``ic``: one value or a list;
+    ``runs``, ``seed``, ``eps``, ``rtol``, ``until``, ``frames_per_tff``, ``max_time``).
+    ``out``: the Parquet file to keep (and resume); default a temporary one.  ``workers``
+    > 1 starts worker processes: in a script, call it under ``if __name__ == "__main__":``."""
     import pandas as pd
 
     from .model import parse_angle
@@ -133,21 +134,20 @@ def sweep(
     from .sweeps.execute import run_sweep
     from .sweeps.table import read_table
 
+    unknown = sorted(set(grid) - set(SWEEP_KEYWORDS))
+    if unknown:
+        raise TypeError(f"sweep() got unknown keyword(s) {', '.join(unknown)}; known: {', '.join(SWEEP_KEYWORDS)}")
+    g = {**SWEEP_KEYWORDS, **grid}
+
     def listed(v):
         return list(v) if isinstance(v, (list, tuple)) else [v]
 
     spec = SweepSpec(
-        segments=tuple(int(n) for n in listed(segments)),
-        alphas=tuple(parse_angle(a) for a in listed(alpha)),
-        floors=tuple(listed(floor)),
-        ics=tuple(listed(ic)),
-        runs=runs,
-        seed=seed,
-        eps=eps,
-        rtol=rtol,
-        until=until,
-        frames_per_tff=frames_per_tff,
-        max_time=max_time,
+        segments=tuple(int(n) for n in listed(g["segments"])),
+        alphas=tuple(parse_angle(a) for a in listed(g["alpha"])),
+        floors=tuple(listed(g["floor"])),
+        ics=tuple(listed(g["ic"])),
+        **{k: g[k] for k in ("runs", "seed", "eps", "rtol", "until", "frames_per_tff", "max_time")},
     )
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(out) if out is not None else Path(tmp) / "sweep.parquet"

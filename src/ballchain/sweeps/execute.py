@@ -186,19 +186,38 @@ def run_tasks(
     def stop(signum, frame):
         raise _Stop(signal.Signals(signum).name)
 
-    client = cluster = None
-    bar = None
     try:
         for sig in (signal.SIGINT, signal.SIGTERM):
             old[sig] = signal.signal(sig, stop)
+        _run_on_cluster(todo, scheduler, workers, writer, report, progress, log)
+    except _Stop as exc:
+        report.interrupted = True
+        print(
+            f"\nsweep interrupted ({exc}): {report.ran} runs done now, {len(writer.rows)} rows in {out}; "
+            f"the same command finishes the rest",
+            file=log,
+            flush=True,
+        )
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+        writer.flush()
+    report.wall_seconds = time.perf_counter() - t0
+    return _finish(report, writer, tasks)
+
+
+def _run_on_cluster(todo, scheduler, workers, writer, report, progress, log) -> None:
+    """Run the tasks ``todo`` on a dask cluster (``_connect``), the longest first; each
+    finished run's row goes to ``writer`` as it comes (a failed worker: an error row)."""
+    from distributed import as_completed
+
+    client = cluster = bar = None
+    try:
         client, cluster = _connect(scheduler, workers, log)
         if scheduler is not None:
             report.workers = len(client.scheduler_info().get("workers", {}))
         client.run(warm_kernels)
-        from distributed import as_completed
-
-        by_key = {}
-        futures = []
+        by_key, futures = {}, []
         for n in sorted({t.params.segments for t in todo}, reverse=True):  # the longest runs first
             group = [t for t in todo if t.params.segments == n]
             fs = client.map(
@@ -219,32 +238,15 @@ def run_tasks(
             report.failed += row["status"] == "error"
             bar.advance(report.failed)
             fut.release()
-    except _Stop as exc:
-        report.interrupted = True
-        print(
-            f"\nsweep interrupted ({exc}): {report.ran} runs done now, {len(writer.rows)} rows in {out}; "
-            f"the same command finishes the rest",
-            file=log,
-            flush=True,
-        )
     finally:
-        for sig, h in old.items():
-            signal.signal(sig, h)
         if bar is not None:
             bar.close()
-        writer.flush()
-        if client is not None:
-            try:
-                client.close(timeout=10)
-            except Exception:  # noqa: BLE001
-                pass
-        if cluster is not None:
-            try:
-                cluster.close(timeout=10)
-            except Exception:  # noqa: BLE001
-                pass
-    report.wall_seconds = time.perf_counter() - t0
-    return _finish(report, writer, tasks)
+        for thing in (client, cluster):
+            if thing is not None:
+                try:
+                    thing.close(timeout=10)
+                except Exception:  # noqa: BLE001
+                    pass
 
 
 def _finish(report: SweepReport, writer: TableWriter, tasks) -> SweepReport:
