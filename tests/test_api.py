@@ -45,7 +45,7 @@ def test_an_initial_state_array_and_the_tables():
     assert {k: v for k, v in r.event_counts().items() if v} == counts
     np.testing.assert_array_equal(ev["t"].to_numpy(), r.event_t)
     fr = r.frames_table()
-    assert len(fr) == len(r.frame_t) and fr["n_landed"].is_monotonic_increasing  # landed segments stay landed
+    assert len(fr) == len(r.frame_t) and np.all(np.diff(fr["n_landed"]) >= 0)  # landed segments stay landed
     assert fr["n_landed"].iloc[0] == 0 and 0 < fr["n_landed"].iloc[-1] <= 5
     # the books of the last frame: E0 = U + T + losses (the audit's 1e-8 of E0 at the end)
     last = fr.iloc[-1]
