@@ -466,12 +466,19 @@ def _brent(kind, idx, off, a, b, fa, fb, h, model, dense, ws):
 
 
 @njit(cache=True)
-def _locate_armed(kd, ix, fmid, fend, h, model, dense, ws):
+def _locate_armed(kd, ix, tha, fmid, fend, h, model, dense, ws):
     """Where an ARMED function fires in the step (theta), or 2.0: its first crossing of
-    zero, bracketed by the start, the midpoint (fmid; inf: unknown) and the end."""
+    zero, bracketed by the start, the predicted closest approach ``tha`` (if in the
+    step: a dip through zero shorter than the step), the midpoint (fmid; inf: unknown)
+    and the end."""
     f0 = event_value(kd, ix, 0.0, h, model, dense, ws)
     if f0 <= 0.0:
         return 0.0
+    if 0.0 < tha < 0.5 or (0.5 <= tha < 1.0 and fmid > 0.0):
+        fa = event_value(kd, ix, tha, h, model, dense, ws)
+        if fa <= 0.0:
+            lo, flo = (0.5, fmid) if tha >= 0.5 else (0.0, f0)
+            return _brent(kd, ix, 0.0, lo, tha, flo, fa, h, model, dense, ws)
     if fmid <= 0.0:
         return _brent(kd, ix, 0.0, 0.0, 0.5, f0, fmid, h, model, dense, ws)
     if fend <= 0.0:
@@ -488,7 +495,7 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, dense, ws):
     end (fmid = inf: unknown); ``tha``: the predicted apex of a departing function, in
     theta units (outside (0, 1): none in this step)."""
     if mode == ARMED:
-        return _locate_armed(kd, ix, fmid, fend, h, model, dense, ws)
+        return _locate_armed(kd, ix, tha, fmid, fend, h, model, dense, ws)
     # DEPARTING: it fires when it returns to zero after a sample above ZERO_BAND, or,
     # never having been there, when it sinks below ref - ZERO_BAND
     nscan = NSCAN if kd != EV_UNLOCK else 2  # lambda costs an evaluation per sample
@@ -579,7 +586,7 @@ def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
                 continue
             mode, ref, tha = watch.arm_top[0], watch.ref_top[0], 2.0
             fm, fe = point_height(sg.Ytmp[0], 0), point_height(sg.Y1[0], 0)
-        if fm <= 0.0 or fe <= 0.0:
+        if fm <= 0.0 or fe <= 0.0 or (mode == ARMED and 0.0 < tha < 1.0):
             found.kind[nev] = kd
             found.idx[nev] = i
             found.time[nev] = _locate(kd, i, mode, ref, tha, fm, fe, h, model, dense, ws)

@@ -89,7 +89,8 @@ def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
 
 @njit(cache=True)
 def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
-    """Predicted apex time of every departing constraint that accelerates back: a hinge
+    """Predicted apex time of every departing constraint that accelerates back, and of
+    every armed hinge that approaches its limit while turning back: a hinge
     (or a free point, floor ``all``) that leaves its zero at rate v > 0 while its
     acceleration a < 0 pulls it back peaks at t + v/|a| and returns at t + 2v/|a|.  The
     integrator samples a departing function there, so that a return within one step is
@@ -101,6 +102,11 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
         apex_lock[k] = math.inf
         if arm_lock[k] == DEPARTING and ddg[k] < 0.0 and rates[k] ** 2 > -2.0 * ZERO_BAND * ddg[k]:
             apex_lock[k] = t + rates[k] / -ddg[k]
+        elif arm_lock[k] == ARMED and rates[k] < 0.0 and ddg[k] > 0.0:
+            # an armed hinge heading for its limit and turning back (one an impact has just
+            # re-armed): where it comes closest, sampled by the integrator, so that a dip
+            # through the limit shorter than a step is seen and located
+            apex_lock[k] = t - rates[k] / ddg[k]
     n = e.shape[0]
     apex_land[n] = math.inf
     az = 0.0  # d2z/dt2 of point j = 2 sum_{i>=j} (dw_i x e_i + w_i x de_i)_z
