@@ -114,8 +114,8 @@ def engine(monkeypatch):
     fake = FakeEngine()
     mod = types.ModuleType("ballchain.engine")
     mod.simulate = fake.simulate
-    mod.kernels_cached = lambda: True
-    mod.load_kernels = lambda: False
+    mod.kernels_cached = lambda method="event": True
+    mod.load_kernels = lambda method="event": False
     monkeypatch.setitem(sys.modules, "ballchain.engine", mod)
     return fake
 
@@ -403,8 +403,8 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
 
     mod = types.ModuleType("ballchain.engine")
     mod.simulate = simulate
-    mod.kernels_cached = lambda: True
-    mod.load_kernels = lambda: False
+    mod.kernels_cached = lambda method="event": True
+    mod.load_kernels = lambda method="event": False
     monkeypatch.setitem(sys.modules, "ballchain.engine", mod)
     p, i, o = cli.build_inputs(dict(segments=3))
     r = cli._run_engine(p, i, o, show_progress=True)
@@ -498,7 +498,7 @@ def test_rtol_below_double_precision_is_refused(engine):
 def test_a_first_run_says_it_compiles_the_kernels_before_the_run(engine, monkeypatch):
     """The kernels are loaded (the first time: compiled) before the run, so the run's
     wall time is its integration alone; the summary reports the setup beside it."""
-    monkeypatch.setattr(sys.modules["ballchain.engine"], "kernels_cached", lambda: False)
+    monkeypatch.setattr(sys.modules["ballchain.engine"], "kernels_cached", lambda method="event": False)
     res = run("simulate", "--segments", "4", "--json", "-q")
     s = json.loads(res.stdout)
     assert res.exit_code == 0 and s["setup_compiled"] is True and s["wall_includes_compile"] is False
@@ -506,7 +506,7 @@ def test_a_first_run_says_it_compiles_the_kernels_before_the_run(engine, monkeyp
     assert "compiling the numba kernels" in res.stderr
     res = run("simulate", "--segments", "4", "-q")
     assert "compiled in" in res.stdout and "(first run only" in res.stdout
-    monkeypatch.setattr(sys.modules["ballchain.engine"], "kernels_cached", lambda: True)
+    monkeypatch.setattr(sys.modules["ballchain.engine"], "kernels_cached", lambda method="event": True)
     res = run("simulate", "--segments", "4", "--json", "-q")
     s = json.loads(res.stdout)
     assert s["setup_compiled"] is False and s["wall_includes_compile"] is False

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from oracle.floors import REFERENCE_FLOORS, heights
 
+from ballchain.core.rules import Z_TOL
 from ballchain.floors import dispatch
 from ballchain.floors.registry import CONTACT_FIXED, FLOOR_CODES, FLOORS
 
@@ -56,7 +57,7 @@ def test_floor_model_agrees_with_its_reference(name):
         pts[:, 2] = heights(e)
         for landing in (False, True):
             out = np.zeros(n + 1, np.int64)
-            k = dispatch.floor_contacts(code, e, pts, pv, anchored, landing, out)
+            k = dispatch.floor_contacts(code, e, pts, pv, anchored, landing, Z_TOL, out)
             assert sorted(out[:k].tolist()) == sorted(ref.contacts(e, pv, anchored, landing))
 
 
@@ -70,5 +71,5 @@ def test_the_floors_differ_where_the_models_do():
     pts[:, 2] = heights(e)
     assert abs(pts[1, 2]) < 1e-12  # point 1 at the floor
     out = np.zeros(4, np.int64)
-    assert dispatch.floor_contacts(FLOOR_CODES["all"], e, pts, pv, anchored, True, out) == 1 and out[0] == 1
-    assert dispatch.floor_contacts(FLOOR_CODES["pivot"], e, pts, pv, anchored, True, out) == 0
+    assert dispatch.floor_contacts(FLOOR_CODES["all"], e, pts, pv, anchored, True, Z_TOL, out) == 1 and out[0] == 1
+    assert dispatch.floor_contacts(FLOOR_CODES["pivot"], e, pts, pv, anchored, True, Z_TOL, out) == 0

@@ -22,7 +22,7 @@ from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
 SIMULATE_KEYWORDS = (
     "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key", "rtol",
-    "until", "max_time", "max_events", "frames_per_tff", "method", "length", "mass", "gravity", "initial",
+    "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "length", "mass", "gravity", "initial",
 )  # fmt: skip
 
 
@@ -116,6 +116,8 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "until": SolverOptions.until,
     "frames_per_tff": SolverOptions.frames_per_tff,
     "max_time": SolverOptions.max_time,
+    "method": SolverOptions.method,
+    "dt": SolverOptions.dt,
 }
 
 
@@ -124,7 +126,8 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
     local Dask cluster, as ``ballchain sweep`` runs it; returns the table as a pandas
     DataFrame (one row per run; columns as ``ballchain sweep`` writes them).  ``grid``:
     ``SWEEP_KEYWORDS`` (``segments``, ``alpha``, ``floor``, ``ic``: one value or a list;
-    ``runs``, ``seed``, ``eps``, ``rtol``, ``until``, ``frames_per_tff``, ``max_time``).
+    ``runs``, ``seed``, ``eps``, ``rtol``, ``until``, ``frames_per_tff``, ``max_time``,
+    ``method``, ``dt``).
     ``out``: the Parquet file to keep (and resume); default a temporary one.  ``workers``
     > 1 starts worker processes: in a script, call it under ``if __name__ == "__main__":``."""
     import pandas as pd
@@ -147,7 +150,7 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
         alphas=tuple(parse_angle(a) for a in listed(g["alpha"])),
         floors=tuple(listed(g["floor"])),
         ics=tuple(listed(g["ic"])),
-        **{k: g[k] for k in ("runs", "seed", "eps", "rtol", "until", "frames_per_tff", "max_time")},
+        **{k: g[k] for k in ("runs", "seed", "eps", "rtol", "until", "frames_per_tff", "max_time", "method", "dt")},
     )
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(out) if out is not None else Path(tmp) / "sweep.parquet"

@@ -12,6 +12,7 @@ bar goes to stderr.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
@@ -228,7 +229,7 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
     p, o = r.params, r.options
     base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone, rtol=o.rtol,
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
-                method=o.method)  # fmt: skip
+                method=o.method, dt=o.dt)  # fmt: skip
     if p.is_si:
         base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
     state = None
@@ -282,15 +283,25 @@ def _compile_with_notice(load_kernels, show_progress: bool) -> None:
     typer.echo(f"compiled the kernels in {time.perf_counter() - t0:.0f} s", err=True)
 
 
+TIMESTEP_WARNING = (
+    "warning: --method timestep is experimental: first order in --dt, and its ensembles do not yet agree "
+    "with the event-driven method's (docs/timestep.md)"
+)
+
+
 def _run_engine(params, init, options, show_progress: bool, state=None):
     from .engine import kernels_cached, load_kernels, simulate  # lazy: the engine (numba) is heavy to import
 
-    cold = not kernels_cached()
+    if options.method == "timestep":
+        typer.echo(TIMESTEP_WARNING, err=True)
+
+    cold = not kernels_cached(options.method)
     t0 = time.perf_counter()
+    load = functools.partial(load_kernels, options.method)
     if cold:
-        _compile_with_notice(load_kernels, show_progress)
+        _compile_with_notice(load, show_progress)
     else:
-        load_kernels()  # before the run: its wall time is the integration alone
+        load()  # before the run: its wall time is the integration alone
     setup = time.perf_counter() - t0
     result = _simulate_with_progress(simulate, params, init, options, show_progress, state)
     result.extra["setup_seconds"] = setup
@@ -393,7 +404,19 @@ def simulate(
     frames_per_tff: float = typer.Option(
         _SOLVER.frames_per_tff,
         "--frames-per-tff",
-        help="Output frames per t_ff (what is written: frames sample the steps' dense output and do not change the fall).",
+        help="Output frames per t_ff (what is written: frames sample the steps' dense output and do not change the "
+        "event-driven fall; a time step never crosses a frame time).",
+    ),
+    method: str = typer.Option(
+        _SOLVER.method,
+        "--method",
+        help="Integration method: event (event-driven, every event located exactly) or timestep (Moreau-Jean "
+        "time-stepping, first order in --dt; for large N).",
+    ),
+    dt: float = typer.Option(
+        _SOLVER.dt,
+        "--dt",
+        help="The time step of --method timestep, in units of t_ff/N (N segments).",
     ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
@@ -434,6 +457,8 @@ def simulate(
             frames_per_tff=frames_per_tff,
             max_time=max_time,
             max_events=max_events,
+            method=method,
+            dt=dt,
             length=length,
             mass=mass,
             gravity=gravity,
@@ -764,6 +789,10 @@ def sweep(
     max_time: float = typer.Option(
         _SOLVER.max_time, "--max-time", help="The time cap of each run, in t_ff (as simulate: status max_time)."
     ),
+    method: str = typer.Option(
+        _SOLVER.method, "--method", help="Integration method of every run: event or timestep (as simulate)."
+    ),
+    dt: float = typer.Option(_SOLVER.dt, "--dt", help="Time step of --method timestep, in units of t_ff/N."),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
     ),
@@ -797,6 +826,8 @@ def sweep(
             until=until,
             frames_per_tff=frames_per_tff,
             max_time=max_time,
+            method=method,
+            dt=dt,
             save_runs=save_runs,
         )
         from .sweeps.execute import check_scheduler, run_sweep

@@ -32,25 +32,26 @@ from .records.audit import audited
 from .records.result import Result
 
 
-def kernels_cached() -> bool:
-    """Are the compiled kernels in numba's on-disk cache (or compiled in this process)?
-    False means the next run compiles them first (a minute or two, once)."""
-    from .methods.event_driven.events import run_events
+def kernels_cached(method: str = "event") -> bool:
+    """Are the compiled kernels of ``method`` in numba's on-disk cache (or compiled in
+    this process)?  False means the next run compiles them first (a minute, once)."""
+    from .methods import entry_kernel
 
-    if run_events.signatures:
+    kernel = entry_kernel(method)
+    if kernel.signatures:
         return True
     try:
-        return bool(run_events._cache._cache_file._load_index())
+        return bool(kernel._cache._cache_file._load_index())
     except Exception:  # pragma: no cover - a numba without this (private) layout
         return True
 
 
-def load_kernels() -> bool:
-    """Load the compiled kernels from numba's cache (the first time: compile them) with
-    a tiny run, so that the wall time of the next run is its integration alone.  Returns
-    whether they had to be compiled."""
-    cold = not kernels_cached()
-    simulate(ChainParams(segments=2), InitialCondition(), SolverOptions(until=0.05))
+def load_kernels(method: str = "event") -> bool:
+    """Load the compiled kernels of ``method`` from numba's cache (the first time:
+    compile them) with a tiny run, so that the wall time of the next run is its
+    integration alone.  Returns whether they had to be compiled."""
+    cold = not kernels_cached(method)
+    simulate(ChainParams(segments=2), InitialCondition(), SolverOptions(until=0.05, method=method))
     return cold
 
 

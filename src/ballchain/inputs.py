@@ -72,5 +72,6 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         max_time=v.get("max_time", _SOLVER.max_time),
         max_events=v.get("max_events", _SOLVER.max_events),
         method=v.get("method", _SOLVER.method),
+        dt=v.get("dt", _SOLVER.dt),
     )
     return params, init, options

@@ -219,7 +219,11 @@ class SolverOptions:
         stay below this is held too (it cannot be resolved in double precision; at
         least 1e-12).
     method: the integration method (``methods.METHODS``): ``event`` (event-driven:
-        every event located and resolved exactly).
+        every event located and resolved exactly) or ``timestep`` (Moreau-Jean
+        time-stepping, first order in dt).
+    dt: the time-stepping method's step, in units of t_ff / N (N segments; about half
+        the time a segment takes to land at the end of the fall is t_ff / 4N).  Not used
+        by the event-driven method.
     """
 
     rtol: float = 1e-9
@@ -233,6 +237,7 @@ class SolverOptions:
     hold_rate: float = 1e-6
     hold_apex: float = 1e-11
     method: str = "event"
+    dt: float = 0.01
 
     def __post_init__(self) -> None:
         r = float(self.rtol)
@@ -257,6 +262,9 @@ class SolverOptions:
             )
         if self.method not in METHOD_NAMES:
             raise ParameterError(f"method must be one of {METHOD_NAMES}, got {self.method!r}")
+        object.__setattr__(self, "dt", _finite_positive("dt", self.dt))
+        if self.dt > 4.0:
+            raise ParameterError(f"dt must be at most 4 (units of t_ff/N), got {self.dt!r}")
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 

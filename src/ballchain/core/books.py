@@ -16,3 +16,33 @@ def fill_frame_books(frames, books):
         for q in range(3):
             frames.floor_impulse[f, q] += books.floor_impulse[q]
     frames.fill[0] = frames.count[0]
+
+
+@njit(cache=True)
+def lowest_point(e, lowest):
+    """lowest <- the lowest point height seen, min(lowest, min_j z_j) (for the max depth)."""
+    zlow = 0.0
+    zacc = 0.0
+    for j in range(e.shape[0] - 1, -1, -1):
+        zacc += 2.0 * e[j, 2]
+        if zacc < zlow:
+            zlow = zacc
+    if zlow < lowest[0]:
+        lowest[0] = zlow
+
+
+@njit(cache=True, inline="always")
+def log_row(log, t, kind, index, i0, i1, i2, energy, pts, j):
+    """One row of the event log (``state.Log``): t, kind, index, impulse (i0, i1, i2),
+    the energy dissipated, the position of point j (a hinge k: its point j = k + 1)."""
+    k = log.n[0]
+    log.t[k] = t
+    log.kind[k] = kind
+    log.index[k] = index
+    log.impulse[k, 0] = i0
+    log.impulse[k, 1] = i1
+    log.impulse[k, 2] = i2
+    log.energy[k] = energy
+    for q in range(3):
+        log.pos[k, q] = pts[j, q]
+    log.n[0] = k + 1

@@ -1214,12 +1214,12 @@ def constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs):
 
 
 @njit(cache=True)
-def project_state(chain, ws, pts, vel, tol, iters):
+def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     """Remove constraint drift from the state of ``chain`` (``state.Chain``; ``pts``,
     ``vel``: scratch of the points' positions and the centres' velocities): normalise,
     then Gauss-Newton on anchor positions and locked angles
-    (delta = -W J^T (J W J^T)^{-1} c), then the same on velocities.  Returns the largest
-    position residual before projection."""
+    (delta = -W J^T (J W J^T)^{-1} c), then (``with_velocities``) the same on
+    velocities.  Returns the largest position residual before projection."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
     lock_cos, anchor_pos = chain.lock_cos, chain.anchor_pos
     J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
@@ -1240,6 +1240,8 @@ def project_state(chain, ws, pts, vel, tol, iters):
         res = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
         it += 1
     normalize_state(e, w, anchored)
+    if not with_velocities:
+        return res0
     # velocities
     if fits:
         constraint_rates4(e, w, anchored, kind, nrow, pts, vel, rhs)

@@ -32,6 +32,7 @@ import numpy as np
 from .dynamics import (
     ROW_ANCHOR_LOWER,
     ROW_ANCHOR_UPPER,
+    ROW_HINGE,
     ROW_LOCK,
     W_W,
     accelerations,
@@ -56,9 +57,13 @@ MULT_RTOL = 1e-10  # tolerance relative to the largest multiplier / acceleration
 # What an impact computes besides the new velocities: the constraint rates before it (jv),
 # the post-impact w of a trial (w_plus), the hinge rates after it (rates_after), the lock
 # impulses, the floor's impulse per point, and the energy lost (to locking, to landing);
-# pv, vel: scratch of the point and centre velocities.
+# pv, vel: scratch of the point and centre velocities; dv: a velocity of the centres
+# added to the one w gives before the impact (zero at an event instant; the
+# time-stepping method puts there gravity's kick and the centres' velocities of the
+# last step, so that the impact problem is Moreau-Jean's projection in maximal
+# coordinates).
 ImpactWork = namedtuple(
-    "ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split", "pv", "vel"]
+    "ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split", "pv", "vel", "dv"]
 )
 
 
@@ -73,6 +78,7 @@ def new_impact_work(n: int) -> ImpactWork:
         np.zeros((n + 1, 3)),
         np.zeros(2),
         np.zeros((n + 1, 3)),
+        np.zeros((n, 3)),
         np.zeros((n, 3)),
     )
 
@@ -184,6 +190,41 @@ def _dense_fallback(e, w, anchored, base, idx, c, q_all, tol, ws, active):
 
 
 @njit(cache=True)
+def translation_rates(anchored, J, kind, nrow, fits, dv, jv):
+    """jv += the rates of the constraint rows under centre velocities dv (w = 0): a hinge
+    row dv_a - dv_c, an anchor row the dv of its segment; lock rows 0."""
+    n = dv.shape[0]
+    for j in range(nrow.shape[0]):
+        nr = nrow[j]
+        if nr == 0:
+            continue
+        a = j - 1
+        c = j
+        if fits:
+            k0 = kind[j, 0]
+            if k0 == ROW_HINGE or k0 == ROW_ANCHOR_LOWER:
+                for q in range(3):
+                    jv[j, q] += dv[a, q]
+            if k0 == ROW_HINGE:
+                for q in range(3):
+                    jv[j, q] -= dv[c, q]
+            elif k0 == ROW_ANCHOR_UPPER or nr == 6:
+                r0 = 3 if nr == 6 else 0
+                for q in range(3):
+                    jv[j, r0 + q] += dv[c, q]
+        else:
+            for r in range(nr):
+                acc = 0.0
+                if j >= 1:
+                    for q in range(3):
+                        acc += J[j, r, q] * dv[a, q]
+                if j < n:
+                    for q in range(3):
+                        acc += J[j, r, 6 + q] * dv[c, q]
+                jv[j, r] += acc
+
+
+@njit(cache=True)
 def _impact_trial(e, w, anchored, active, ws, iw):
     """Post-impact velocity iw.w_plus and hinge rates iw.rates_after for the lock set
     ``active``: the impulses x solve (J W J^T) x = -J v-, and w+ = w- + W J^T x."""
@@ -198,6 +239,7 @@ def _impact_trial(e, w, anchored, active, ws, iw):
         constraint_rates4(e, w, anchored, kind, nrow, iw.pv, iw.vel, jv_minus)
     else:
         constraint_velocities(e, w, J, nrow, iw.pv, iw.vel, jv_minus)
+    translation_rates(anchored, J, kind, nrow, fits, iw.dv, jv_minus)
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
             rhs[j, r] = -jv_minus[j, r]

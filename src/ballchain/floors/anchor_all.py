@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 from ..core.jit import njit
-from ..core.rules import RATE_TOL, Z_TOL, point_height
+from ..core.rules import RATE_TOL, point_height
 
 CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = False  # t_fall comes from the top end's anchoring, not from an event of its own
@@ -41,12 +41,12 @@ def values(e, anchored, out):
 
 
 @njit(cache=True)
-def contacts(e, pts, pv, anchored, landing_event, out):
-    """Every free point at z <= Z_TOL that is not moving up (dz/dt <= RATE_TOL); their
-    number (indices in out)."""
+def contacts(e, pts, pv, anchored, landing_event, ztol, out):
+    """Every free point at z <= ztol (``Z_TOL`` at an event instant) that is not moving
+    up (dz/dt <= RATE_TOL); their number (indices in out)."""
     na = 0
     for j in range(e.shape[0]):
-        if anchored[j] == 0 and pts[j, 2] <= Z_TOL and pv[j, 2] <= RATE_TOL:
+        if anchored[j] == 0 and pts[j, 2] <= ztol and pv[j, 2] <= RATE_TOL:
             out[na] = j
             na += 1
     return na

@@ -39,11 +39,12 @@ def floor_values(floor, e, anchored, out):
 
 
 @njit(cache=True)
-def floor_contacts(floor, e, pts, pv, anchored, landing_event, out):
-    """Points that the floor anchors at this instant; returns their number (in out)."""
+def floor_contacts(floor, e, pts, pv, anchored, landing_event, ztol, out):
+    """Points that the floor anchors at this instant (a floor function at or below
+    ``ztol`` touches: ``rules.Z_TOL`` at an event instant); returns their number (in out)."""
     if floor == FLOOR_ALL:
-        return anchor_all.contacts(e, pts, pv, anchored, landing_event, out)
-    return pivot.contacts(e, pts, pv, anchored, landing_event, out)
+        return anchor_all.contacts(e, pts, pv, anchored, landing_event, ztol, out)
+    return pivot.contacts(e, pts, pv, anchored, landing_event, ztol, out)
 
 
 @njit(cache=True)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from ..core.jit import njit
-from ..core.rules import Z_TOL, bottom_airborne
+from ..core.rules import bottom_airborne
 
 CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = True  # t_fall: the top end's height crossing zero is watched
@@ -42,13 +42,14 @@ def values(e, anchored, out):
 
 
 @njit(cache=True)
-def contacts(e, pts, pv, anchored, landing_event, out):
+def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     """After a landing event: the upper end of the bottom airborne segment once it lies
-    flat, cascading up while the next one does too; their number (indices in out)."""
+    flat (e_z <= ztol; ``Z_TOL`` at an event instant), cascading up while the next one
+    does too; their number (indices in out)."""
     na = 0
     if landing_event:
         m = bottom_airborne(anchored)
-        while m >= 0 and value(e, m) <= Z_TOL:
+        while m >= 0 and value(e, m) <= ztol:
             out[na] = m
             na += 1
             m -= 1

@@ -11,12 +11,19 @@ from __future__ import annotations
 
 import importlib
 
-# name -> (module path relative to this package, what it is)
+# name -> (module path relative to this package, what it is, its compiled entry kernel)
 METHODS = {
     "event": (
         "event_driven.driver",
         "event-driven: Dormand-Prince 5(4) between events located to "
         "event_xtol, an exact impact and lock set at each event instant",
+        "event_driven.events:run_events",
+    ),
+    "timestep": (
+        "timestep.driver",
+        "Moreau-Jean time-stepping: steps of dt t_ff/N, one velocity-level impact "
+        "problem per step over the constraints that may become active (first order in dt)",
+        "timestep.stepper:run_steps",
     ),
 }
 METHOD_NAMES = tuple(METHODS)
@@ -24,5 +31,12 @@ METHOD_NAMES = tuple(METHODS)
 
 def method_runner(name: str):
     """The ``run`` function of the method ``name`` (imported on first use)."""
-    module, _ = METHODS[name]
+    module = METHODS[name][0]
     return importlib.import_module(f"{__name__}.{module}").run
+
+
+def entry_kernel(name: str):
+    """The compiled loop of the method ``name`` (its numba dispatcher: whether it is
+    compiled or cached says whether a run will compile first)."""
+    module, attr = METHODS[name][2].split(":")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), attr)

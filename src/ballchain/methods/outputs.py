@@ -96,6 +96,14 @@ class LogBuffer:
         return tuple(a[:k] for a in self.compiled[:-1])
 
 
+def stop_status(options) -> tuple[str, str]:
+    """(status, message) of a run stopped at its stop time: ``until`` (asked for), or
+    ``max_time`` (the time cap) with a message that says the chain had not landed."""
+    if options.until is not None:
+        return "until", ""
+    return "max_time", f"the chain had not landed by t = {options.max_time} t_ff (the time cap, --max-time)"
+
+
 class SimulationError(RuntimeError):
     """A run that cannot go on (blow-up, event accumulation, singular configuration)."""
 

@@ -255,6 +255,8 @@ class Result:
             "floor_impulse": [num(v) for v in np.asarray(self.floor_impulse)],
             "floor_impulse_total": [num(v) for v in np.asarray(self.floor_impulse_total)],
             "rtol": self.options.rtol,
+            "method": self.options.method,
+            "dt": self.options.dt,
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
             "n_instants": int(self.n_instants),

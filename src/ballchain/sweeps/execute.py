@@ -43,12 +43,12 @@ def run_task(task: Task) -> dict:
         )
 
 
-def warm_kernels() -> bool:
-    """Load (or, the first time, compile) the numba kernels (``engine.load_kernels``).
-    Returns whether they had to be compiled."""
+def warm_kernels(method: str = "event") -> bool:
+    """Load (or, the first time, compile) the numba kernels of ``method``
+    (``engine.load_kernels``).  Returns whether they had to be compiled."""
     from ..engine import load_kernels
 
-    return load_kernels()
+    return load_kernels(method)
 
 
 @dataclass
@@ -166,13 +166,13 @@ def run_tasks(
     if scheduler is None:  # compile once here; the workers load the cache
         from ..engine import kernels_cached
 
-        if not kernels_cached():
+        if not kernels_cached(todo[0].options.method):
             print(
                 "compiling the numba kernels (first run only; a minute or two, cached afterwards)...",
                 file=log,
                 flush=True,
             )
-        warm_kernels()
+        warm_kernels(todo[0].options.method)
     if progress:
         print(
             f"sweep: {len(todo)} runs to do ({len(done)} of {len(tasks)} already in {out}), "
@@ -216,7 +216,7 @@ def _run_on_cluster(todo, scheduler, workers, writer, report, progress, log) -> 
         client, cluster = _connect(scheduler, workers, log)
         if scheduler is not None:
             report.workers = len(client.scheduler_info().get("workers", {}))
-        client.run(warm_kernels)
+        client.run(warm_kernels, todo[0].options.method)
         by_key, futures = {}, []
         for n in sorted({t.params.segments for t in todo}, reverse=True):  # the longest runs first
             group = [t for t in todo if t.params.segments == n]

@@ -127,6 +127,8 @@ class SweepSpec:
     until: float | None = SolverOptions.until
     frames_per_tff: float = SolverOptions.frames_per_tff
     max_time: float = SolverOptions.max_time
+    method: str = SolverOptions.method
+    dt: float = SolverOptions.dt
     save_runs: str | None = None
     options: SolverOptions = field(init=False, repr=False, compare=False)
 
@@ -151,7 +153,14 @@ class SweepSpec:
         object.__setattr__(
             self,
             "options",
-            SolverOptions(rtol=self.rtol, until=self.until, frames_per_tff=self.frames_per_tff, max_time=self.max_time),
+            SolverOptions(
+                rtol=self.rtol,
+                until=self.until,
+                frames_per_tff=self.frames_per_tff,
+                max_time=self.max_time,
+                method=self.method,
+                dt=self.dt,
+            ),
         )
         InitialCondition(eps=self.eps)  # validates eps
         n = self.size
@@ -206,4 +215,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
         f"_fr{options.frames_per_tff:.12g}"
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
+        + ("" if options.method == SolverOptions.method else f"_{options.method}_dt{options.dt:.12g}")
     )

@@ -40,6 +40,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "spawn_key": ("string", "spawn key of the run's SeedSequence child, comma-separated ('' for none)"),
     "run_index": ("int64", "k: the run's index among the starts of its point"),
     "rtol": ("float64", "integrator tolerance"),
+    "method": ("string", "integration method: event (event-driven) or timestep (Moreau-Jean)"),
+    "dt": ("float64", "time step of the timestep method, units of t_ff/N (not used by the event method)"),
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
     "version": ("string", "ballchain version that ran it"),
@@ -87,6 +89,8 @@ INPUT_COLUMNS = (
     "seed",
     "spawn_key",
     "rtol",
+    "method",
+    "dt",
     "until",
     "frames_per_tff",
 )
@@ -98,7 +102,7 @@ CONVENTIONS = (
     "impulses in m sqrt(g b); ratio columns in units of t_ff = sqrt(2 z0 / g); one row per run; "
     "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
     "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --rtol RTOL "
-    "--frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
+    "--method METHOD --dt DT --frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
 )
 
 
@@ -136,6 +140,8 @@ def input_row(task) -> dict:
         "spawn_key": ",".join(str(k) for k in ic.spawn_key),
         "run_index": task.run_index,
         "rtol": o.rtol,
+        "method": o.method,
+        "dt": o.dt,
         "until": math.nan if o.until is None else o.until,
         "frames_per_tff": o.frames_per_tff,
     }

@@ -12,7 +12,7 @@ import numpy as np
 from ...core.impacts import hinge_gaps
 from ...core.state import new_books, new_chain, new_model, new_work
 from ...floors.registry import FLOOR_CODES
-from ..outputs import FrameBuffer, LogBuffer, RunOutput, SimulationError, TraceBuffer
+from ..outputs import FrameBuffer, LogBuffer, RunOutput, SimulationError, TraceBuffer, stop_status
 from .events import (
     ERR_ENERGY,
     ERR_IMPACT_LCP,
@@ -117,12 +117,7 @@ def run(setup, progress, stop) -> RunOutput:
             if failure is not None:
                 raise SimulationError(failure)
             if code == ADV_STOP:
-                status = "until" if o.until is not None else "max_time"
-                message = (
-                    f"the chain had not landed by t = {o.max_time} t_ff (the time cap, --max-time)"
-                    if status == "max_time"
-                    else ""
-                )
+                status, message = stop_status(o)
                 break
             if code != EV_RETURN:  # pragma: no cover - every code is handled above
                 raise SimulationError(f"unknown code {code} from the compiled loop")

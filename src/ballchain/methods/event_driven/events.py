@@ -31,7 +31,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.books import fill_frame_books
+from ...core.books import fill_frame_books, log_row
 from ...core.dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
 from ...core.jit import entry, njit
@@ -46,6 +46,7 @@ from ...core.rules import (
     LOG_TOP,
     LOG_UNLOCK,
     RATE_TOL,
+    Z_TOL,
     fall_ended,
     is_landed,
     limit_in_force,
@@ -139,23 +140,6 @@ def new_instant(n: int) -> Instant:
     return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1))
 
 
-@njit(cache=True, inline="always")
-def _log(log, t, kind, index, i0, i1, i2, energy, pts, j):
-    """One row of the event log (t, kind, index, impulse, energy, position); the
-    position is that of point j (a hinge k: its point j = k + 1)."""
-    k = log.n[0]
-    log.t[k] = t
-    log.kind[k] = kind
-    log.index[k] = index
-    log.impulse[k, 0] = i0
-    log.impulse[k, 1] = i1
-    log.impulse[k, 2] = i2
-    log.energy[k] = energy
-    for q in range(3):
-        log.pos[k, q] = pts[j, q]
-    log.n[0] = k + 1
-
-
 @njit(cache=True)
 def _unlocks_and_top(t, model, chain, hs, pt, books, log, found):
     """Step 1: unlock the hinges whose multiplier crossed zero (they cannot re-lock in
@@ -173,10 +157,10 @@ def _unlocks_and_top(t, model, chain, hs, pt, books, log, found):
             if chain.locked[k]:
                 chain.locked[k] = 0
                 hs.exclude[k] = 1
-                _log(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, pt.pts, k + 1)
+                log_row(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, pt.pts, k + 1)
         elif kd == EV_TOP:
             if fall_ended(books, t, True, False):
-                _log(log, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, pt.pts, 0)
+                log_row(log, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, pt.pts, 0)
         elif kd == EV_LANDING:
             any_landing = True
     return any_landing
@@ -189,7 +173,7 @@ def _anchor_contacts(t, model, chain, ct, pt, any_landing):
     number (ct.new_anchor, their velocities before the impact in ct.pre_v)."""
     e, w = chain.Y[0], chain.Y[1]
     velocities(e, w, pt.pv, pt.vel)
-    na = floor_contacts(model.floor, e, pt.pts, pt.pv, chain.anchored, any_landing, ct.new_anchor)
+    na = floor_contacts(model.floor, e, pt.pts, pt.pv, chain.anchored, any_landing, Z_TOL, ct.new_anchor)
     for r in range(na):
         j = ct.new_anchor[r]
         for q in range(3):
@@ -330,24 +314,24 @@ def _log_instant(t, na, chain, hs, ct, pt, log):
     for k in range(locked.shape[0]):
         was, new = hs.was_locked[k], hs.new_lock[k]
         if hs.forced[k]:
-            _log(log, t, LOG_HOLD, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
+            log_row(log, t, LOG_HOLD, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
         elif hs.imp_sum[k] != 0.0 or new:
-            _log(log, t, LOG_IMPULSE if was else LOG_LOCK, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
+            log_row(log, t, LOG_IMPULSE if was else LOG_LOCK, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
         elif locked[k] and not was:  # a touch that locks
-            _log(log, t, LOG_LOCK, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
+            log_row(log, t, LOG_LOCK, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
         if not locked[k] and (was or new or hs.forced[k]):
-            _log(log, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
+            log_row(log, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0, pts, k + 1)
     aimp = ct.anchor_impulse
     for r in range(na):
         j = ct.new_anchor[r]
         i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
         lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * ct.pre_v[r, 2])
-        _log(log, t, LOG_LANDING, j, i0, i1, i2, lost, pts, j)
+        log_row(log, t, LOG_LANDING, j, i0, i1, i2, lost, pts, j)
     for j in range(chain.anchored.shape[0]):  # impulses of the floor on points anchored before this instant
         if chain.anchored[j] != 0 and chain.anchor_t[j] != t:
             i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
             if i0 != 0.0 or i1 != 0.0 or i2 != 0.0:
-                _log(log, t, LOG_ANCHOR, j, i0, i1, i2, 0.0, pts, j)
+                log_row(log, t, LOG_ANCHOR, j, i0, i1, i2, 0.0, pts, j)
 
 
 @njit(cache=True)

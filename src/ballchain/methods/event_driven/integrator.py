@@ -50,6 +50,7 @@ from fractions import Fraction as Fr
 
 import numpy as np
 
+from ...core.books import lowest_point
 from ...core.dynamics import (
     accelerations,
     anchor_force_total,
@@ -694,19 +695,6 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, floor_f
 
 
 @njit(cache=True)
-def _lowest_point(e, lowest):
-    """lowest <- the lowest point height seen (for the max depth)."""
-    zlow = 0.0
-    zacc = 0.0
-    for j in range(e.shape[0] - 1, -1, -1):
-        zacc += 2.0 * e[j, 2]
-        if zacc < zlow:
-            zlow = zacc
-    if zlow < lowest[0]:
-        lowest[0] = zlow
-
-
-@njit(cache=True)
 def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, books, trace):
     """Accept the full step: the state at its end, the floor's impulse, the projection
     onto the constraints (f(Y) recomputed if it moved the state, else the last stage
@@ -723,7 +711,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
         for q in range(3):
             sg.F[0, q] = sg.F[6, q]
     arm_departed(model, chain, watch, det.lam1, det.fv_end)
-    _lowest_point(Y[0], books.lowest)
+    lowest_point(Y[0], books.lowest)
     _trace_point(trace, t_end, Y[0])
 
 

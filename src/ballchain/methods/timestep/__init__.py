@@ -1,0 +1,1 @@
+"""Moreau-Jean time-stepping: ``stepper`` (the compiled step and loop), ``driver`` (a run)."""

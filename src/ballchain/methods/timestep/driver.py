@@ -1,0 +1,87 @@
+"""One run of the Moreau-Jean time-stepping method, driven from Python: the bundles
+allocated, the compiled loop (``stepper.run_steps``) called until the fall ends, its
+codes turned into a status and a message.  The step is ``SolverOptions.dt`` in units of
+t_ff / N (the time a segment takes to land at the end of the fall is about t_ff / 2N)."""
+
+from __future__ import annotations
+
+from ...core.state import new_books, new_chain, new_model, new_work
+from ...floors.registry import FLOOR_CODES
+from ..outputs import FrameBuffer, LogBuffer, RunOutput, SimulationError, TraceBuffer, stop_status
+from .stepper import (
+    ERR_ENERGY,
+    ERR_IMPACT,
+    ERR_NAN,
+    TS_BUFFER,
+    TS_LANDED,
+    TS_MAX_STEPS,
+    TS_RETURN,
+    TS_STOP,
+    new_scratch,
+    run_steps,
+)
+
+RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (progress)
+
+ERROR_MESSAGES = {
+    ERR_IMPACT: "the impact problem of a step did not converge",
+    ERR_ENERGY: "a step's impact raised the kinetic energy",
+    ERR_NAN: "non-finite state (blow-up)",
+}
+
+
+def step_size(setup) -> float:
+    """The step h (sqrt(b/g)) of ``setup``: dt t_ff / N."""
+    return setup.options.dt * setup.t_ff / setup.params.segments
+
+
+def run(setup, progress, stop) -> RunOutput:
+    """The fall of ``setup`` (``engine.Setup``) by Moreau-Jean time-stepping.
+    ``progress(t, chain, log, books)`` is called on each return from compiled code;
+    ``stop.reason`` (not None) asks the run to stop there (status ``interrupted``)."""
+    p, o, n = setup.params, setup.options, setup.params.segments
+    model = new_model(p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, 0.0, RETURN_EVERY)
+    chain = new_chain(setup.e0, setup.w0, p.alpha)
+    ws, sc, books = new_work(n), new_scratch(n, setup.w0, setup.e0), new_books()
+    frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
+    trace, log = TraceBuffer(setup.z0), LogBuffer()
+    h = step_size(setup)
+    t = 0.0
+    status, message = "landed", ""
+    try:
+        while True:
+            if stop.reason is not None:
+                status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
+                break
+            log.reserve(4 * (3 * n + 8))
+            code, t = run_steps(t, h, model, chain, ws, sc, books, frames.compiled, trace.compiled, log.compiled)
+            stop.started = True
+            if code == TS_BUFFER:
+                trace.flush()
+                frames.flush()
+                continue
+            if code == TS_LANDED:
+                break
+            if code == ERR_ENERGY:
+                raise SimulationError(
+                    f"{ERROR_MESSAGES[code]} by {-sc.force[0]:.3g} (units m g b) at t/t_ff = {t / setup.t_ff:.6f}"
+                )
+            if code in ERROR_MESSAGES:
+                raise SimulationError(f"{ERROR_MESSAGES[code]} at t/t_ff = {t / setup.t_ff:.6f}")
+            if code == TS_MAX_STEPS:
+                raise SimulationError(f"more than max_steps = {o.max_steps} steps at t/t_ff = {t / setup.t_ff:.6f}")
+            if code == TS_STOP:
+                status, message = stop_status(o)
+                break
+            if code != TS_RETURN:  # pragma: no cover - every code is handled above
+                raise SimulationError(f"unknown code {code} from the compiled loop")
+            progress(t, chain, log, books)
+    except SimulationError as exc:
+        status, message = "error", str(exc)
+    except MemoryError:
+        status = "error"
+        message = f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {frames.written()} frames"
+    return RunOutput(status, message, t, chain, books, frames, trace, log)
+
+
+__all__ = ["run", "step_size"]

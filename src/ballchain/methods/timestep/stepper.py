@@ -1,0 +1,512 @@
+"""Moreau-Jean time-stepping over the compiled core (numba, nondimensional: m = b = g = 1).
+
+The velocity state is that of maximal coordinates: each segment's centre velocity V_i
+(kept in ``Scratch.vmax``) and angular velocity w_i; the positions are the axes e, so
+the chain is joined by construction.  One step from t to t + h (``step``), each part O(N):
+
+1. **Step size**: h = min(dt, the next output frame, the stop time), cut at the first
+   predicted landing (the floor functions after a free turn of the axes by h w, linear
+   in the step) so that a landing starts the next step on the floor, not above it.
+2. **Touches** (the floor model's rule, ``floors.dispatch.floor_contacts``): a watched
+   point at the floor (its floor function at most ``TOUCH_TOL``, or reaching zero within
+   ``TOUCH_FRACTION`` of a step) is anchored where it is, for good.
+3. **Free velocity**: V_free = V - h g e_z on every airborne segment, w_free = w (gravity
+   exerts no torque about a rod's centre).
+4. **One velocity-level problem** (Moreau; ``impacts.velocity_impact``, the one that
+   resolves an event instant, with ``ImpactWork.dv`` = V_free - V(e, w)): the hinge and
+   anchor rows as equalities, J (V+, w+) = 0, and over the index set (the hinges whose
+   limit is in force and whose predicted bend g + h dg/dt reaches the limit) the
+   inelastic law: dg/dt+ >= 0, impulse >= 0, complementary (a hinge is released when its
+   impulse would pull); warm-started from the last step's active set.  Every force of
+   the step is an impulse of this problem: the tension, the floor's support, the locks.
+   The energy it removes at the lock rows is booked per row from the impulses,
+   -1/2 P (u- + u+), to the hinges; in a step that anchors a point, the rest of what it
+   removes is booked to the landing (per row it is not defined: a segment anchored at
+   both ends has one redundant row).  What the other steps' hinge and anchor rows
+   remove is not booked: it is the method's own error (gravity's kick on anchored
+   points, the turn of the axes), part of the imbalance, which shrinks with dt.
+5. **Positions**: each airborne axis turns by h w+ exactly (Rodrigues); V+ is kept.
+6. **Projection** (positions only): any hinge found past its limit is put back on it,
+   the anchors at their points (``dynamics.project_state``).
+
+A hinge *locks* in the log when it starts to take impulse and *unlocks* when it stops;
+``Chain.locked`` is the set that took impulse in the last step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from ...core.books import log_row, lowest_point
+from ...core.dynamics import (
+    kinetic_energy,
+    pile_pull,
+    point_positions,
+    potential_energy,
+    project_state,
+    velocities,
+)
+from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, velocity_impact
+from ...core.jit import entry, njit
+from ...core.rules import LOG_LANDING, LOG_LOCK, LOG_TOP, LOG_UNLOCK, fall_ended, is_landed, limit_in_force
+from ...floors.dispatch import floor_contacts, floor_values, top_event
+
+TOUCH_TOL = 1e-9  # a floor function at or below this touches (b, or e_z under floor "pivot")
+TOUCH_FRACTION = 1e-6  # ... or one predicted to reach zero within this fraction of a step
+LAND_SLACK = 1e-3  # a point that ends a step this close to the floor (in units of its travel) is due
+MAX_CUTS = 4  # a step is cut at most this many times at a landing (then taken as it is)
+THETA = 0.5  # the axes turn by h (theta w+ + (1 - theta) w)
+TURN_MAX = 0.1  # rad: no segment turns more than this in a step (a whip gets shorter steps)
+MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
+KE_RTOL = 1e-2  # an impact problem may raise the kinetic energy by this fraction at most (ill-conditioned rows; the rest shows in the books)
+PROJ_TOL = 1e-12  # constraint drift tolerated before projection
+PROJ_ITERS = 25  # Gauss-Newton iterations of the projection at most
+PROJ_MOVE_MAX = 0.1  # b: a projection that moves a point further is undone
+
+# run_steps codes (negative: the run cannot go on)
+TS_STOP, TS_BUFFER, TS_RETURN, TS_LANDED, TS_MAX_STEPS = 0, 2, 11, 10, 5
+ERR_IMPACT, ERR_ENERGY, ERR_NAN = -1, -2, -6
+
+# The stepper's state beyond the chain, and its scratch.
+Scratch = namedtuple(
+    "Scratch",
+    [
+        "vmax",  # (N, 3): the centres' velocities V (maximal coordinates; state)
+        "e_pred",  # (N, 3): the axes after a free turn by h w
+        "fv",  # (N+1,): floor functions now
+        "fv_pred",  # (N+1,): ... after the free turn
+        "gaps",  # (N-1,): g_k
+        "rates",  # (N-1,): dg_k/dt before the impact
+        "cand",  # (N-1,) uint8: the index set (hinges in the impact problem)
+        "active",  # (N-1,) uint8: hinges that take impulse (warm start on entry)
+        "forced",  # (N-1,) uint8: all zero (no hold rule: accumulations are stepped through)
+        "was",  # (N-1,) uint8: took impulse in the last step
+        "pts",  # (N+1, 3): point positions
+        "pv",  # (N+1, 3): point velocities
+        "vel",  # (N, 3): centre velocities (scratch)
+        "due",  # (N+1,) uint8: points the last step was cut to land (they touch in this one)
+        "w_pre",  # (N, 3): w at the start of the step (a cut step is solved again)
+        "w_mid",  # (N, 3): the rates the axes turn at, (w + w+) / 2
+        "new_anchor",  # (N+1,) int64: points anchored in this step
+        "pre_v",  # (N+1, 3): their velocities before the impact
+        "force",  # (3,): the anchors' mean force on the airborne chain over the last step
+        "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
+        "iw",  # the impact problem's scratch (impacts.ImpactWork)
+    ],
+)
+
+
+def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = None) -> Scratch:
+    """The stepper's state and scratch for an N-segment chain (V from e0, w0 if given)."""
+    nh = max(n - 1, 0)
+    u8 = lambda: np.zeros(nh, np.uint8)  # noqa: E731
+    v3 = lambda m: np.zeros((m, 3))  # noqa: E731
+    sc = Scratch(
+        v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
+        u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n),
+        np.zeros(n + 1, np.int64), v3(n + 1),
+        np.zeros(3), np.zeros(3), new_impact_work(n),
+    )  # fmt: skip
+    if w0 is not None and e0 is not None:
+        velocities(e0, w0, sc.pv, sc.vmax)
+    return sc
+
+
+@njit(cache=True)
+def rotate_axes(e, w, h, anchored, out):
+    """out_i = R(h w_i) e_i, the exact rotation by the angle h |w_i| about w_i
+    (Rodrigues); landed segments do not turn.  ``out`` may be ``e``."""
+    for i in range(e.shape[0]):
+        ex, ey, ez = e[i, 0], e[i, 1], e[i, 2]
+        wn = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+        if is_landed(anchored, i) or wn == 0.0:
+            out[i, 0], out[i, 1], out[i, 2] = ex, ey, ez
+            continue
+        kx, ky, kz = w[i, 0] / wn, w[i, 1] / wn, w[i, 2] / wn
+        c, s = math.cos(h * wn), math.sin(h * wn)
+        kd = (kx * ex + ky * ey + kz * ez) * (1.0 - c)
+        out[i, 0] = ex * c + (ky * ez - kz * ey) * s + kx * kd
+        out[i, 1] = ey * c + (kz * ex - kx * ez) * s + ky * kd
+        out[i, 2] = ez * c + (kx * ey - ky * ex) * s + kz * kd
+
+
+@njit(cache=True)
+def _touches(t, r0, model, chain, sc, books):
+    """Part 2: anchor where they are the points at the floor: a floor function at most
+    TOUCH_TOL, or that of a point the last step was cut to land (marked 2 during the
+    impact), listed from sc.new_anchor[r0]; returns their number."""
+    e, anchored = chain.Y[0], chain.anchored
+    floor_values(model.floor, e, anchored, sc.fv)
+    ztol = TOUCH_TOL
+    for j in range(sc.fv.shape[0]):
+        if sc.due[j] and math.isfinite(sc.fv[j]):
+            ztol = max(ztol, sc.fv[j])
+        sc.due[j] = 0
+    point_positions(e, sc.pts)
+    _point_velocities(e, chain.Y[1], sc.vmax, sc.pv)
+    na = floor_contacts(model.floor, e, sc.pts, sc.pv, anchored, True, ztol, sc.new_anchor[r0:])
+    for r in range(r0, r0 + na):
+        j = sc.new_anchor[r]
+        for q in range(3):
+            sc.pre_v[r, q] = sc.pv[j, q]
+            chain.anchor_pos[j, q] = sc.pts[j, q]
+        anchored[j] = 2
+        chain.anchor_t[j] = t
+    fall_ended(books, t, False, not top_event(model.floor) and anchored[0] != 0)
+    return na
+
+
+@njit(cache=True)
+def _point_velocities(e, w, vmax, pv):
+    """pv_j: the velocity of point j in maximal coordinates, the upper end of segment j
+    (V_j - e_j x w_j; point N: the lower end of segment N-1, V + e x w)."""
+    n = e.shape[0]
+    for j in range(n):
+        pv[j, 0] = vmax[j, 0] - (e[j, 1] * w[j, 2] - e[j, 2] * w[j, 1])
+        pv[j, 1] = vmax[j, 1] - (e[j, 2] * w[j, 0] - e[j, 0] * w[j, 2])
+        pv[j, 2] = vmax[j, 2] - (e[j, 0] * w[j, 1] - e[j, 1] * w[j, 0])
+    i = n - 1
+    pv[n, 0] = vmax[i, 0] + (e[i, 1] * w[i, 2] - e[i, 2] * w[i, 1])
+    pv[n, 1] = vmax[i, 1] + (e[i, 2] * w[i, 0] - e[i, 0] * w[i, 2])
+    pv[n, 2] = vmax[i, 2] + (e[i, 0] * w[i, 1] - e[i, 1] * w[i, 0])
+
+
+@njit(cache=True)
+def _landing_cut(h, model, chain, sc):
+    """Part 5: the fraction of the step at which the first watched point reaches the
+    floor when the axes turn by h w+ (linear in the step; 1: none does).  The points
+    that end the step at the floor (within LAND_SLACK of the step's travel) are marked
+    due: they touch at the start of the next step."""
+    e, anchored = chain.Y[0], chain.anchored
+    _mid_rates(chain.Y[1], sc)
+    rotate_axes(e, sc.w_mid, h, anchored, sc.e_pred)
+    floor_values(model.floor, e, anchored, sc.fv)
+    floor_values(model.floor, sc.e_pred, anchored, sc.fv_pred)
+    s = 1.0
+    for j in range(sc.fv.shape[0]):
+        f, fp = sc.fv[j], sc.fv_pred[j]
+        sc.due[j] = 0
+        if math.isfinite(f) and f > 0.0 and fp <= 0.0:
+            s = min(s, f / (f - fp))
+        if math.isfinite(f) and fp < f and fp <= LAND_SLACK * (f - fp):
+            sc.due[j] = 1
+    return max(s, TOUCH_FRACTION)
+
+
+@njit(cache=True)
+def _mid_rates(w, sc):
+    """sc.w_mid = (w0 + w+) / 2: the axes turn at the mean of the rates before and after
+    the step (theta = 1/2), which keeps a free fall's energy to second order."""
+    for i in range(w.shape[0]):
+        for q in range(3):
+            sc.w_mid[i, q] = THETA * w[i, q] + (1.0 - THETA) * sc.w_pre[i, q]
+
+
+@njit(cache=True)
+def _turn_cut(h, w):
+    """The fraction of the step h within which no segment turns more than TURN_MAX
+    (1: none does) at the rates w."""
+    wmax = 0.0
+    for i in range(w.shape[0]):
+        wmax = max(wmax, w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+    wmax = math.sqrt(wmax)
+    if h * wmax <= TURN_MAX:
+        return 1.0
+    return 0.95 * TURN_MAX / (h * wmax)
+
+
+@njit(cache=True)
+def _copy3(src, dst):
+    for i in range(src.shape[0]):
+        for q in range(3):
+            dst[i, q] = src[i, q]
+
+
+@njit(cache=True)
+def _first_to_land(s, sc):
+    """Mark due the points predicted to reach the floor first (at the fraction s)."""
+    for j in range(sc.fv.shape[0]):
+        f, fp = sc.fv[j], sc.fv_pred[j]
+        sc.due[j] = 1 if (math.isfinite(f) and f > 0.0 and fp <= 0.0 and f / (f - fp) <= s * (1.0 + 1e-9)) else 0
+
+
+@njit(cache=True)
+def _free_velocity(h, chain, sc):
+    """Part 3: iw.dv = V - h g e_z - V(e, w) on airborne segments (0 on landed ones)."""
+    e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    dv = sc.iw.dv
+    velocities(e, w, sc.pv, sc.vel)
+    for i in range(e.shape[0]):
+        if is_landed(anchored, i):
+            for q in range(3):
+                dv[i, q] = 0.0
+            continue
+        for q in range(3):
+            dv[i, q] = sc.vmax[i, q] - sc.vel[i, q]
+        dv[i, 2] -= h
+
+
+@njit(cache=True)
+def _index_set(h, model, chain, sc):
+    """Part 4, the index set: hinges in force whose predicted bend g + h dg/dt reaches
+    the limit; the warm start: those that took impulse last step or approach."""
+    e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
+    hinge_gaps(e, model.cos_alpha, sc.gaps)
+    hinge_rates(e, w, sc.rates)
+    for k in range(locked.shape[0]):
+        sc.was[k] = locked[k]
+        c = limit_in_force(anchored, k, model.cone, model.alpha) and sc.gaps[k] + h * sc.rates[k] <= 0.0
+        sc.cand[k] = 1 if c else 0
+        sc.active[k] = 1 if (c and (locked[k] != 0 or sc.rates[k] < 0.0)) else 0
+
+
+@njit(cache=True)
+def _solve(chain, ws, sc):
+    """Part 4: the step's velocity-level problem (w <- w+).  Returns 0, or ERR_IMPACT /
+    ERR_ENERGY (the kinetic energy rose)."""
+    e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    t0 = _kinetic(e, w, sc)
+    if velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, ws, sc.iw) < 0:
+        return ERR_IMPACT
+    t1 = kinetic_energy(e, w, sc.pv, sc.vel)
+    sc.force[0] = t0 - t1  # (scratch until _book: the kinetic energy the impulses removed)
+    if t1 > t0 * (1.0 + KE_RTOL) + 1e-12:
+        return ERR_ENERGY
+    return 0
+
+
+@njit(cache=True)
+def _book(t, h, na, chain, ws, sc, books, log):
+    """The step's impulses into the books: the energy removed at the lock and anchor
+    rows, the floor's impulse, the anchors' mean force (for the frames); the locks,
+    unlocks and landings logged."""
+    anchored, locked = chain.anchored, chain.locked
+    iw = sc.iw
+    books.lost_locking[0] += iw.split[0]
+    if na > 0:  # a landing: what the impulses removed beyond the locks' share
+        books.lost_landing[0] += sc.force[0] - iw.split[0]
+    for q in range(3):
+        sc.force[q] = 0.0
+    for j in range(anchored.shape[0]):
+        for q in range(3):
+            if anchored[j] == 2:
+                books.floor_impulse[q] += iw.anchor_impulse[j, q]
+            else:
+                books.floor_flow[q] += iw.anchor_impulse[j, q]
+                sc.force[q] += iw.anchor_impulse[j, q] / h
+    pile_pull(anchored, ws.kind, ws.nrow, ws.x, sc.pull)
+    for q in range(3):
+        sc.pull[q] /= h
+    for k in range(locked.shape[0]):
+        if sc.active[k] and not sc.was[k]:
+            lost = -0.5 * iw.impulse[k] * (sc.rates[k] + iw.rates_after[k])
+            log_row(log, t, LOG_LOCK, k, iw.impulse[k], 0.0, 0.0, lost, sc.pts, k + 1)
+        elif sc.was[k] and not sc.active[k]:
+            log_row(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
+        locked[k] = sc.active[k]
+    for r in range(na):
+        j = sc.new_anchor[r]
+        a0, a1, a2 = iw.anchor_impulse[j, 0], iw.anchor_impulse[j, 1], iw.anchor_impulse[j, 2]
+        lost = -0.5 * (a0 * sc.pre_v[r, 0] + a1 * sc.pre_v[r, 1] + a2 * sc.pre_v[r, 2])
+        log_row(log, t, LOG_LANDING, j, a0, a1, a2, lost, sc.pts, j)
+
+
+@njit(cache=True)
+def _kinetic(e, w, sc):
+    """The kinetic energy of (V(e, w) + dv, w): the free motion in maximal coordinates."""
+    velocities(e, w, sc.pv, sc.vel)
+    dv = sc.iw.dv
+    t = 0.0
+    for i in range(e.shape[0]):
+        for q in range(3):
+            t += 0.5 * (sc.vel[i, q] + dv[i, q]) ** 2 + w[i, q] ** 2 / 6.0
+    return t
+
+
+@njit(cache=True)
+def _settle(model, chain):
+    """The new anchors are made (2 -> 1); limits no longer in force drop their lock;
+    landed segments are at rest."""
+    anchored, locked, w = chain.anchored, chain.locked, chain.Y[1]
+    for j in range(anchored.shape[0]):
+        if anchored[j] == 2:
+            anchored[j] = 1
+    for k in range(locked.shape[0]):
+        if locked[k] and not limit_in_force(anchored, k, model.cone, model.alpha):
+            locked[k] = 0
+    for i in range(w.shape[0]):
+        if is_landed(anchored, i):
+            w[i, 0] = 0.0
+            w[i, 1] = 0.0
+            w[i, 2] = 0.0
+
+
+@njit(cache=True)
+def _project(model, chain, ws, sc):
+    """Part 6: the hinges found past their limit are put back on it, the anchors at
+    their points (positions only).  A projection that would move a point by more than
+    PROJ_MOVE_MAX (an ill-conditioned set of rows far from its solution) is undone and
+    tried with the anchors alone, then not at all.  Returns the number of tries undone."""
+    e, anchored, locked = chain.Y[0], chain.anchored, chain.locked
+    hinge_gaps(e, model.cos_alpha, sc.gaps)
+    _copy3(e, sc.e_pred)
+    point_positions(e, sc.pv)
+    undone = 0
+    for attempt in range(2):
+        for k in range(locked.shape[0]):
+            if attempt == 0:
+                sc.was[k] = locked[k]
+            inside = limit_in_force(anchored, k, model.cone, model.alpha)
+            locked[k] = 1 if (attempt == 0 and sc.gaps[k] < 0.0 and inside) else 0
+            chain.lock_cos[k] = model.cos_alpha
+        project_state(chain, ws, sc.pts, sc.vel, PROJ_TOL, np.int64(PROJ_ITERS), False)
+        point_positions(e, sc.pts)
+        moved = 0.0
+        for j in range(sc.pts.shape[0]):
+            for q in range(3):
+                moved = max(moved, abs(sc.pts[j, q] - sc.pv[j, q]))
+        if moved <= PROJ_MOVE_MAX:
+            break
+        _copy3(sc.e_pred, e)
+        undone += 1
+    for k in range(locked.shape[0]):
+        locked[k] = sc.was[k]
+    return undone
+
+
+@njit(cache=True)
+def _n_landed(anchored):
+    m = 0
+    for i in range(anchored.shape[0] - 1):
+        if is_landed(anchored, i):
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def record_frame(t, chain, sc, books, frames):
+    """Frame frames.count[0] at time t: the state, the anchors' mean force on the
+    airborne chain and the pile's pull over the last step, the force a scale under the
+    floor reads, energies (kinetic: of the velocities (V, w)) and the books."""
+    k = frames.count[0]
+    e, w = chain.Y[0], chain.Y[1]
+    n = e.shape[0]
+    frames.t[k] = t
+    tk = 0.0
+    for i in range(n):
+        for q in range(3):
+            frames.e[k, i, q] = e[i, q]
+            frames.omega[k, i, q] = w[i, q]
+            tk += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
+    for j in range(n + 1):
+        frames.anchored[k, j] = chain.anchored[j]
+    for j in range(n - 1):
+        frames.locked[k, j] = chain.locked[j]
+    for q in range(3):
+        frames.floor_force[k, q] = sc.force[q]
+        frames.pile_pull[k, q] = sc.pull[q]
+        frames.floor_impulse[k, q] = books.floor_flow[q] + books.floor_impulse[q]
+    frames.scale_force[k] = sc.force[2] + _n_landed(chain.anchored)
+    frames.kinetic[k] = tk
+    frames.potential[k] = potential_energy(e)
+    frames.lost_locking[k] = books.lost_locking[0]
+    frames.lost_landing[k] = books.lost_landing[0]
+    frames.count[0] = k + 1
+    frames.fill[0] = k + 1
+    frames.next[0] += frames.dt
+
+
+@njit(cache=True)
+def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
+    """One Moreau-Jean step from t (module docstring, parts 1-6), of size dt at most.
+    Returns (code, t + h): 0, or ERR_*."""
+    e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
+        record_frame(t, chain, sc, books, frames)
+    h = min(dt, frames.next[0] - t, model.t_stop - t)
+    na = _touches(t, 0, model, chain, sc, books)
+    _copy3(w, sc.w_pre)
+    for attempt in range(MAX_CUTS + 1):  # the step, cut again while a point would pass the floor
+        if attempt > 0:
+            _copy3(sc.w_pre, w)
+        _free_velocity(h, chain, sc)
+        _index_set(h, model, chain, sc)
+        code = _solve(chain, ws, sc)
+        if code < 0:
+            return code, t
+        s_turn = _turn_cut(h, w)
+        s = _landing_cut(h, model, chain, sc)
+        if (s >= 1.0 - LAND_SLACK and s_turn >= 1.0) or attempt == MAX_CUTS:
+            break
+        if s_turn < s:
+            h *= s_turn
+        elif s * h < MIN_CUT * dt:  # at the floor already: it touches now, the step stays
+            _first_to_land(s, sc)
+            _copy3(sc.w_pre, w)
+            na += _touches(t, na, model, chain, sc, books)
+        else:
+            h *= s
+    _book(t, h, na, chain, ws, sc, books, log)
+    books.floor_flow[2] += h * _n_landed(anchored)
+    books.n_evals[0] += 1
+    _settle(model, chain)
+    velocities(e, w, sc.pv, sc.vmax)  # V+ (the rows hold: V+ = V(e, w+))
+    z_top = 2.0 * np.sum(e[:, 2])
+    _mid_rates(w, sc)
+    rotate_axes(e, sc.w_mid, h, anchored, e)
+    _project(model, chain, ws, sc)
+    t_end = t + h
+    z_end = 2.0 * np.sum(e[:, 2])
+    if top_event(model.floor) and z_top > 0.0 and z_end <= 0.0:
+        if fall_ended(books, t + h * z_top / (z_top - z_end), True, False):
+            point_positions(e, sc.pts)
+            log_row(log, books.t_fall[0], LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, sc.pts, 0)
+    lowest_point(e, books.lowest)
+    books.n_steps[0] += 1
+    kt = trace.count[0]
+    trace.t[kt] = t_end
+    trace.z[kt] = z_end
+    trace.count[0] = kt + 1
+    if not (math.isfinite(z_end) and math.isfinite(np.sum(w))):
+        return ERR_NAN, t_end
+    return 0, t_end
+
+
+@njit(cache=True)
+def _all_anchored(anchored):
+    for j in range(anchored.shape[0]):
+        if anchored[j] == 0:
+            return False
+    return True
+
+
+@entry
+@njit(cache=True)
+def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
+    """Steps until the fall ends, the stop time, full buffers or ``model.return_every``
+    steps.  Returns (code, t): TS_* or a negative ERR_*."""
+    n = chain.Y.shape[1]
+    room = 3 * n + 8
+    taken = 0
+    while True:
+        if log.t.shape[0] - log.n[0] < room:
+            return TS_RETURN, t
+        if trace.count[0] >= trace.t.shape[0] - 2 or frames.count[0] >= frames.t.shape[0] - 1:
+            return TS_BUFFER, t
+        if t >= model.t_stop * (1.0 - 1e-14):
+            return TS_STOP, t
+        if books.n_steps[0] >= model.max_steps:
+            return TS_MAX_STEPS, t
+        code, t = step(t, dt, model, chain, ws, sc, books, frames, trace, log)
+        if code < 0:
+            return code, t
+        if _all_anchored(chain.anchored):
+            books.t_landed[0] = t
+            fall_ended(books, t, True, True)
+            return TS_LANDED, t
+        taken += 1
+        if taken >= model.return_every:
+            return TS_RETURN, t

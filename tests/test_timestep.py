@@ -1,0 +1,125 @@
+"""The Moreau-Jean time-stepping method (``--method timestep``) against independent truths.
+
+* A rigid rod standing on its lower end and falling over (N = 1): its fall time is a
+  quadrature of the energy equation, (2/3) theta'^2 = cos(theta0) - cos(theta) (units
+  m = b = g = 1, rod length 2 b, I = 4/3 about its end); the method converges to it at
+  first order in dt, and its energy imbalance shrinks at first order too.
+* A chain with no bend limit that falls straight (alpha = pi, a planar start): the
+  event-driven method's first landing time is the reference; the time-stepper's first
+  landing converges to it as dt shrinks.
+* The same record as the event-driven method: a result file, the event log's kinds, the
+  audit (a broken run fails loudly), the option's validation and the CLI contract.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from typer.testing import CliRunner
+
+from ballchain.cli import app
+from ballchain.engine import simulate
+from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from ballchain.records.audit import TIMESTEP_ENERGY_RTOL, audit
+
+THETA0 = 0.3  # the rod's tilt from the vertical at rest (rad)
+
+
+def _rod_fall_time(theta0: float) -> float:
+    """t_fall of a rod (length 2 b) pivoting on its lower end from rest at theta0 until
+    it lies flat: t = int d theta / sqrt(3/2 (cos theta0 - cos theta))."""
+    return quad(lambda th: 1.0 / math.sqrt(1.5 * (math.cos(theta0) - math.cos(th))), theta0, math.pi / 2, limit=200)[0]
+
+
+def _rod(dt: float):
+    e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
+    options = SolverOptions(method="timestep", dt=dt, frames_per_tff=1)
+    return simulate(ChainParams(segments=1, alpha=math.pi), None, options, state=(e0, None))
+
+
+def test_rod_fall_time_converges_at_first_order():
+    exact = _rod_fall_time(THETA0)
+    errors = [abs(_rod(dt).t_fall - exact) for dt in (0.04, 0.02, 0.01)]
+    # first order: halving dt halves the error (ratios 2 +- 0.4), and it is small
+    for coarse, fine in zip(errors, errors[1:]):
+        assert 1.6 < coarse / fine < 2.4, errors
+    assert errors[-1] < 0.005 * exact
+
+
+def test_rod_energy_imbalance_shrinks_with_dt():
+    imb = []
+    for dt in (0.04, 0.02, 0.01):
+        r = _rod(dt)
+        assert r.status == "landed", r.message
+        assert r.energy["lost_locking"] == 0.0  # no hinge
+        imb.append(abs(r.energy["imbalance"]) / r.energy["initial"])
+    for coarse, fine in zip(imb, imb[1:]):
+        assert 1.6 < coarse / fine < 2.4, imb
+
+
+def _first_landing(method: str, dt: float = 0.02) -> float:
+    p = ChainParams(segments=8, alpha=math.pi)
+    ic = InitialCondition(kind="planar", eps=0.2)
+    r = simulate(p, ic, SolverOptions(method=method, dt=dt, frames_per_tff=1, until=0.9))
+    landings = r.event_t[r.event_kind == 3]  # core.kinds: landing
+    assert len(landings) > 0
+    return float(landings[0] / r.t_ff)
+
+
+def test_first_landing_converges_to_the_event_driven_one():
+    ref = _first_landing("event")
+    errs = [abs(_first_landing("timestep", dt) - ref) for dt in (0.08, 0.02, 0.005)]
+    assert errs[2] < errs[0]
+    assert errs[2] < 0.01
+
+
+def test_a_fall_with_locks_keeps_its_books_and_log():
+    r = simulate(
+        ChainParams(segments=24, alpha=math.pi / 4), InitialCondition(), SolverOptions(method="timestep", dt=0.02)
+    )
+    assert r.status == "landed", r.message
+    assert not audit(r)
+    e = r.energy
+    assert 0.0 < e["lost_locking"] < e["initial"] and 0.0 < e["lost_landing"] < e["initial"]
+    assert abs(e["imbalance"]) <= TIMESTEP_ENERGY_RTOL * e["initial"]
+    kinds = set(r.events_table()["kind"])
+    assert {"lock", "unlock", "landing"} <= kinds
+    # every point lands once; the top end's landing is t_fall (floor all)
+    land = r.events_table().query("kind == 'landing'")
+    assert sorted(land["index"]) == list(range(24))
+    assert math.isclose(float(land.query("index == 0")["t"].iloc[0]), r.t_fall, rel_tol=1e-12)
+    # the floor's momentum: total impulse = weight x time (the chain starts and ends at rest)
+    assert r.floor_impulse_total[2] == pytest.approx(24 * r.t_landed, rel=0.05)
+    assert r.options.method == "timestep" and r.options.dt == 0.02
+
+
+def test_the_result_file_keeps_the_method(tmp_path):
+    from ballchain.records.files import load_result, save_result
+
+    r = simulate(ChainParams(segments=4), InitialCondition(), SolverOptions(method="timestep", dt=0.05, until=0.3))
+    path = tmp_path / "r.h5"
+    save_result(r, path)
+    back = load_result(path)
+    assert back.options.method == "timestep" and back.options.dt == 0.05
+    np.testing.assert_array_equal(back.frame_e, r.frame_e)
+
+
+@pytest.mark.parametrize("dt", [0.0, -1.0, math.nan, 5.0])
+def test_bad_dt_is_refused(dt):
+    with pytest.raises(ParameterError, match="dt"):
+        SolverOptions(method="timestep", dt=dt)
+
+
+def test_cli_method_and_dt_in_json():
+    runner = CliRunner()
+    args = ["simulate", "-N", "6", "--method", "timestep", "--dt", "0.05", "--json", "-q"]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.stderr
+    summary = json.loads(res.stdout)
+    assert summary["method"] == "timestep" and summary["dt"] == 0.05
+    bad = runner.invoke(app, ["simulate", "-N", "6", "--method", "timestep", "--dt", "0", "-q"])
+    assert bad.exit_code == 2 and "dt" in bad.stderr and "Traceback" not in bad.stderr
