@@ -422,7 +422,7 @@ def _lock_vector(e, j, nr):
 
 
 @njit(cache=True)
-def _fits4(nrow):
+def fits4(nrow):
     """Every point has 0, 3 or 4 rows (one end group and at most one lock row), or 6
     (an anchor between two airborne segments, without a lock row)."""
     for j in range(nrow.shape[0]):
@@ -843,7 +843,7 @@ def factor(e, anchored, J, kind, nrow, S, G, drop):
     """Factor J W J^T (the fixed-size path when every point has <= 4 rows, else the
     general one); returns the number of redundant rows dropped.  ``solve`` picks the
     same path."""
-    if _fits4(nrow):
+    if fits4(nrow):
         return factor4(e, anchored, kind, nrow, S, G, drop)
     return factor_general(anchored, J, nrow, S, G, drop)
 
@@ -851,7 +851,7 @@ def factor(e, anchored, J, kind, nrow, S, G, drop):
 @njit(cache=True)
 def solve(nrow, S, G, drop, rhs, x):
     """Solve (J W J^T) x = rhs with the factors from ``factor``."""
-    if _fits4(nrow):
+    if fits4(nrow):
         solve4(nrow, S, G, rhs, x)
     else:
         solve_general(nrow, S, G, drop, rhs, x)
@@ -905,6 +905,32 @@ def torques4(e, kind, nrow, x, gf):
         gf[i, 3] = tx
         gf[i, 4] = ty
         gf[i, 5] = tz
+
+
+@njit(cache=True)
+def forces4(kind, nrow, x, gf):
+    """gf[i, 0:3] = force of the multipliers x on segment i (fixed-size layout): an end
+    group with multiplier f and v-coefficient A gives A f (``torques4``'s twin)."""
+    for i in range(gf.shape[0]):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for side in range(2):
+            j = i + side  # point i: segment i is its side c; point i+1: its side a
+            nr = nrow[j]
+            Aa, Ba, Ac, Bc = _end_coeffs(kind[j, 0], nr)
+            A = Aa if side == 1 else Ac
+            r0 = 0
+            if nr == 6 and side == 0:  # the upper rows of a split anchor
+                A = 1.0
+                r0 = 3
+            if A != 0.0:
+                fx += A * x[j, r0]
+                fy += A * x[j, r0 + 1]
+                fz += A * x[j, r0 + 2]
+        gf[i, 0] = fx
+        gf[i, 1] = fy
+        gf[i, 2] = fz
 
 
 # ------------------------------------------------------------ accelerations

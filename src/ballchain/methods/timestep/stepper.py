@@ -42,7 +42,10 @@ import numpy as np
 
 from ...core.books import log_row, lowest_point
 from ...core.dynamics import (
-    kinetic_energy,
+    W_V,
+    fits4,
+    forces4,
+    generalized_forces,
     pile_pull,
     point_positions,
     potential_energy,
@@ -61,7 +64,8 @@ MAX_CUTS = 4  # a step is cut at most this many times at a landing (then taken a
 THETA = 0.5  # the axes turn by h (theta w+ + (1 - theta) w)
 TURN_MAX = 0.1  # rad: no segment turns more than this in a step (a whip gets shorter steps)
 MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
-KE_RTOL = 1e-2  # an impact problem may raise the kinetic energy by this fraction at most (ill-conditioned rows; the rest shows in the books)
+ANCHOR_RATE_TOL = 1e-6  # an anchored point faster than this after the impact problem: its rows were not met
+KE_RTOL = 1e-9  # an impact problem may raise the kinetic energy by this fraction at most (round-off)
 PROJ_TOL = 1e-12  # constraint drift tolerated before projection
 PROJ_ITERS = 25  # Gauss-Newton iterations of the projection at most
 PROJ_MOVE_MAX = 0.1  # b: a projection that moves a point further is undone
@@ -90,6 +94,7 @@ Scratch = namedtuple(
         "due",  # (N+1,) uint8: points the last step was cut to land (they touch in this one)
         "w_pre",  # (N, 3): w at the start of the step (a cut step is solved again)
         "w_mid",  # (N, 3): the rates the axes turn at, (w + w+) / 2
+        "v_pre",  # (N, 3): V at the start of the step
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pre_v",  # (N+1, 3): their velocities before the impact
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
@@ -106,7 +111,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
     v3 = lambda m: np.zeros((m, 3))  # noqa: E731
     sc = Scratch(
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
-        u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n),
+        u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64), v3(n + 1),
         np.zeros(3), np.zeros(3), new_impact_work(n),
     )  # fmt: skip
@@ -146,7 +151,7 @@ def _touches(t, r0, model, chain, sc, books):
             ztol = max(ztol, sc.fv[j])
         sc.due[j] = 0
     point_positions(e, sc.pts)
-    _point_velocities(e, chain.Y[1], sc.vmax, sc.pv)
+    _point_velocities(e, chain.Y[1], sc.v_pre, sc.pv)
     na = floor_contacts(model.floor, e, sc.pts, sc.pv, anchored, True, ztol, sc.new_anchor[r0:])
     for r in range(r0, r0 + na):
         j = sc.new_anchor[r]
@@ -245,7 +250,7 @@ def _free_velocity(h, chain, sc):
                 dv[i, q] = 0.0
             continue
         for q in range(3):
-            dv[i, q] = sc.vmax[i, q] - sc.vel[i, q]
+            dv[i, q] = sc.v_pre[i, q] - sc.vel[i, q]
         dv[i, 2] -= h
 
 
@@ -265,13 +270,32 @@ def _index_set(h, model, chain, sc):
 
 @njit(cache=True)
 def _solve(chain, ws, sc):
-    """Part 4: the step's velocity-level problem (w <- w+).  Returns 0, or ERR_IMPACT /
-    ERR_ENERGY (the kinetic energy rose)."""
+    """Part 4: the step's velocity-level problem: w <- w+, and the centres' velocities
+    V+ = V_free + (the impulses' force) kept in maximal coordinates (sc.vmax; a loop of
+    chain between two anchors can hold rows that are dependent in the new configuration
+    and not met by the last step's velocities: V+ then differs from V(e, w+) by what the
+    dropped row could not remove).  Returns 0, or ERR_IMPACT / ERR_ENERGY (the kinetic
+    energy rose: the projection was not exact)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
-    t0 = _kinetic(e, w, sc)
+    dv = sc.iw.dv
+    velocities(e, w, sc.pv, sc.vel)
+    t0 = 0.0
+    for i in range(e.shape[0]):
+        for q in range(3):
+            sc.vmax[i, q] = sc.vel[i, q] + dv[i, q]  # V_free
+            t0 += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
     if velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, ws, sc.iw) < 0:
         return ERR_IMPACT
-    t1 = kinetic_energy(e, w, sc.pv, sc.vel)
+    if fits4(ws.nrow):
+        forces4(ws.kind, ws.nrow, ws.x, ws.gf)
+    else:
+        generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
+    t1 = 0.0
+    for i in range(e.shape[0]):
+        landed = is_landed(anchored, i)
+        for q in range(3):
+            sc.vmax[i, q] = 0.0 if landed else sc.vmax[i, q] + W_V * ws.gf[i, q]
+            t1 += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
     sc.force[0] = t0 - t1  # (scratch until _book: the kinetic energy the impulses removed)
     if t1 > t0 * (1.0 + KE_RTOL) + 1e-12:
         return ERR_ENERGY
@@ -315,18 +339,6 @@ def _book(t, h, na, chain, ws, sc, books, log):
 
 
 @njit(cache=True)
-def _kinetic(e, w, sc):
-    """The kinetic energy of (V(e, w) + dv, w): the free motion in maximal coordinates."""
-    velocities(e, w, sc.pv, sc.vel)
-    dv = sc.iw.dv
-    t = 0.0
-    for i in range(e.shape[0]):
-        for q in range(3):
-            t += 0.5 * (sc.vel[i, q] + dv[i, q]) ** 2 + w[i, q] ** 2 / 6.0
-    return t
-
-
-@njit(cache=True)
 def _settle(model, chain):
     """The new anchors are made (2 -> 1); limits no longer in force drop their lock;
     landed segments are at rest."""
@@ -352,8 +364,10 @@ def _project(model, chain, ws, sc):
     tried with the anchors alone, then not at all.  Returns the number of tries undone."""
     e, anchored, locked = chain.Y[0], chain.anchored, chain.locked
     hinge_gaps(e, model.cos_alpha, sc.gaps)
-    _copy3(e, sc.e_pred)
     point_positions(e, sc.pv)
+    if _nothing_to_project(model, chain, sc):
+        return 0
+    _copy3(e, sc.e_pred)
     undone = 0
     for attempt in range(2):
         for k in range(locked.shape[0]):
@@ -375,6 +389,22 @@ def _project(model, chain, ws, sc):
     for k in range(locked.shape[0]):
         locked[k] = sc.was[k]
     return undone
+
+
+@njit(cache=True)
+def _nothing_to_project(model, chain, sc):
+    """No hinge in force past its limit (sc.gaps) and every anchored point at its anchor
+    to PROJ_TOL (sc.pv: the point positions)."""
+    anchored = chain.anchored
+    for k in range(sc.gaps.shape[0]):
+        if sc.gaps[k] < 0.0 and limit_in_force(anchored, k, model.cone, model.alpha):
+            return False
+    for j in range(anchored.shape[0]):
+        if anchored[j] != 0:
+            for q in range(3):
+                if abs(sc.pv[j, q] - chain.anchor_pos[j, q]) > PROJ_TOL:
+                    return False
+    return True
 
 
 @njit(cache=True)
@@ -427,6 +457,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
         record_frame(t, chain, sc, books, frames)
     h = min(dt, frames.next[0] - t, model.t_stop - t)
+    _copy3(sc.vmax, sc.v_pre)
     na = _touches(t, 0, model, chain, sc, books)
     _copy3(w, sc.w_pre)
     for attempt in range(MAX_CUTS + 1):  # the step, cut again while a point would pass the floor
@@ -453,7 +484,10 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     books.floor_flow[2] += h * _n_landed(anchored)
     books.n_evals[0] += 1
     _settle(model, chain)
-    velocities(e, w, sc.pv, sc.vmax)  # V+ (the rows hold: V+ = V(e, w+))
+    for i in range(e.shape[0]):
+        if is_landed(anchored, i):
+            for q in range(3):
+                sc.vmax[i, q] = 0.0
     z_top = 2.0 * np.sum(e[:, 2])
     _mid_rates(w, sc)
     rotate_axes(e, sc.w_mid, h, anchored, e)
