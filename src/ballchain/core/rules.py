@@ -13,7 +13,8 @@ the kernels in ``dynamics`` and ``impacts`` act on the masks these rules produce
   impact rather than a touch, and when a series of impacts is taken to its limit:
   ``GAP_TOL``, ``RATE_TOL``, ``Z_TOL``, ``ZERO_BAND`` and the options
   ``SolverOptions.hold_rate``, ``hold_apex`` (``must_hold``);
-* how an event function is watched after an event: ``arm_state``.
+* how an event function is watched after an event: ``arm_state``;
+* what a touch creates once its impact is solved: ``settle_anchors``.
 
 The impact law (Moreau) is ``impacts.velocity_impact`` and the lock set (the
 acceleration-level complementarity problem) ``impacts.lock_set``.
@@ -158,3 +159,22 @@ def bottom_airborne(anchored):
         if not (anchored[i] != 0 and anchored[i + 1] != 0):
             return i
     return -1
+
+
+@njit(cache=True)
+def settle_anchors(chain, cone, alpha):
+    """What a touch creates, once its impact is solved: the new anchors are made (2 -> 1),
+    a lock whose limit is no longer in force (``limit_in_force``) is dropped, a landed
+    segment is at rest (w = 0)."""
+    anchored, locked, w = chain.anchored, chain.locked, chain.Y[1]
+    for j in range(anchored.shape[0]):
+        if anchored[j] == 2:
+            anchored[j] = 1
+    for k in range(locked.shape[0]):
+        if locked[k] and not limit_in_force(anchored, k, cone, alpha):
+            locked[k] = 0
+    for i in range(w.shape[0]):
+        if is_landed(anchored, i):
+            w[i, 0] = 0.0
+            w[i, 1] = 0.0
+            w[i, 2] = 0.0

@@ -96,6 +96,49 @@ class LogBuffer:
         return tuple(a[:k] for a in self.compiled[:-1])
 
 
+# What a method's compiled loop asks of the Python side when it returns (``drive``)
+GO_ON, FLUSH, LANDED, STOPPED = 0, 1, 2, 3
+
+
+def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int) -> RunOutput:
+    """The Python side of every method.  ``advance(t)`` runs the method's compiled loop
+    from t and returns (verdict, t): GO_ON (progress is reported), FLUSH (the trace and
+    frame buffers are emptied), LANDED, STOPPED (the stop time) -- or raises
+    SimulationError.  A stop request ends the run with status ``interrupted``, a failure
+    with ``error``; the work is kept.  ``out`` holds the run's bundles (its status and
+    message are filled in); the log gets room for ``log_rows`` before each call."""
+    t = 0.0
+    status, message = "landed", ""
+    try:
+        while True:
+            if stop.reason is not None:
+                status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
+                break
+            out.log.reserve(log_rows)
+            verdict, t = advance(t)
+            stop.started = True
+            if verdict == FLUSH:
+                out.trace.flush()
+                out.frames.flush()
+            elif verdict == LANDED:
+                break
+            elif verdict == STOPPED:
+                status, message = stop_status(setup.options)
+                break
+            else:
+                progress(t, out.chain, out.log, out.books)
+    except SimulationError as exc:
+        status, message = "error", str(exc)
+    except MemoryError:
+        status = "error"
+        message = (
+            f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {out.frames.written()} frames "
+            f"(lower --frames-per-tff or --until)"
+        )
+    out.status, out.message, out.t = status, message, t
+    return out
+
+
 def stop_status(options) -> tuple[str, str]:
     """(status, message) of a run stopped at its stop time: ``until`` (asked for), or
     ``max_time`` (the time cap) with a message that says the chain had not landed."""

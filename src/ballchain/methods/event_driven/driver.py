@@ -12,7 +12,18 @@ import numpy as np
 from ...core.impacts import hinge_gaps
 from ...core.state import new_books, new_chain, new_model, new_work
 from ...floors.registry import FLOOR_CODES
-from ..outputs import FrameBuffer, LogBuffer, RunOutput, SimulationError, TraceBuffer, stop_status
+from ..outputs import (
+    FLUSH,
+    GO_ON,
+    LANDED,
+    STOPPED,
+    FrameBuffer,
+    LogBuffer,
+    RunOutput,
+    SimulationError,
+    TraceBuffer,
+    drive,
+)
 from .events import (
     ERR_ENERGY,
     ERR_IMPACT_LCP,
@@ -95,39 +106,24 @@ def run(setup, progress, stop) -> RunOutput:
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
     _arm(model, chain, watch, sc, books)
-    t, h = 0.0, H0
-    status, message = "landed", ""
-    try:
-        while True:
-            if stop.reason is not None:
-                status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
-                break
-            log.reserve(4 * log_room(n))
-            code, t, h = run_events(
-                t, h, model, chain, watch, ws, st, sc, books, frames.compiled, trace.compiled, log.compiled
-            )
-            stop.started = True
-            if code == ADV_BUFFER:
-                trace.flush()
-                frames.flush()
-                continue
-            if code == EV_LANDED:
-                break
-            failure = _failure(code, t, h, setup.t_ff, o)
-            if failure is not None:
-                raise SimulationError(failure)
-            if code == ADV_STOP:
-                status, message = stop_status(o)
-                break
-            if code != EV_RETURN:  # pragma: no cover - every code is handled above
-                raise SimulationError(f"unknown code {code} from the compiled loop")
-            progress(t, chain, log, books)
-    except SimulationError as exc:
-        status, message = "error", str(exc)
-    except MemoryError:
-        status = "error"
-        message = (
-            f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {frames.written()} frames "
-            f"(lower --frames-per-tff or --until)"
+    h = [H0]  # the step size carried from one call of the compiled loop to the next
+
+    def advance(t):
+        code, t, h[0] = run_events(
+            t, h[0], model, chain, watch, ws, st, sc, books, frames.compiled, trace.compiled, log.compiled
         )
-    return RunOutput(status, message, t, chain, books, frames, trace, log)
+        if code == ADV_BUFFER:
+            return FLUSH, t
+        if code == EV_LANDED:
+            return LANDED, t
+        failure = _failure(code, t, h[0], setup.t_ff, o)
+        if failure is not None:
+            raise SimulationError(failure)
+        if code == ADV_STOP:
+            return STOPPED, t
+        if code != EV_RETURN:  # pragma: no cover - every code is handled above
+            raise SimulationError(f"unknown code {code} from the compiled loop")
+        return GO_ON, t
+
+    out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
+    return drive(setup, progress, stop, advance, out, 4 * log_room(n))

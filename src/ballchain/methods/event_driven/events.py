@@ -48,9 +48,9 @@ from ...core.rules import (
     RATE_TOL,
     Z_TOL,
     fall_ended,
-    is_landed,
     limit_in_force,
     must_hold,
+    settle_anchors,
 )
 from ...floors.dispatch import floor_contacts, top_event
 from .integrator import ADV_EVENT, PROJ_TOL, advance
@@ -237,21 +237,11 @@ def _apply_impact(rnd, chain, ws, hs, ct, iw, books):
 
 @njit(cache=True)
 def _settle_anchors(model, chain, hs):
-    """After the first impact: the new anchors are made (2 -> 1), limits no longer in
-    force are dropped, landed segments are at rest."""
-    anchored, locked, w = chain.anchored, chain.locked, chain.Y[1]
-    for j in range(anchored.shape[0]):
-        if anchored[j] == 2:
-            anchored[j] = 1
-    for k in range(locked.shape[0]):
-        hs.in_force[k] = 1 if limit_in_force(anchored, k, model.cone, model.alpha) else 0
-        if not hs.in_force[k]:
-            locked[k] = 0
-    for i in range(w.shape[0]):
-        if is_landed(anchored, i):
-            w[i, 0] = 0.0
-            w[i, 1] = 0.0
-            w[i, 2] = 0.0
+    """After the first impact: the new anchors are made (``rules.settle_anchors``) and
+    the limits in force recorded (hs.in_force)."""
+    settle_anchors(chain, model.cone, model.alpha)
+    for k in range(chain.locked.shape[0]):
+        hs.in_force[k] = 1 if limit_in_force(chain.anchored, k, model.cone, model.alpha) else 0
 
 
 @njit(cache=True)

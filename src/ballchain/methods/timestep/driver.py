@@ -7,7 +7,18 @@ from __future__ import annotations
 
 from ...core.state import new_books, new_chain, new_model, new_work
 from ...floors.registry import FLOOR_CODES
-from ..outputs import FrameBuffer, LogBuffer, RunOutput, SimulationError, TraceBuffer, stop_status
+from ..outputs import (
+    FLUSH,
+    GO_ON,
+    LANDED,
+    STOPPED,
+    FrameBuffer,
+    LogBuffer,
+    RunOutput,
+    SimulationError,
+    TraceBuffer,
+    drive,
+)
 from .stepper import (
     ERR_ENERGY,
     ERR_IMPACT,
@@ -46,42 +57,28 @@ def run(setup, progress, stop) -> RunOutput:
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
     h = step_size(setup)
-    t = 0.0
-    status, message = "landed", ""
-    try:
-        while True:
-            if stop.reason is not None:
-                status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
-                break
-            log.reserve(4 * (3 * n + 8))
-            code, t = run_steps(t, h, model, chain, ws, sc, books, frames.compiled, trace.compiled, log.compiled)
-            stop.started = True
-            if code == TS_BUFFER:
-                trace.flush()
-                frames.flush()
-                continue
-            if code == TS_LANDED:
-                break
-            if code == ERR_ENERGY:
-                raise SimulationError(
-                    f"{ERROR_MESSAGES[code]} by {-sc.force[0]:.3g} (units m g b) at t/t_ff = {t / setup.t_ff:.6f}"
-                )
-            if code in ERROR_MESSAGES:
-                raise SimulationError(f"{ERROR_MESSAGES[code]} at t/t_ff = {t / setup.t_ff:.6f}")
-            if code == TS_MAX_STEPS:
-                raise SimulationError(f"more than max_steps = {o.max_steps} steps at t/t_ff = {t / setup.t_ff:.6f}")
-            if code == TS_STOP:
-                status, message = stop_status(o)
-                break
-            if code != TS_RETURN:  # pragma: no cover - every code is handled above
-                raise SimulationError(f"unknown code {code} from the compiled loop")
-            progress(t, chain, log, books)
-    except SimulationError as exc:
-        status, message = "error", str(exc)
-    except MemoryError:
-        status = "error"
-        message = f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {frames.written()} frames"
-    return RunOutput(status, message, t, chain, books, frames, trace, log)
+
+    def advance(t):
+        code, t = run_steps(t, h, model, chain, ws, sc, books, frames.compiled, trace.compiled, log.compiled)
+        if code == TS_BUFFER:
+            return FLUSH, t
+        if code == TS_LANDED:
+            return LANDED, t
+        at = f"at t/t_ff = {t / setup.t_ff:.6f}"
+        if code == ERR_ENERGY:
+            raise SimulationError(f"{ERROR_MESSAGES[code]} by {-sc.removed[0]:.3g} (units m g b) {at}")
+        if code in ERROR_MESSAGES:
+            raise SimulationError(f"{ERROR_MESSAGES[code]} {at}")
+        if code == TS_MAX_STEPS:
+            raise SimulationError(f"more than max_steps = {o.max_steps} steps {at}")
+        if code == TS_STOP:
+            return STOPPED, t
+        if code != TS_RETURN:  # pragma: no cover - every code is handled above
+            raise SimulationError(f"unknown code {code} from the compiled loop")
+        return GO_ON, t
+
+    out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
+    return drive(setup, progress, stop, advance, out, 4 * (3 * n + 8))
 
 
 __all__ = ["run", "step_size"]

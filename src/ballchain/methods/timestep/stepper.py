@@ -54,7 +54,16 @@ from ...core.dynamics import (
 )
 from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, velocity_impact
 from ...core.jit import entry, njit
-from ...core.rules import LOG_LANDING, LOG_LOCK, LOG_TOP, LOG_UNLOCK, fall_ended, is_landed, limit_in_force
+from ...core.rules import (
+    LOG_LANDING,
+    LOG_LOCK,
+    LOG_TOP,
+    LOG_UNLOCK,
+    fall_ended,
+    is_landed,
+    limit_in_force,
+    settle_anchors,
+)
 from ...floors.dispatch import floor_contacts, floor_values, top_event
 
 TOUCH_TOL = 1e-9  # a floor function at or below this touches (b, or e_z under floor "pivot")
@@ -97,6 +106,7 @@ Scratch = namedtuple(
         "v_pre",  # (N, 3): V at the start of the step
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pre_v",  # (N+1, 3): their velocities before the impact
+        "removed",  # (1,): the kinetic energy the last impact problem removed (negative: it rose)
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
@@ -113,7 +123,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64), v3(n + 1),
-        np.zeros(3), np.zeros(3), new_impact_work(n),
+        np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -240,7 +250,8 @@ def _first_to_land(s, sc):
 
 @njit(cache=True)
 def _free_velocity(h, chain, sc):
-    """Part 3: iw.dv = V - h g e_z - V(e, w) on airborne segments (0 on landed ones)."""
+    """Part 3: the free velocity V_free = V - h g e_z on airborne segments (0 on landed
+    ones) in sc.vmax, and its difference from the velocities of w, iw.dv = V_free - V(e, w)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     dv = sc.iw.dv
     velocities(e, w, sc.pv, sc.vel)
@@ -248,10 +259,13 @@ def _free_velocity(h, chain, sc):
         if is_landed(anchored, i):
             for q in range(3):
                 dv[i, q] = 0.0
+                sc.vmax[i, q] = sc.vel[i, q]
             continue
         for q in range(3):
             dv[i, q] = sc.v_pre[i, q] - sc.vel[i, q]
         dv[i, 2] -= h
+        for q in range(3):
+            sc.vmax[i, q] = sc.vel[i, q] + dv[i, q]
 
 
 @njit(cache=True)
@@ -277,12 +291,9 @@ def _solve(chain, ws, sc):
     dropped row could not remove).  Returns 0, or ERR_IMPACT / ERR_ENERGY (the kinetic
     energy rose: the projection was not exact)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
-    dv = sc.iw.dv
-    velocities(e, w, sc.pv, sc.vel)
     t0 = 0.0
-    for i in range(e.shape[0]):
+    for i in range(e.shape[0]):  # sc.vmax holds V_free (_free_velocity)
         for q in range(3):
-            sc.vmax[i, q] = sc.vel[i, q] + dv[i, q]  # V_free
             t0 += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
     if velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, ws, sc.iw) < 0:
         return ERR_IMPACT
@@ -296,7 +307,7 @@ def _solve(chain, ws, sc):
         for q in range(3):
             sc.vmax[i, q] = 0.0 if landed else sc.vmax[i, q] + W_V * ws.gf[i, q]
             t1 += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
-    sc.force[0] = t0 - t1  # (scratch until _book: the kinetic energy the impulses removed)
+    sc.removed[0] = t0 - t1
     if t1 > t0 * (1.0 + KE_RTOL) + 1e-12:
         return ERR_ENERGY
     return 0
@@ -311,7 +322,7 @@ def _book(t, h, na, chain, ws, sc, books, log):
     iw = sc.iw
     books.lost_locking[0] += iw.split[0]
     if na > 0:  # a landing: what the impulses removed beyond the locks' share
-        books.lost_landing[0] += sc.force[0] - iw.split[0]
+        books.lost_landing[0] += sc.removed[0] - iw.split[0]
     for q in range(3):
         sc.force[q] = 0.0
     for j in range(anchored.shape[0]):
@@ -336,24 +347,6 @@ def _book(t, h, na, chain, ws, sc, books, log):
         a0, a1, a2 = iw.anchor_impulse[j, 0], iw.anchor_impulse[j, 1], iw.anchor_impulse[j, 2]
         lost = -0.5 * (a0 * sc.pre_v[r, 0] + a1 * sc.pre_v[r, 1] + a2 * sc.pre_v[r, 2])
         log_row(log, t, LOG_LANDING, j, a0, a1, a2, lost, sc.pts, j)
-
-
-@njit(cache=True)
-def _settle(model, chain):
-    """The new anchors are made (2 -> 1); limits no longer in force drop their lock;
-    landed segments are at rest."""
-    anchored, locked, w = chain.anchored, chain.locked, chain.Y[1]
-    for j in range(anchored.shape[0]):
-        if anchored[j] == 2:
-            anchored[j] = 1
-    for k in range(locked.shape[0]):
-        if locked[k] and not limit_in_force(anchored, k, model.cone, model.alpha):
-            locked[k] = 0
-    for i in range(w.shape[0]):
-        if is_landed(anchored, i):
-            w[i, 0] = 0.0
-            w[i, 1] = 0.0
-            w[i, 2] = 0.0
 
 
 @njit(cache=True)
@@ -483,7 +476,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     _book(t, h, na, chain, ws, sc, books, log)
     books.floor_flow[2] += h * _n_landed(anchored)
     books.n_evals[0] += 1
-    _settle(model, chain)
+    settle_anchors(chain, model.cone, model.alpha)
     for i in range(e.shape[0]):
         if is_landed(anchored, i):
             for q in range(3):
