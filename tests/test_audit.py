@@ -43,9 +43,11 @@ def test_doctored_books_fail_loudly():
 
 
 def test_a_run_that_breaks_the_model_exits_1_and_says_which_book():
-    """N = 2 at alpha = pi: the top end lands on the pivot and the middle point hovers
-    (a degenerate landing): not a silent max_time with exit code 0 any more."""
-    res = CliRunner().invoke(app, ["simulate", "-N", "2", "--alpha", "pi", "--json", "-q"])
+    """A fall integrated far too loosely (rtol 1e-4) creates energy and sinks points
+    into the floor: not a silent number with exit code 0, but status error, exit code 1,
+    a message naming both books."""
+    res = CliRunner().invoke(app, ["simulate", "-N", "16", "--rtol", "1e-4", "--json", "-q"])
     assert res.exit_code == 1
     s = json.loads(res.stdout)
     assert s["status"] == "error" and "energy books do not close" in s["message"]
+    assert "below the floor" in s["message"]

@@ -42,6 +42,7 @@ from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a 
 GAP_TOL = 1e-9  # |g| below this: the hinge is at its limit
 RATE_TOL = 1e-8  # |dg/dt| below this (sqrt(g/b)): a touch, not an impact
 Z_TOL = 1e-9  # a free point below this height (b) touches the floor
+COINCIDE_TOL = 1e-8  # a point touching the floor this close (b) to an anchored point is held there
 # Accumulation (Zeno) limit: a hinge released at an instant (it was locked or took an
 # impulse) that accelerates back to its limit (d2g/dt2 = a < 0) and would return slower
 # than the option ``hold_rate`` (sqrt(g/b)), or after an excursion v^2 / 2|a| below
@@ -159,6 +160,27 @@ def bottom_airborne(anchored):
         if not (anchored[i] != 0 and anchored[i + 1] != 0):
             return i
     return -1
+
+
+@njit(cache=True)
+def hold_at(chain, j, pts):
+    """Where the floor holds point j that touches it at pts[j]: there, or exactly at an
+    anchored point within COINCIDE_TOL of it (the same spot: a fold of the chain whose
+    two ends meet, as a planar two-segment fold that lands on its own pivot).  Two
+    anchors a round-off apart would be a different, ill-posed constraint (the fold
+    could then only swing about the line through them, a direction set by round-off)."""
+    anchored, anchor_pos = chain.anchored, chain.anchor_pos
+    for i in range(anchored.shape[0]):
+        if i != j and anchored[i] == 1:
+            d2 = 0.0
+            for q in range(3):
+                d2 += (anchor_pos[i, q] - pts[j, q]) ** 2
+            if d2 <= COINCIDE_TOL * COINCIDE_TOL:
+                for q in range(3):
+                    anchor_pos[j, q] = anchor_pos[i, q]
+                return
+    for q in range(3):
+        anchor_pos[j, q] = pts[j, q]
 
 
 @njit(cache=True)

@@ -123,7 +123,7 @@ def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int) -> RunO
             elif verdict == LANDED:
                 break
             elif verdict == STOPPED:
-                status, message = stop_status(setup.options)
+                status, message = stop_status(setup.options, out.chain)
                 break
             else:
                 progress(t, out.chain, out.log, out.books)
@@ -139,12 +139,34 @@ def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int) -> RunO
     return out
 
 
-def stop_status(options) -> tuple[str, str]:
+REST_RATE = 1e-9  # every |w_i| below this (sqrt(g/b)): the chain is at rest
+
+
+def stop_status(options, chain: Chain | None = None) -> tuple[str, str]:
     """(status, message) of a run stopped at its stop time: ``until`` (asked for), or
-    ``max_time`` (the time cap) with a message that says the chain had not landed."""
+    ``max_time`` (the time cap) with a message that says the chain had not landed, and,
+    if it is at rest (every |w_i| < REST_RATE), how many points stand off the floor."""
     if options.until is not None:
         return "until", ""
-    return "max_time", f"the chain had not landed by t = {options.max_time} t_ff (the time cap, --max-time)"
+    message = f"the chain had not landed by t = {options.max_time} t_ff (the time cap, --max-time)"
+    if chain is not None:
+        message += at_rest_note(chain)
+    return "max_time", message
+
+
+def at_rest_note(chain: Chain) -> str:
+    """'; it is at rest with k of N + 1 points off the floor ...' if the chain is at rest
+    (every |w_i| < REST_RATE), else ''.  Points' heights z_j = 2 sum_{i>=j} e_i,z (b)."""
+    e, w = chain.Y[0], chain.Y[1]
+    if e.shape[0] == 0 or float(np.max(np.abs(w))) >= REST_RATE:
+        return ""
+    z = np.append(2.0 * np.cumsum(e[::-1, 2])[::-1], 0.0)
+    free = chain.anchored == 0
+    return (
+        f"; it is at rest with {int(free.sum())} of {len(z)} points off the floor (the highest at "
+        f"z = {float(z[free].max(initial=0.0)):.3g} b): an equilibrium, such as a fold standing in the "
+        f"plane of a planar start, which that plane's symmetry holds"
+    )
 
 
 class SimulationError(RuntimeError):

@@ -48,6 +48,7 @@ from ...core.rules import (
     RATE_TOL,
     Z_TOL,
     fall_ended,
+    hold_at,
     limit_in_force,
     must_hold,
     settle_anchors,
@@ -178,7 +179,7 @@ def _anchor_contacts(t, model, chain, ct, pt, any_landing):
         j = ct.new_anchor[r]
         for q in range(3):
             ct.pre_v[r, q] = pt.pv[j, q]
-            chain.anchor_pos[j, q] = pt.pts[j, q]  # held where it touched (|z| < Z_TOL)
+        hold_at(chain, j, pt.pts)  # where it touched (|z| < Z_TOL)
         chain.anchored[j] = 2
         chain.anchor_t[j] = t
     return na

@@ -60,6 +60,7 @@ from ...core.rules import (
     LOG_TOP,
     LOG_UNLOCK,
     fall_ended,
+    hold_at,
     is_landed,
     limit_in_force,
     settle_anchors,
@@ -167,7 +168,7 @@ def _touches(t, r0, model, chain, sc, books):
         j = sc.new_anchor[r]
         for q in range(3):
             sc.pre_v[r, q] = sc.pv[j, q]
-            chain.anchor_pos[j, q] = sc.pts[j, q]
+        hold_at(chain, j, sc.pts)
         anchored[j] = 2
         chain.anchor_t[j] = t
     fall_ended(books, t, False, not top_event(model.floor) and anchored[0] != 0)
