@@ -1,9 +1,12 @@
 """Measures of the paper's qualitative claims on the saved runs of a sweep.
 
-    python benchmarks/reproduction_study.py TABLE.parquet RUNS_DIR [--json]
+    python benchmarks/reproduction_study.py TABLE.parquet RUNS_DIR [--measures-out M.parquet]
+    python benchmarks/reproduction_study.py TABLE.parquet --measures M.parquet [--scatter]
 
 For every run of the table whose result file is in RUNS_DIR (``ballchain sweep
---save-runs RUNS_DIR``) and that landed:
+--save-runs RUNS_DIR``) and that landed (or, with ``--measures``, from a table of per-run
+measures written earlier by ``--measures-out``, so the numbers can be regenerated without
+the runs):
 
 * ``departure``, ``departure5``: the first t/t_ff at which the top end is 0.01 z0
   (0.05 z0) away from a particle falling freely from z0 (|z_top/z0 - (1 - (t/t_ff)^2)|);
@@ -20,6 +23,11 @@ For every run of the table whose result file is in RUNS_DIR (``ballchain sweep
 * ``coil_before``, ``coil_after``: how much the pile coils, as turns per 10 landed
   segments: |sum of the signed turning angles between successive landed segments in
   the horizontal plane| / 2 pi, for the segments landed before and after 0.55 t_ff.
+
+With ``--scatter``, the numerical scatter of one start: for the starts of a point run at
+several ``rtol`` (the same start, other numerical realizations of its chaotic fall), the
+standard deviation of t_fall/t_ff across the tolerances, pooled over the starts, beside
+the standard deviation across the starts at each tolerance (from the sweep table alone).
 
 With ``--paired``, also the same starts on both floors: the mean difference of t_fall/t_ff
 (pivot - all) per (N, alpha), with its standard error.
@@ -102,32 +110,80 @@ def measures(path: str) -> dict:
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("table")
-    ap.add_argument("runs")
-    ap.add_argument("--json", action="store_true")
-    ap.add_argument("--paired", action="store_true", help="also the same starts on both floors")
-    args = ap.parse_args()
-    df = pd.read_parquet(args.table)
-    df = df[df["status"] == "landed"]
+def _measure_runs(df: pd.DataFrame, runs: str) -> list[dict]:
+    """The measures of every run of ``df`` whose file is in ``runs``, one dict per run."""
     rows = []
     for _, r in df.iterrows():
-        path = os.path.join(args.runs, r["run_id"] + ".h5")
+        path = os.path.join(runs, r["run_id"] + ".h5")
         if os.path.exists(path):
             rows.append(
                 {
+                    "run_id": r["run_id"],
                     "segments": r["segments"],
                     "alpha_deg": round(r["alpha_deg"], 6),
                     "floor": r["floor"],
+                    "rtol": r["rtol"],
                     "run_index": r["run_index"],
+                    "engine": r.get("engine", "unknown"),
                     "ratio": r["ratio"],
                     **measures(path),
                 }
             )
-    if not rows:
-        sys.exit("no saved runs of the table found in " + args.runs)
-    m = pd.DataFrame(rows)
+    return rows
+
+
+def _scatter(df: pd.DataFrame) -> list[dict]:
+    """Per (N, alpha, floor): the sd of t_fall/t_ff of one start across rtol (pooled over
+    the starts run at every rtol of the point) and the sd across starts at each rtol."""
+    out = []
+    for (n, a, fl), g in df.groupby(["segments", "alpha_deg", "floor"]):
+        rtols = sorted(g["rtol"].unique())
+        if len(rtols) < 2:
+            continue
+        p = g.pivot_table(index="run_index", columns="rtol", values="ratio", aggfunc="first").dropna()
+        if len(p) < 2:
+            continue
+        pooled = float(np.sqrt(np.mean(p.var(axis=1, ddof=1))))
+        out.append(
+            {
+                "segments": int(n),
+                "alpha_deg": round(float(a), 6),
+                "floor": fl,
+                "starts": int(len(p)),
+                "rtols": [float(r) for r in rtols],
+                "sd_rtol": pooled,
+                "sd_starts": [
+                    (float(r), float(g[g["rtol"] == r]["ratio"].std(ddof=1)), int((g["rtol"] == r).sum()))
+                    for r in rtols
+                ],
+            }
+        )
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("table")
+    ap.add_argument("runs", nargs="?", help="the directory of the saved runs (or give --measures)")
+    ap.add_argument("--measures", help="read the per-run measures from this table instead of the runs")
+    ap.add_argument("--measures-out", help="write the per-run measures to this Parquet table")
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--paired", action="store_true", help="also the same starts on both floors")
+    ap.add_argument("--scatter", action="store_true", help="also the scatter of one start across rtol")
+    args = ap.parse_args()
+    if (args.runs is None) == (args.measures is None):
+        sys.exit("give either RUNS_DIR or --measures M.parquet")
+    df = pd.read_parquet(args.table)
+    df = df[df["status"] == "landed"]
+    if args.measures:
+        m = pd.read_parquet(args.measures)
+        m = m[m["run_id"].isin(df["run_id"])]
+    else:
+        m = pd.DataFrame(_measure_runs(df, args.runs))
+    if m.empty:
+        sys.exit("no measures of the table's runs found")
+    if args.measures_out:
+        m.to_parquet(args.measures_out, index=False)
     cols = [
         "ratio",
         "departure",
@@ -143,12 +199,13 @@ def main() -> None:
         "coil_after",
     ]
     out = []
-    for key, g in m.groupby(["segments", "alpha_deg", "floor"]):
+    for key, g in m.groupby(["segments", "alpha_deg", "floor", "rtol"]):
         out.append(
             {
                 "segments": int(key[0]),
                 "alpha_deg": key[1],
                 "floor": key[2],
+                "rtol": float(key[3]),
                 "runs": int(len(g)),
                 **{c: {"mean": float(g[c].mean()), "min": float(g[c].min()), "max": float(g[c].max())} for c in cols},
             }
@@ -169,14 +226,25 @@ def main() -> None:
                             "se": float(dlt.std(ddof=1) / math.sqrt(len(dlt))),
                         }
                     )
+    scatter = _scatter(df) if args.scatter else []
     if args.json:
-        print(json.dumps({"groups": out, "paired": paired}))
+        print(json.dumps({"groups": out, "paired": paired, "scatter": scatter}))
         return
-    print("| N | alpha | floor | runs | " + " | ".join(cols) + " |")
-    print("|---|---|---|---|" + "---|" * len(cols))
+    print("| N | alpha | floor | rtol | runs | " + " | ".join(cols) + " |")
+    print("|---|---|---|---|---|" + "---|" * len(cols))
     for o in out:
         cells = [f"{o[c]['mean']:.3g} ({o[c]['min']:.3g}..{o[c]['max']:.3g})" for c in cols]
-        print(f"| {o['segments']} | {o['alpha_deg']:g} | {o['floor']} | {o['runs']} | " + " | ".join(cells) + " |")
+        head = f"| {o['segments']} | {o['alpha_deg']:g} | {o['floor']} | {o['rtol']:g} | {o['runs']} | "
+        print(head + " | ".join(cells) + " |")
+    if scatter:
+        print("\n| N | alpha | floor | starts at every rtol | rtols | sd across rtol (one start) | sd across starts |")
+        print("|---|---|---|---|---|---|---|")
+        for c in scatter:
+            across = ", ".join(f"{k:g}: {v:.3f} ({n})" for k, v, n in c["sd_starts"])
+            print(
+                f"| {c['segments']} | {c['alpha_deg']:g} | {c['floor']} | {c['starts']} | "
+                f"{', '.join(f'{r:g}' for r in c['rtols'])} | {c['sd_rtol']:.3f} | {across} |"
+            )
     if paired:
         print("\n| N | alpha | pairs | t_fall/t_ff, pivot - all (mean +- s.e.) |\n|---|---|---|---|")
         for p in paired:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import __version__
+from .core.books import PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS
 from .core.dynamics import kinetic_energy, potential_energy
 from .core.kinds import EVENT_KINDS
 from .core.rules import is_landed
@@ -268,6 +269,10 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         "lost_locking": lost_locking * eu,
         "lost_landing": lost_landing * eu,
         "imbalance": (setup.E0 - U_end - T_end - lost_locking - lost_landing) * eu,
+        # what the projections onto the constraints changed U + T by (a part of -imbalance;
+        # the integrator's own error is the rest): at event instants, after steps
+        "projected_at_instants": float(books.projected[PROJECTED_AT_INSTANTS]) * eu,
+        "projected_in_steps": float(books.projected[PROJECTED_IN_STEPS]) * eu,
     }
     tr_t, tr_z = out.trace.arrays()
     fr = out.frames.arrays()

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from .dynamics import kinetic_energy, potential_energy
 from .jit import njit
+
+PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS = 0, 1  # the slots of Books.projected
 
 
 @njit(cache=True)
@@ -46,3 +49,9 @@ def log_row(log, t, kind, index, i0, i1, i2, energy, pts, j):
     for q in range(3):
         log.pos[k, q] = pts[j, q]
     log.n[0] = k + 1
+
+
+@njit(cache=True)
+def mechanical_energy(e, w, pv, vel):
+    """U + T of axes e and rates w (m g b; pv (N+1, 3), vel (N, 3): scratch)."""
+    return potential_energy(e) + kinetic_energy(e, w, pv, vel)

@@ -1240,12 +1240,34 @@ def constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs):
 
 
 @njit(cache=True)
+def _axis_rates(e, w, out):
+    """out_i = de_i/dt = w_i x e_i."""
+    for i in range(e.shape[0]):
+        out[i, 0] = w[i, 1] * e[i, 2] - w[i, 2] * e[i, 1]
+        out[i, 1] = w[i, 2] * e[i, 0] - w[i, 0] * e[i, 2]
+        out[i, 2] = w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0]
+
+
+@njit(cache=True)
+def _rates_for_axes(e, de, w):
+    """w_i = e_i x de_i: the rates that turn the (moved, unit) axes e_i at the rates de_i
+    they had before the move, but for the components along e_i (which a segment's fixed
+    length forbids): the points' velocities are kept through a position projection up to
+    the move's size times the rates, so the move leaves the kinetic energy alone."""
+    for i in range(e.shape[0]):
+        w[i, 0] = e[i, 1] * de[i, 2] - e[i, 2] * de[i, 1]
+        w[i, 1] = e[i, 2] * de[i, 0] - e[i, 0] * de[i, 2]
+        w[i, 2] = e[i, 0] * de[i, 1] - e[i, 1] * de[i, 0]
+
+
+@njit(cache=True)
 def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     """Remove constraint drift from the state of ``chain`` (``state.Chain``; ``pts``,
     ``vel``: scratch of the points' positions and the centres' velocities): normalise,
     then Gauss-Newton on anchor positions and locked angles
-    (delta = -W J^T (J W J^T)^{-1} c), then (``with_velocities``) the same on
-    velocities.  Returns the largest position residual before projection."""
+    (delta = -W J^T (J W J^T)^{-1} c), then (``with_velocities``) the rates that keep
+    the axes' velocities de_i/dt through that move (``_rates_for_axes``), and the same
+    projection on velocities.  Returns the largest position residual before projection."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
     lock_cos, anchor_pos = chain.lock_cos, chain.anchor_pos
     J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
@@ -1254,6 +1276,8 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     res0 = position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, rhs)
     res = res0
     it = 0
+    if with_velocities and res > tol:
+        _axis_rates(e, w, vel)  # de_i/dt, kept through the move (the points' velocities)
     while res > tol and it < iters:
         factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
@@ -1268,6 +1292,10 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     normalize_state(e, w, anchored)
     if not with_velocities:
         return res0
+    if it > 0:
+        _rates_for_axes(e, vel, w)
+        normalize_state(e, w, anchored)
+        fits = constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs)
     # velocities
     if fits:
         constraint_rates4(e, w, anchored, kind, nrow, pts, vel, rhs)

@@ -164,11 +164,18 @@ def bottom_airborne(anchored):
 
 @njit(cache=True)
 def hold_at(chain, j, pts):
-    """Where the floor holds point j that touches it at pts[j]: there, or exactly at an
-    anchored point within COINCIDE_TOL of it (the same spot: a fold of the chain whose
-    two ends meet, as a planar two-segment fold that lands on its own pivot).  Two
-    anchors a round-off apart would be a different, ill-posed constraint (the fold
-    could then only swing about the line through them, a direction set by round-off)."""
+    """Where the floor holds point j that touches it at pts[j] (points' positions):
+
+    * exactly at an anchored point within COINCIDE_TOL of it (the same spot: a fold of
+      the chain whose two ends meet, as a planar two-segment fold that lands on its own
+      pivot; two anchors a round-off apart would be a different, ill-posed constraint,
+      the fold then swinging only about the line through them, a direction set by
+      round-off);
+    * else, beside an anchored neighbour, at that neighbour's anchor plus the segment
+      between them (pts[j] - pts[j +- 1]), so that a landed segment's anchors are its
+      length apart (the located state drifts from the old anchors by up to ~1e-10 b; an
+      anchor at the drifted position left a residual no projection could remove);
+    * else where it touched."""
     anchored, anchor_pos = chain.anchored, chain.anchor_pos
     for i in range(anchored.shape[0]):
         if i != j and anchored[i] == 1:
@@ -179,6 +186,11 @@ def hold_at(chain, j, pts):
                 for q in range(3):
                     anchor_pos[j, q] = anchor_pos[i, q]
                 return
+    for i in (j + 1, j - 1):
+        if 0 <= i < anchored.shape[0] and anchored[i] == 1:
+            for q in range(3):
+                anchor_pos[j, q] = anchor_pos[i, q] + (pts[j, q] - pts[i, q])
+            return
     for q in range(3):
         anchor_pos[j, q] = pts[j, q]
 

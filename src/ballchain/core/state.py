@@ -138,6 +138,8 @@ Books = namedtuple(
         "n_steps",  # (1,) int64: integrator steps
         "n_evals",  # (1,) int64: evaluations of the equations of motion
         "n_instants",  # (1,) int64: event instants handled
+        "projected",  # (2,): energy U + T changed by the projections onto the constraints (m g b):
+        #   [0] at event instants, [1] after integrator steps (part of the imbalance, reported)
     ],
 )
 
@@ -155,6 +157,7 @@ def new_books() -> Books:
         np.zeros(1, np.int64),
         np.zeros(1, np.int64),
         np.zeros(1, np.int64),
+        np.zeros(2),
     )
 
 

@@ -40,6 +40,18 @@ def tolerances(method: str) -> tuple[float, float]:
     return ENERGY_RTOL, DEPTH_TOL
 
 
+def _projection_share(e: dict, e0: float) -> str:
+    """How much of it the projections onto the constraints made (the rest: the
+    integrator's error), if the result records it."""
+    pi, ps = e.get("projected_at_instants"), e.get("projected_in_steps")
+    if pi is None or ps is None or not e0 > 0:
+        return ""
+    return (
+        f"; the projections onto the constraints changed U + T by {(pi + ps) / e0:+.3g} of E0 "
+        f"({pi / e0:+.3g} at event instants, {ps / e0:+.3g} after steps), the integrator's error the rest"
+    )
+
+
 def audit(result: Result) -> list[str]:
     """The books of ``result`` that do not close, each as a sentence (empty: all close)."""
     failed = []
@@ -52,6 +64,7 @@ def audit(result: Result) -> list[str]:
         failed.append(
             f"the energy books do not close: {abs(imbalance) / e0:.3g} of E0 {kind} "
             f"(E0 - U - T - E_lock - E_land = {imbalance:.6g}; tolerance {energy_rtol:g} of E0)"
+            + _projection_share(e, e0)
         )
     if result.params.floor in WATCHES_EVERY_POINT:
         depth = float(result.max_depth) / result.params.half_length

@@ -31,7 +31,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.books import fill_frame_books, log_row
+from ...core.books import PROJECTED_AT_INSTANTS, fill_frame_books, log_row, mechanical_energy
 from ...core.dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
 from ...core.jit import entry, njit
@@ -54,7 +54,7 @@ from ...core.rules import (
     settle_anchors,
 )
 from ...floors.dispatch import floor_contacts, top_event
-from .integrator import ADV_EVENT, PROJ_TOL, advance
+from .integrator import ADV_EVENT, advance, projection_tol
 from .watch import EV_LANDING, EV_TOP, EV_UNLOCK, apex_times, arm_functions
 
 
@@ -334,8 +334,9 @@ def _finish_instant(t, model, chain, watch, ws, sc, books):
     for k in range(locked.shape[0]):
         if sc.hs.was_locked[k] == 0 and locked[k] != 0:
             chain.lock_cos[k] = model.cos_alpha + sc.hs.gaps[k]
-    velocities(e, w, sc.pt.pv, sc.pt.vel)
-    project_state(chain, ws, sc.pt.pts, sc.pt.vel, PROJ_TOL, np.int64(5))
+    before = mechanical_energy(e, w, sc.pt.pv, sc.pt.vel)
+    project_state(chain, ws, sc.pt.pts, sc.pt.vel, projection_tol(e.shape[0]), np.int64(5))
+    books.projected[PROJECTED_AT_INSTANTS] += mechanical_energy(e, w, sc.pt.pv, sc.pt.vel) - before
     hinge_gaps(e, model.cos_alpha, sc.hs.gaps)
     fall_ended(books, t, False, not top_event(model.floor) and chain.anchored[0] != 0)
     arm_functions(model, chain, watch, sc.hs.gaps, sc.acc.lam, not math.isnan(books.t_fall[0]), sc.ct.fv)

@@ -50,7 +50,7 @@ from fractions import Fraction as Fr
 
 import numpy as np
 
-from ...core.books import lowest_point
+from ...core.books import PROJECTED_IN_STEPS, lowest_point, mechanical_energy
 from ...core.dynamics import (
     accelerations,
     anchor_force_total,
@@ -128,7 +128,18 @@ ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0,
 ADV_GO = -1  # (internal) no reason to return: take the step
 
 NSCAN = 16  # samples per step for a triggered departing function
-PROJ_TOL = 1e-12  # constraint drift tolerated before projection
+PROJ_TOL = 1e-12  # constraint drift tolerated before projection (b; at least)
+PROJ_ROUNDOFF = 1e-13  # ... and per segment: the round-off of positions summed over N segments
+
+
+@njit(cache=True, inline="always")
+def projection_tol(n):
+    """Constraint drift (b) left as it is by the projection after a step or an instant:
+    PROJ_TOL, or the round-off of point positions summed over n segments (PROJ_ROUNDOFF n),
+    whichever is larger.  Projecting round-off only moves the state by round-off, and
+    changes its energy each time (docs/model.md, section 3, "The books")."""
+    return max(PROJ_TOL, PROJ_ROUNDOFF * n)
+
 
 Found = namedtuple(
     "Found",
@@ -702,8 +713,11 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
     Y = chain.Y
     floor_impulse_step(h, sg.F, n_landed, books.floor_flow)
     _copy_state(Y, sg.Y1)
-    res = project_state(chain, ws, scr.pts, scr.vel, PROJ_TOL, np.int64(3))
-    if res > PROJ_TOL:
+    before = mechanical_energy(Y[0], Y[1], scr.pts, scr.vel)
+    tol = projection_tol(Y.shape[1])
+    res = project_state(chain, ws, scr.pts, scr.vel, tol, np.int64(3))
+    books.projected[PROJECTED_IN_STEPS] += mechanical_energy(Y[0], Y[1], scr.pts, scr.vel) - before
+    if res > tol:
         _stage_rhs(Y, chain.anchored, chain.locked, ws, sg.K[0], sg.F[0])
         books.n_evals[0] += 1
     else:

@@ -40,7 +40,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.books import log_row, lowest_point
+from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point, mechanical_energy
 from ...core.dynamics import (
     W_V,
     fits4,
@@ -485,7 +485,9 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     z_top = 2.0 * np.sum(e[:, 2])
     _mid_rates(w, sc)
     rotate_axes(e, sc.w_mid, h, anchored, e)
+    before = mechanical_energy(e, w, sc.pts, sc.vel)
     _project(model, chain, ws, sc)
+    books.projected[PROJECTED_IN_STEPS] += mechanical_energy(e, w, sc.pts, sc.vel) - before
     t_end = t + h
     z_end = 2.0 * np.sum(e[:, 2])
     if top_event(model.floor) and z_top > 0.0 and z_end <= 0.0:
