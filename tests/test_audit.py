@@ -33,6 +33,10 @@ def test_doctored_books_fail_loudly():
     bad = audited(dataclasses.replace(r, energy=e))
     assert bad.status == "error" and "energy books do not close" in bad.message and "created" in bad.message
     assert "0.001 of E0" in bad.message
+    # the message says how much of it the projections onto the constraints made
+    e["projected_at_instants"], e["projected_in_steps"] = 4e-4 * e["initial"], 6e-4 * e["initial"]
+    bad = audited(dataclasses.replace(r, energy=e))
+    assert "changed U + T by +0.001 of E0 (+0.0004 at event instants, +0.0006 after steps)" in bad.message
     deep = audited(dataclasses.replace(r, max_depth=1e-3 * r.params.half_length))
     assert deep.status == "error" and "below the floor" in deep.message
     # a depth within tolerance, or under a floor that does not watch every point, passes

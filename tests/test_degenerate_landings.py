@@ -89,3 +89,23 @@ def test_a_fold_standing_in_its_plane_is_reported_at_rest():
     free = int(np.sum(np.isnan(r.anchor_t)))
     assert free >= 1
     assert f"at rest with {free} of 4 points off the floor" in r.message
+
+
+def test_landed_segments_keep_their_length_between_their_anchors():
+    """A landed segment is rigid: its two anchors are 2 b apart to round-off.  A point
+    landing beside an anchored neighbour is anchored at the neighbour's anchor plus the
+    segment between them (``rules.hold_at``); anchored at its located position, which
+    drifts from the old anchors by up to ~1e-10 b, it left segments 2 b +- 1e-10 long
+    that no projection could meet (here 1.2e-11 b at N = 64; 1.6e-10 b at N = 128)."""
+    for floor in ("all", "pivot"):
+        r = simulate(
+            ChainParams(segments=64, alpha=math.pi / 4, floor=floor),
+            InitialCondition(kind="random", seed=1),
+            SolverOptions(frames_per_tff=4),
+        )
+        assert r.status == "landed", r.message
+        a = r.anchor_pos / r.params.half_length
+        both = ~np.isnan(a[:-1, 0]) & ~np.isnan(a[1:, 0])
+        assert both.sum() >= 32
+        lengths = np.linalg.norm(a[:-1][both] - a[1:][both], axis=1)
+        assert np.max(np.abs(lengths - 2.0)) <= 5e-12, (floor, np.max(np.abs(lengths - 2.0)))
