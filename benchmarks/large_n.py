@@ -1,0 +1,167 @@
+"""t_fall/t_ff against N from sweep tables of either method: the table, a fit, a figure.
+
+    python benchmarks/large_n.py TABLE.parquet [TABLE.parquet ...] [--plot FIG.png] [--json]
+
+Reads every landed run of the tables at one alpha and floor (``--alpha-deg 45``, ``--floor
+all``) (``ballchain sweep`` output, any mix of methods and
+N; rows are grouped by N, method, dt, rtol and engine) and prints, per group: the runs, the
+mean of t_fall/t_ff with its 95% bootstrap (BCa) interval, the fraction of runs faster
+than free fall, and the medians of gamma measured (the floor's momentum record) and
+inferred (from t_fall/t_ff), as a Markdown table.
+
+Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by the
+intervals, over the groups (of two runs or more) of the largest-N method at each N (the time-stepper where
+both ran at one N: the fit asks where the trend goes), with r_inf's 95% interval from
+refitting on bootstrap resamples of the runs.  ``--plot`` draws the means with their
+intervals against N (log axis), both methods, and the fit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import curve_fit
+
+from ballchain.sweeps.stats import mean_interval
+
+
+def _groups(df: pd.DataFrame) -> list[dict]:
+    out = []
+    keys = ["segments", "method", "dt", "rtol", "engine"]
+    for key, g in df.groupby(keys, dropna=False):
+        x = g["ratio"].to_numpy(float)
+        lo, hi = mean_interval(x)
+        out.append(
+            {
+                "segments": int(key[0]),
+                "method": key[1],
+                "dt": float(key[2]) if key[1] == "timestep" else None,
+                "rtol": float(key[3]) if key[1] != "timestep" else None,
+                "engine": key[4],
+                "runs": len(x),
+                "mean": float(np.mean(x)),
+                "lo": float(lo),
+                "hi": float(hi),
+                "fast": float(np.mean(x < 1.0)),
+                "gamma_measured": float(np.nanmedian(g["gamma_measured"])) if "gamma_measured" in g else math.nan,
+                "gamma_inferred": float(np.nanmedian(g["gamma_inferred"])) if "gamma_inferred" in g else math.nan,
+                "ratios": x,
+            }
+        )
+    return sorted(out, key=lambda r: (r["segments"], r["method"]))
+
+
+def _law(n, r_inf, c, p):
+    return r_inf + c * n ** (-p)
+
+
+def _fit(ns, ratio_sets, seed=20261125, n_boot=400):
+    """r_inf, c, p of the means (weights: their standard errors) and r_inf's 95% interval
+    from fits to bootstrap resamples of the runs at each N."""
+    ns = np.asarray(ns, float)
+    means = np.array([np.mean(x) for x in ratio_sets])
+    se = np.array([np.std(x, ddof=1) / math.sqrt(len(x)) for x in ratio_sets])
+    p0 = (means[-1], (means[0] - means[-1]) * ns[0] ** 0.5, 0.5)
+    bounds = ([0.0, -np.inf, 0.05], [2.0, np.inf, 3.0])
+    popt, _ = curve_fit(_law, ns, means, p0=p0, sigma=se, absolute_sigma=True, bounds=bounds, maxfev=20000)
+    rng = np.random.default_rng(seed)
+    boot = []
+    for _ in range(n_boot):
+        m = np.array([np.mean(rng.choice(x, len(x))) for x in ratio_sets])
+        try:
+            b, _ = curve_fit(_law, ns, m, p0=popt, sigma=se, bounds=bounds, maxfev=20000)
+            boot.append(b[0])
+        except RuntimeError:
+            continue
+    lo, hi = np.quantile(boot, [0.025, 0.975]) if boot else (math.nan, math.nan)
+    return popt, (float(lo), float(hi)), len(boot)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("tables", nargs="+")
+    ap.add_argument("--plot", help="figure of t_fall/t_ff against N")
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--alpha-deg", type=float, default=45.0, help="the alpha of the rows used (degrees)")
+    ap.add_argument("--floor", default="all", help="the floor model of the rows used")
+    args = ap.parse_args()
+    df = pd.concat([pd.read_parquet(t) for t in args.tables], ignore_index=True)
+    if "method" not in df:
+        df["method"] = "event"
+    df["method"] = df["method"].fillna("event")
+    if "dt" not in df:
+        df["dt"] = math.nan
+    df["dt"] = df["dt"].where(df["method"] == "timestep", math.nan)
+    df["engine"] = df["engine"].fillna("unknown") if "engine" in df else "unknown"
+    df = df[(df["status"] == "landed") & np.isfinite(df["ratio"])]
+    df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
+    if df.empty:
+        sys.exit("no landed runs in the tables")
+    groups = _groups(df)
+    # the fit: at each N one group, the time-stepper's where both ran (the larger N reach)
+    by_n = {}
+    for g in groups:
+        if g["runs"] < 2:
+            continue
+        if g["segments"] not in by_n or g["method"] == "timestep":
+            by_n[g["segments"]] = g
+    ns = sorted(by_n)
+    fit = None
+    if len(ns) >= 4:
+        popt, ci, nb = _fit(ns, [by_n[n]["ratios"] for n in ns])
+        fit = {"r_inf": float(popt[0]), "c": float(popt[1]), "p": float(popt[2]), "r_inf_95": ci, "boot": nb, "N": ns}
+    if args.json:
+        print(json.dumps({"groups": [{k: v for k, v in g.items() if k != "ratios"} for g in groups], "fit": fit}))
+    else:
+        print(
+            "| N | method | dt (t_ff/N) / rtol | runs | t_fall/t_ff [95%] | faster than free fall | gamma measured | gamma inferred |"
+        )
+        print("|---|---|---|---|---|---|---|---|")
+        for g in groups:
+            step = f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
+            print(
+                f"| {g['segments']} | {g['method']} | {step} | {g['engine']} | {g['runs']} | {g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}] "
+                f"| {g['fast']:.2f} | {g['gamma_measured']:.2f} | {g['gamma_inferred']:.2f} |"
+            )
+        if fit:
+            print(
+                f"\nfit over N = {fit['N']}: t_fall/t_ff = {fit['r_inf']:.3f} + {fit['c']:.3g} N^-{fit['p']:.2f}; "
+                f"r_inf 95% [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}] ({fit['boot']} bootstrap refits)"
+            )
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6.4, 4.2))
+        for method, marker, shift in (("event", "o", 0.97), ("timestep", "s", 1.03)):
+            gs = [g for g in groups if g["method"] == method]
+            if not gs:
+                continue
+            x = np.array([g["segments"] for g in gs]) * shift
+            y = np.array([g["mean"] for g in gs])
+            err = np.array([[g["mean"] - g["lo"] for g in gs], [g["hi"] - g["mean"] for g in gs]])
+            label = "event-driven" if method == "event" else "time-stepping"
+            ax.errorbar(x, y, yerr=err, fmt=marker, capsize=3, label=label)
+        if fit:
+            xs = np.geomspace(min(ns), 16 * max(ns), 200)
+            ax.plot(xs, _law(xs, fit["r_inf"], fit["c"], fit["p"]), "k--", lw=1, label="fit r_inf + c N^-p")
+            ax.axhspan(*fit["r_inf_95"], color="0.85", zorder=0, label="r_inf, 95%")
+        ax.axhline(1.0, color="0.5", lw=0.8)
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("N (segments)")
+        ax.set_ylabel("t_fall / t_ff")
+        ax.set_title("alpha = 45 deg, floor all, random starts")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(args.plot, dpi=120)
+
+
+if __name__ == "__main__":
+    main()
