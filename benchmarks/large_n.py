@@ -9,9 +9,9 @@ mean of t_fall/t_ff with its 95% bootstrap (BCa) interval, the fraction of runs 
 than free fall, and the medians of gamma measured (the floor's momentum record) and
 inferred (from t_fall/t_ff), as a Markdown table.
 
-Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by the
-intervals, over the groups (of two runs or more) of the largest-N method at each N (the time-stepper where
-both ran at one N: the fit asks where the trend goes), with r_inf's 95% interval from
+Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by their
+standard errors, over one group (of two runs or more) at each N: the time-stepper's
+where both methods ran, else the one with the most runs; r_inf's 95% interval comes from
 refitting on bootstrap resamples of the runs.  ``--plot`` draws the means with their
 intervals against N (log axis), both methods, and the fit.
 """
@@ -28,6 +28,13 @@ import pandas as pd
 from scipy.optimize import curve_fit
 
 from ballchain.sweeps.stats import mean_interval
+
+
+def _median(g: pd.DataFrame, col: str) -> float:
+    """The median of a column's finite values (NaN if it has none or is absent)."""
+    x = g[col].to_numpy(float) if col in g else np.array([])
+    x = x[np.isfinite(x)]
+    return float(np.median(x)) if x.size else math.nan
 
 
 def _groups(df: pd.DataFrame) -> list[dict]:
@@ -48,8 +55,8 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "lo": float(lo),
                 "hi": float(hi),
                 "fast": float(np.mean(x < 1.0)),
-                "gamma_measured": float(np.nanmedian(g["gamma_measured"])) if "gamma_measured" in g else math.nan,
-                "gamma_inferred": float(np.nanmedian(g["gamma_inferred"])) if "gamma_inferred" in g else math.nan,
+                "gamma_measured": _median(g, "gamma_measured"),
+                "gamma_inferred": _median(g, "gamma_inferred"),
                 "ratios": x,
             }
         )
@@ -108,8 +115,9 @@ def main() -> None:
     for g in groups:
         if g["runs"] < 2:
             continue
-        if g["segments"] not in by_n or g["method"] == "timestep":
-            by_n[g["segments"]] = g
+        cur = by_n.get(g["segments"])
+        if cur is None or (g["method"], g["runs"]) > (cur["method"], cur["runs"]):
+            by_n[g["segments"]] = g  # the time-stepper's ("timestep" > "event"), else the most runs
     ns = sorted(by_n)
     fit = None
     if len(ns) >= 4:
@@ -119,9 +127,10 @@ def main() -> None:
         print(json.dumps({"groups": [{k: v for k, v in g.items() if k != "ratios"} for g in groups], "fit": fit}))
     else:
         print(
-            "| N | method | dt (t_ff/N) / rtol | runs | t_fall/t_ff [95%] | faster than free fall | gamma measured | gamma inferred |"
+            "| N | method | dt (t_ff/N) / rtol | engine | runs | t_fall/t_ff [95%] | faster than free fall "
+            "| gamma measured | gamma inferred |"
         )
-        print("|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|")
         for g in groups:
             step = f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
             print(
