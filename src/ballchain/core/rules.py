@@ -122,6 +122,15 @@ def point_height(e, j):
 
 
 @njit(cache=True)
+def all_anchored(anchored):
+    """Every point anchored: the fall is over (t_landed)."""
+    for j in range(anchored.shape[0]):
+        if anchored[j] == 0:
+            return False
+    return True
+
+
+@njit(cache=True)
 def fall_ended(books, t, top_reached, top_anchored):
     """The t_fall rule: the fall ends when the top end first reaches the floor, either as
     an event of its own (``top_reached``, floor models with a top event) or when it is

@@ -47,6 +47,7 @@ from ...core.rules import (
     LOG_UNLOCK,
     RATE_TOL,
     Z_TOL,
+    all_anchored,
     fall_ended,
     hold_at,
     limit_in_force,
@@ -376,14 +377,6 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
 
 
 @njit(cache=True)
-def _all_anchored(anchored):
-    for j in range(anchored.shape[0]):
-        if anchored[j] == 0:
-            return False
-    return True
-
-
-@njit(cache=True)
 def _count_instant(t, model, ring, books):
     """Count an event instant; the accumulation guard: ERR_ZENO if ZENO_EVENTS instants
     fell within model.zeno_window, ERR_MAX_EVENTS past model.max_events, else EV_OK."""
@@ -422,7 +415,7 @@ def run_events(t, h, model, chain, watch, ws, st, sc, books, frames, trace, log)
         status = _count_instant(t, model, sc.recent, books)
         if status < 0:
             return status, t, h
-        if _all_anchored(chain.anchored):
+        if all_anchored(chain.anchored):
             books.t_landed[0] = t
             fall_ended(books, t, True, True)
             return EV_LANDED, t, h

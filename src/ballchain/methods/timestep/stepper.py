@@ -59,6 +59,7 @@ from ...core.rules import (
     LOG_LOCK,
     LOG_TOP,
     LOG_UNLOCK,
+    all_anchored,
     fall_ended,
     hold_at,
     is_landed,
@@ -505,14 +506,6 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     return 0, t_end
 
 
-@njit(cache=True)
-def _all_anchored(anchored):
-    for j in range(anchored.shape[0]):
-        if anchored[j] == 0:
-            return False
-    return True
-
-
 @entry
 @njit(cache=True)
 def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
@@ -533,7 +526,7 @@ def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
         code, t = step(t, dt, model, chain, ws, sc, books, frames, trace, log)
         if code < 0:
             return code, t
-        if _all_anchored(chain.anchored):
+        if all_anchored(chain.anchored):
             books.t_landed[0] = t
             fall_ended(books, t, True, True)
             return TS_LANDED, t
