@@ -24,7 +24,9 @@ penetration margin delays an event.  A departing function becomes armed once a s
 ends with it above ``rules.ZERO_BAND``.  One that has not yet been above it (a
 constraint hovering at its limit: rate and acceleration both about zero) fires when it
 sinks below ``-rules.ZERO_BAND``.  A step is checked at its end and its midpoint (armed
-functions), or at 16 points and at its predicted apex (departing functions that were
+functions; an armed hinge also where the cubic through its gap and rate at the step's
+ends has an interior minimum, ``_closest_approach``: a dip through the limit that
+begins and ends inside the step), or at 16 points and at its predicted apex (departing functions that were
 triggered; the event handler predicts where a departing constraint that accelerates
 back peaks, ``events.apex_times``, so that a return within one step is seen positive
 first and located as a crossing).  The sinking level is measured from where the
@@ -565,6 +567,44 @@ def _step_error(Y, Y1, K, h, rtol, atol):
 
 
 @njit(cache=True)
+def _closest_approach(Y0, Y1, K, h, k, g1, cos_alpha):
+    """Theta in (0, 1) where hinge k's gap comes closest to its limit inside the step,
+    or 2.0 if it has no interior minimum: the minimum of the cubic Hermite interpolant
+    of g_k through its values g0, g1 and rates h dg/dt at the step's ends (dg/dt =
+    de_k . e_{k+1} + e_k . de_{k+1}, the rates f(Y0) = K[0] and f(Y1) = K[6]).  The
+    integrator samples the dense output there, so that a dip through the limit that
+    starts and ends inside one step is seen and located (a free hinge released or
+    passing by its limit between two instants)."""
+    e0, e1 = Y0[0], Y1[0]
+    g0 = hinge_gap(e0, k, cos_alpha)
+    d0 = 0.0
+    d1 = 0.0
+    for q in range(3):
+        d0 += K[0, 0, k, q] * e0[k + 1, q] + e0[k, q] * K[0, 0, k + 1, q]
+        d1 += K[6, 0, k, q] * e1[k + 1, q] + e1[k, q] * K[6, 0, k + 1, q]
+    d0 *= h
+    d1 *= h
+    # p(s) = g0 + d0 s + c2 s^2 + c3 s^3 with p(1) = g1, p'(1) = d1
+    c2 = 3.0 * (g1 - g0) - 2.0 * d0 - d1
+    c3 = 2.0 * (g0 - g1) + d0 + d1
+    best = 2.0
+    if abs(c3) < 1e-300:
+        if c2 > 0.0:
+            s = -d0 / (2.0 * c2)
+            if 0.0 < s < 1.0:
+                best = s
+        return best
+    disc = c2 * c2 - 3.0 * c3 * d0
+    if disc < 0.0:
+        return best
+    r = math.sqrt(disc)
+    for s in ((-c2 + r) / (3.0 * c3), (-c2 - r) / (3.0 * c3)):
+        if 0.0 < s < 1.0 and 2.0 * c2 + 6.0 * c3 * s > 0.0:
+            best = s
+    return best
+
+
+@njit(cache=True)
 def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
     """The event functions of kind kd that fire in the step: each watched function is
     checked at the step's midpoint (sg.Ytmp) and end (sg.Y1) and located where it
@@ -583,6 +623,10 @@ def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
             mode, ref, tha = watch.arm_lock[i], watch.ref_lock[i], (watch.apex_lock[i] - t) / h
             fm = hinge_gap(sg.Ytmp[0], i, model.cos_alpha)
             fe = hinge_gap(sg.Y1[0], i, model.cos_alpha)
+            if mode == ARMED:
+                thc = _closest_approach(dense.Y, sg.Y1, dense.K, h, i, fe, model.cos_alpha)
+                if thc < 1.0:
+                    tha = thc
         elif kd == EV_UNLOCK:  # the multiplier, known at the end only (each sample costs an evaluation)
             if watch.arm_unlock[i] == OFF or not dense.locked[i]:
                 continue
