@@ -185,7 +185,7 @@ def test_defaults_are_the_papers_case(engine):
     params, ic, options, progress = engine.calls[-1]
     assert params == ChainParams(segments=128, alpha=math.pi / 4, floor="all", anchor_cone=False)
     assert ic == InitialCondition(kind="helix", eps=0.02, turns=1.0, phase=0.0, seed=0)
-    assert options.rtol == 1e-9 and options.until is None and options.frames_per_tff == 100.0
+    assert options.rtol == 1e-10 and options.until is None and options.frames_per_tff == 100.0
     assert progress is None
     assert not params.is_si
 

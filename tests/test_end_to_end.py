@@ -74,7 +74,7 @@ def test_points_follow_the_stated_conventions():
     assert p.shape == (r.frame_t.size, 6, 3)
     np.testing.assert_array_equal(p[:, 5], 0.0)  # point N, the pivot, at the origin
     seg = np.linalg.norm(p[:, :-1] - p[:, 1:], axis=-1)
-    np.testing.assert_allclose(seg, 2.0, rtol=1e-8)  # segments 2b long (frames: dense output, rtol 1e-9)
+    np.testing.assert_allclose(seg, 2.0, rtol=1e-8)  # segments 2b long (frames: dense output, the default rtol)
     np.testing.assert_allclose(p[0, 0, 2], r.z0, rtol=1e-14)  # point 0 is the top end
     np.testing.assert_allclose(p[:, 0, 2], np.interp(r.frame_t, r.t, r.z_top), atol=1e-3)
 

@@ -17,7 +17,7 @@ FULL = os.environ.get("BALLCHAIN_FULL") == "1"
 DATA = Path(__file__).parent / "data"
 
 
-def _run(n, alpha=math.pi / 4, until=None, rtol=1e-9, floor="all", ic=None, **opt):
+def _run(n, alpha=math.pi / 4, until=None, rtol=SolverOptions.rtol, floor="all", ic=None, **opt):
     return simulate(
         ChainParams(segments=n, alpha=alpha, floor=floor),
         ic or InitialCondition(),

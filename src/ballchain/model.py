@@ -226,7 +226,7 @@ class SolverOptions:
         by the event-driven method.
     """
 
-    rtol: float = 1e-9
+    rtol: float = 1e-10
     until: float | None = None
     max_time: float = 3.0
     frames_per_tff: float = 100.0
