@@ -43,6 +43,7 @@ GAP_TOL = 1e-9  # |g| below this: the hinge is at its limit
 RATE_TOL = 1e-8  # |dg/dt| below this (sqrt(g/b)): a touch, not an impact
 Z_TOL = 1e-9  # a free point below this height (b) touches the floor
 COINCIDE_TOL = 1e-8  # a point touching the floor this close (b) to an anchored point is held there
+COINCIDE_DEPTHS = 10.0  # ... plus this many times its depth at the touch (its error along the floor)
 # Accumulation (Zeno) limit: a hinge released at an instant (it was locked or took an
 # impulse) that accelerates back to its limit (d2g/dt2 = a < 0) and would return slower
 # than the option ``hold_rate`` (sqrt(g/b)), or after an excursion v^2 / 2|a| below
@@ -175,28 +176,33 @@ def bottom_airborne(anchored):
 def hold_at(chain, j, pts):
     """Where the floor holds point j that touches it at pts[j] (points' positions):
 
-    * exactly at an anchored point within COINCIDE_TOL of it (the same spot: a fold of
-      the chain whose two ends meet, as a planar two-segment fold that lands on its own
-      pivot; two anchors a round-off apart would be a different, ill-posed constraint,
-      the fold then swinging only about the line through them, a direction set by
-      round-off);
+    * exactly at an anchored point that is on the same spot of the floor, if j has no
+      anchored neighbour: within COINCIDE_TOL of it along the floor, plus COINCIDE_DEPTHS
+      times the depth at which j touched (a touch found d below the floor, on a path at
+      an angle theta to it, is d / tan(theta) off along the floor: the time-stepper's
+      touches end a step up to a few 1e-6 b deep, the event-driven ones 1e-9).  A fold of the chain whose two ends meet, as a
+      planar two-segment fold that lands on its own pivot; two anchors a round-off
+      apart would be a different, ill-posed constraint, the fold then swinging only
+      about the line through them, a direction set by round-off;
     * else, beside an anchored neighbour, at that neighbour's anchor plus the segment
       between them (pts[j] - pts[j +- 1]), so that a landed segment's anchors are its
       length apart (the located state drifts from the old anchors by up to ~1e-10 b; an
       anchor at the drifted position left a residual no projection could remove);
     * else where it touched."""
     anchored, anchor_pos = chain.anchored, chain.anchor_pos
-    for i in range(anchored.shape[0]):
-        if i != j and anchored[i] == 1:
-            d2 = 0.0
-            for q in range(3):
-                d2 += (anchor_pos[i, q] - pts[j, q]) ** 2
-            if d2 <= COINCIDE_TOL * COINCIDE_TOL:
-                for q in range(3):
-                    anchor_pos[j, q] = anchor_pos[i, q]
-                return
+    n1 = anchored.shape[0]
+    beside = (j + 1 < n1 and anchored[j + 1] != 0) or (j >= 1 and anchored[j - 1] != 0)  # (2: in this instant)
+    if not beside:
+        tol = COINCIDE_TOL + COINCIDE_DEPTHS * max(0.0, -pts[j, 2])
+        for i in range(n1):
+            if i != j and anchored[i] == 1:
+                d2 = (anchor_pos[i, 0] - pts[j, 0]) ** 2 + (anchor_pos[i, 1] - pts[j, 1]) ** 2
+                if d2 <= tol * tol and abs(anchor_pos[i, 2] - pts[j, 2]) <= tol:
+                    for q in range(3):
+                        anchor_pos[j, q] = anchor_pos[i, q]
+                    return
     for i in (j + 1, j - 1):
-        if 0 <= i < anchored.shape[0] and anchored[i] == 1:
+        if 0 <= i < n1 and anchored[i] == 1:
             for q in range(3):
                 anchor_pos[j, q] = anchor_pos[i, q] + (pts[j, q] - pts[i, q])
             return
