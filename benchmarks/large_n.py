@@ -7,7 +7,11 @@ all``) (``ballchain sweep`` output, any mix of methods and
 N; rows are grouped by N, method, dt, rtol and engine) and prints, per group: the runs, the
 mean of t_fall/t_ff with its 95% bootstrap (BCa) interval, the fraction of runs faster
 than free fall, and the medians of gamma measured (the floor's momentum record) and
-inferred (from t_fall/t_ff), as a Markdown table.
+inferred (from t_fall/t_ff), as a Markdown table.  ``--events`` adds a second table:
+per group, the mean lock, unlock and hold events per segment (a hold: the event-driven
+method's accumulation rule, docs/model.md section 3; the time-stepper has none, and its
+locks are the steps at which a hinge starts to take impulse) and the median share of the
+run's energy lost at the hinges (E_lock/E0).
 
 Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by their
 standard errors, over one group (of two runs or more) at each N: the time-stepper's
@@ -58,6 +62,11 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "gamma_measured": _median(g, "gamma_measured"),
                 "gamma_inferred": _median(g, "gamma_inferred"),
                 "ratios": x,
+                **{
+                    f"{kind}_per_segment": float(np.mean(g[f"events_{kind}"] / g["segments"]))
+                    for kind in ("lock", "unlock", "hold")
+                },
+                "e_lock": _median(g.assign(e_lock=g["energy_lost_locking"] / g["energy_initial"]), "e_lock"),
             }
         )
     return sorted(out, key=lambda r: (r["segments"], r["method"]))
@@ -94,6 +103,7 @@ def main() -> None:
     ap.add_argument("tables", nargs="+")
     ap.add_argument("--plot", help="figure of t_fall/t_ff against N")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--events", action="store_true", help="also the events per segment and E_lock/E0")
     ap.add_argument("--alpha-deg", type=float, default=45.0, help="the alpha of the rows used (degrees)")
     ap.add_argument("--floor", default="all", help="the floor model of the rows used")
     args = ap.parse_args()
@@ -137,6 +147,17 @@ def main() -> None:
                 f"| {g['segments']} | {g['method']} | {step} | {g['engine']} | {g['runs']} | {g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}] "
                 f"| {g['fast']:.2f} | {g['gamma_measured']:.2f} | {g['gamma_inferred']:.2f} |"
             )
+        if args.events:
+            print(
+                "\n| N | method | dt (t_ff/N) / rtol | runs | locks / N | unlocks / N | holds / N | E_lock/E0 (median) |"
+            )
+            print("|---|---|---|---|---|---|---|---|")
+            for g in groups:
+                step = f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
+                print(
+                    f"| {g['segments']} | {g['method']} | {step} | {g['runs']} | {g['lock_per_segment']:.1f} "
+                    f"| {g['unlock_per_segment']:.1f} | {g['hold_per_segment']:.1f} | {g['e_lock']:.3f} |"
+                )
         if fit:
             print(
                 f"\nfit over N = {fit['N']}: t_fall/t_ff = {fit['r_inf']:.3f} + {fit['c']:.3g} N^-{fit['p']:.2f}; "
