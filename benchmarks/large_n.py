@@ -72,6 +72,11 @@ def _groups(df: pd.DataFrame) -> list[dict]:
     return sorted(out, key=lambda r: (r["segments"], r["method"]))
 
 
+def _step_label(g: dict) -> str:
+    """The group's step (time-stepper) or tolerance (event-driven)."""
+    return f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
+
+
 def _law(n, r_inf, c, p):
     return r_inf + c * n ** (-p)
 
@@ -142,9 +147,8 @@ def main() -> None:
         )
         print("|---|---|---|---|---|---|---|---|---|")
         for g in groups:
-            step = f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
             print(
-                f"| {g['segments']} | {g['method']} | {step} | {g['engine']} | {g['runs']} | {g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}] "
+                f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['engine']} | {g['runs']} | {g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}] "
                 f"| {g['fast']:.2f} | {g['gamma_measured']:.2f} | {g['gamma_inferred']:.2f} |"
             )
         if args.events:
@@ -153,9 +157,8 @@ def main() -> None:
             )
             print("|---|---|---|---|---|---|---|---|")
             for g in groups:
-                step = f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
                 print(
-                    f"| {g['segments']} | {g['method']} | {step} | {g['runs']} | {g['lock_per_segment']:.1f} "
+                    f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['runs']} | {g['lock_per_segment']:.1f} "
                     f"| {g['unlock_per_segment']:.1f} | {g['hold_per_segment']:.1f} | {g['e_lock']:.3f} |"
                 )
         if fit:
