@@ -254,6 +254,10 @@ def _synthetic(tmp_path, values: dict, n_alpha_floor="all") -> str:
                 "status": "landed",
                 "ratio": ratio,
                 "landed_ratio": ratio + 0.5,
+                "method": "event",
+                "energy_initial": 1000.0 + a_deg,
+                "energy_imbalance": (-1.0) ** k * 1e-8 * k * a_deg,
+                "max_depth": 1e-12 * k,
             }
         )
     path = tmp_path / "syn.parquet"
@@ -333,8 +337,12 @@ def test_stats_cli_json_and_plot(tmp_path):
     (ln,) = [x for x in segments_figure(pts).axes[0].get_lines() if x.get_gid() == "a20-all"]
     np.testing.assert_allclose(ln.get_xdata(), [64, 128])
     np.testing.assert_allclose(ln.get_ydata(), [s["points"][0]["ratio"]["mean"], 0.95])
+    (books,) = s["books"].values()  # the worst of the rows: alpha 70, run 3, by hand
+    assert books["runs"] == 12 and books["worst_imbalance"] == pytest.approx(3 * 70e-8 / 1070, rel=1e-12)
+    assert books["deepest"] == pytest.approx(3e-12, rel=1e-12)
     text = runner.invoke(app, ["stats", path])
     assert text.exit_code == 0 and "optimal alpha" in text.stdout and "20 deg" in text.stdout
+    assert "books of the 12 landed runs (event): worst |imbalance| / E0 2e-09" in text.stdout
     bad = runner.invoke(app, ["stats", str(tmp_path / "none.parquet")])
     assert bad.exit_code == 2 and bad.stderr.startswith("error:")
 

@@ -941,6 +941,11 @@ def stats_text(res: dict) -> str:
                     f"[{o['ci_low_deg']:.4g}, {o['ci_high_deg']:.4g}], mean t_fall/t_ff {o['mean']:.4f} "
                     f"({o['n_starts']} starts)"
                 )
+    for method, b in res.get("books", {}).items():
+        lines.append(
+            f"books of the {b['runs']} landed runs ({method}): worst |imbalance| / E0 {f(b['worst_imbalance'], '.2g')}, "
+            f"deepest point {f(b['deepest'], '.2g')} b below the floor"
+        )
     for key in ("plot", "plot_n"):
         if res.get(key):
             lines.append(f"{key.replace('_', ' ')}: {res[key]}")

@@ -168,8 +168,29 @@ def table_stats(path) -> dict:
             "status": {str(k): int(v) for k, v in df["status"].value_counts().items()} if len(df) else {},
             "points": point_stats(df) if len(df) else [],
             "optimal_alpha": optimal_alpha(df) if len(df) else [],
+            "books": books_stats(df),
         }
     )
+
+
+def books_stats(df) -> dict:
+    """How well the landed runs closed their books: the largest |imbalance| / E0 and
+    the deepest point below the floor (b), per method (each run has checked its own
+    against the method's bounds; a run that failed them says status error)."""
+    out = {}
+    if not len(df) or "energy_imbalance" not in df:
+        return out
+    landed = df[df["status"] == "landed"]
+    methods = landed["method"].fillna("event") if "method" in landed else ["event"] * len(landed)
+    for method, g in landed.groupby(list(methods)):
+        imb = (g["energy_imbalance"].abs() / g["energy_initial"]).to_numpy(float)
+        depth = g["max_depth"].to_numpy(float) if "max_depth" in g else np.array([])
+        out[str(method)] = {
+            "runs": int(len(g)),
+            "worst_imbalance": float(np.nanmax(imb)) if np.isfinite(imb).any() else math.nan,
+            "deepest": float(np.nanmax(depth)) if np.isfinite(depth).any() else math.nan,
+        }
+    return out
 
 
 def _finite(obj):
