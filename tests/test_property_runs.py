@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from ballchain.engine import simulate
 from ballchain.floors.registry import WATCHES_EVERY_POINT
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from ballchain.records.audit import DEPTH_TOL, ENERGY_RTOL
+from ballchain.records.audit import tolerances
 
 chains = st.fixed_dictionaries(
     {
@@ -40,10 +40,23 @@ chains = st.fixed_dictionaries(
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(chains)
 def test_every_run_lands_with_closed_books_or_fails_loudly(c):
+    _lands_with_closed_books_or_fails_loudly(c, "event")
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(chains)
+def test_every_time_stepped_run_lands_with_closed_books_or_fails_loudly(c):
+    """The same property for the time-stepper, its books to its own bounds (its
+    first-order error: records.audit.tolerances)."""
+    _lands_with_closed_books_or_fails_loudly(c, "timestep")
+
+
+def _lands_with_closed_books_or_fails_loudly(c, method):
     params = ChainParams(segments=c["segments"], alpha=c["alpha"], floor=c["floor"])
     ic = InitialCondition(kind=c["kind"], eps=c["eps"], turns=c["turns"], seed=c["seed"])
+    energy_rtol, depth_tol = tolerances(method)
     try:
-        r = simulate(params, ic, SolverOptions(frames_per_tff=4))
+        r = simulate(params, ic, SolverOptions(frames_per_tff=4, method=method))
     except ParameterError as exc:  # a start outside the cone is refused before the run, saying why
         assert "inside alpha" in str(exc)
         event("refused: start outside the cone")
@@ -54,9 +67,9 @@ def test_every_run_lands_with_closed_books_or_fails_loudly(c):
         assert r.message.strip()
         return
     e = r.energy
-    assert abs(e["imbalance"]) <= ENERGY_RTOL * abs(e["initial"]), e
+    assert abs(e["imbalance"]) <= energy_rtol * abs(e["initial"]), e
     if c["floor"] in WATCHES_EVERY_POINT:
-        assert r.max_depth / params.half_length <= DEPTH_TOL
+        assert r.max_depth / params.half_length <= depth_tol
     if r.status == "max_time":
         assert "had not landed" in r.message
         return
