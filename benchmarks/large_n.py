@@ -14,8 +14,9 @@ locks are the steps at which a hinge starts to take impulse) and the median shar
 run's energy lost at the hinges (E_lock/E0).
 
 Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by their
-standard errors, over one group (of two runs or more) at each N: the time-stepper's
-where both methods ran, else the one with the most runs; r_inf's 95% interval comes from
+standard errors, over one group (of two runs or more) at each N: the event-driven
+method's where both methods ran (``--fit-method timestep``: the time-stepper's), then
+rows of a known engine, then the one with the most runs, then the smallest dt; r_inf's 95% interval comes from
 refitting on bootstrap resamples of the runs.  ``--plot`` draws the means with their
 intervals against N (log axis), both methods, and the fit.
 """
@@ -77,6 +78,13 @@ def _step_label(g: dict) -> str:
     return f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
 
 
+def _fit_rank(g: dict, method: str) -> tuple:
+    """Which group stands for its N in the fit: the method asked for (``--fit-method``)
+    where it ran, then rows of a known engine, then the most runs, then the finest
+    step (smallest dt)."""
+    return (g["method"] == method, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
+
+
 def _law(n, r_inf, c, p):
     return r_inf + c * n ** (-p)
 
@@ -109,6 +117,12 @@ def main() -> None:
     ap.add_argument("--plot", help="figure of t_fall/t_ff against N")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--events", action="store_true", help="also the events per segment and E_lock/E0")
+    ap.add_argument(
+        "--fit-method",
+        default="event",
+        choices=["event", "timestep"],
+        help="the method whose rows stand for an N in the fit where both ran (default: event, the exact one)",
+    )
     ap.add_argument("--alpha-deg", type=float, default=45.0, help="the alpha of the rows used (degrees)")
     ap.add_argument("--floor", default="all", help="the floor model of the rows used")
     args = ap.parse_args()
@@ -125,14 +139,14 @@ def main() -> None:
     if df.empty:
         sys.exit("no landed runs in the tables")
     groups = _groups(df)
-    # the fit: at each N one group, the time-stepper's where both ran (the larger N reach)
+    # the fit: at each N one group, chosen by _fit_rank
     by_n = {}
     for g in groups:
         if g["runs"] < 2:
             continue
         cur = by_n.get(g["segments"])
-        if cur is None or (g["method"], g["runs"]) > (cur["method"], cur["runs"]):
-            by_n[g["segments"]] = g  # the time-stepper's ("timestep" > "event"), else the most runs
+        if cur is None or _fit_rank(g, args.fit_method) > _fit_rank(cur, args.fit_method):
+            by_n[g["segments"]] = g
     ns = sorted(by_n)
     fit = None
     if len(ns) >= 4:
