@@ -11,7 +11,11 @@ inferred (from t_fall/t_ff), as a Markdown table.  ``--events`` adds a second ta
 per group, the mean lock, unlock and hold events per segment (a hold: the event-driven
 method's accumulation rule, docs/model.md section 3; the time-stepper has none, and its
 locks are the steps at which a hinge starts to take impulse) and the median share of the
-run's energy lost at the hinges (E_lock/E0).
+run's energy lost at the hinges (E_lock/E0).  ``--paired`` adds a third: each
+time-stepping group against the event-driven group that stands for its N (``_fit_rank``),
+on the starts both ran (the same spawn keys): the mean paired difference of t_fall/t_ff
+and of E_lock/E0 (time-stepping - event-driven) with 95% bootstrap intervals, and the
+two-sample Kolmogorov-Smirnov p of t_fall/t_ff.
 
 Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by their
 standard errors, over one group (of two runs or more) at each N: the event-driven
@@ -63,6 +67,13 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "gamma_measured": _median(g, "gamma_measured"),
                 "gamma_inferred": _median(g, "gamma_inferred"),
                 "ratios": x,
+                "by_start": dict(
+                    zip(
+                        g["spawn_key"].astype(str),
+                        zip(x, g["energy_lost_locking"] / g["energy_initial"], strict=True),
+                        strict=True,
+                    )
+                ),
                 **{
                     f"{kind}_per_segment": float(np.mean(g[f"events_{kind}"] / g["segments"]))
                     for kind in ("lock", "unlock", "hold")
@@ -71,6 +82,21 @@ def _groups(df: pd.DataFrame) -> list[dict]:
             }
         )
     return sorted(out, key=lambda r: (r["segments"], r["method"]))
+
+
+def _paired(ts: dict, ev: dict, seed=20261125, n_boot=4000) -> dict | None:
+    """Time-stepping minus event-driven on the starts both ran: t_fall/t_ff and E_lock/E0."""
+    from scipy.stats import ks_2samp
+
+    keys = sorted(set(ts["by_start"]) & set(ev["by_start"]))
+    if len(keys) < 2:
+        return None
+    d = np.array([[ts["by_start"][k][c] - ev["by_start"][k][c] for c in (0, 1)] for k in keys])
+    rng = np.random.default_rng(seed)
+    boot = d[rng.integers(0, len(d), (n_boot, len(d)))].mean(axis=1)
+    lo, hi = np.quantile(boot, [0.025, 0.975], axis=0)
+    ks = ks_2samp([ts["by_start"][k][0] for k in keys], [ev["by_start"][k][0] for k in keys]).pvalue
+    return {"pairs": len(keys), "mean": d.mean(axis=0), "lo": lo, "hi": hi, "ks_p": float(ks)}
 
 
 def _step_label(g: dict) -> str:
@@ -117,6 +143,7 @@ def main() -> None:
     ap.add_argument("--plot", help="figure of t_fall/t_ff against N")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--events", action="store_true", help="also the events per segment and E_lock/E0")
+    ap.add_argument("--paired", action="store_true", help="also time-stepping against event-driven on the same starts")
     ap.add_argument(
         "--fit-method",
         default="event",
@@ -153,7 +180,8 @@ def main() -> None:
         popt, ci, nb = _fit(ns, [by_n[n]["ratios"] for n in ns])
         fit = {"r_inf": float(popt[0]), "c": float(popt[1]), "p": float(popt[2]), "r_inf_95": ci, "boot": nb, "N": ns}
     if args.json:
-        print(json.dumps({"groups": [{k: v for k, v in g.items() if k != "ratios"} for g in groups], "fit": fit}))
+        hidden = ("ratios", "by_start")
+        print(json.dumps({"groups": [{k: v for k, v in g.items() if k not in hidden} for g in groups], "fit": fit}))
     else:
         print(
             "| N | method | dt (t_ff/N) / rtol | engine | runs | t_fall/t_ff [95%] | faster than free fall "
@@ -175,6 +203,26 @@ def main() -> None:
                     f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['runs']} | {g['lock_per_segment']:.1f} "
                     f"| {g['unlock_per_segment']:.1f} | {g['hold_per_segment']:.1f} | {g['e_lock']:.3f} |"
                 )
+        if args.paired:
+            best_event = {}
+            for g in groups:
+                cur = best_event.get(g["segments"])
+                if g["method"] == "event" and (cur is None or _fit_rank(g, "event") > _fit_rank(cur, "event")):
+                    best_event[g["segments"]] = g
+            print(
+                "\n| N | time-stepping | engine | against event-driven | pairs | t_fall/t_ff: ts - ed [95%] | KS p | E_lock/E0: ts - ed [95%] |"
+            )
+            print("|---|---|---|---|---|---|---|---|")
+            for g in groups:
+                ev = best_event.get(g["segments"])
+                pr = _paired(g, ev) if g["method"] == "timestep" and ev else None
+                if pr:
+                    m, lo, hi = pr["mean"], pr["lo"], pr["hi"]
+                    print(
+                        f"| {g['segments']} | {_step_label(g)} | {g['engine']} | {_step_label(ev)}, {ev['engine']} "
+                        f"| {pr['pairs']} | {m[0]:+.4f} [{lo[0]:+.4f}, {hi[0]:+.4f}] | {pr['ks_p']:.2f} "
+                        f"| {m[1]:+.4f} [{lo[1]:+.4f}, {hi[1]:+.4f}] |"
+                    )
         if fit:
             print(
                 f"\nfit over N = {fit['N']}: t_fall/t_ff = {fit['r_inf']:.3f} + {fit['c']:.3g} N^-{fit['p']:.2f}; "
