@@ -123,6 +123,8 @@ def _measure_runs(df: pd.DataFrame, runs: str) -> list[dict]:
                     "alpha_deg": round(r["alpha_deg"], 6),
                     "floor": r["floor"],
                     "rtol": r["rtol"],
+                    "method": r.get("method") if isinstance(r.get("method"), str) else "event",
+                    "dt": r.get("dt", math.nan),
                     "run_index": r["run_index"],
                     "engine": r.get("engine", "unknown"),
                     "ratio": r["ratio"],
@@ -130,6 +132,13 @@ def _measure_runs(df: pd.DataFrame, runs: str) -> list[dict]:
                 }
             )
     return rows
+
+
+def _step(r) -> str:
+    """A run's method and its tolerance (event-driven) or step (time-stepping, t_ff/N)."""
+    if r.get("method", "event") == "timestep":
+        return f"timestep dt {r['dt']:g}"
+    return f"event rtol {r['rtol']:g}"
 
 
 def _scatter(df: pd.DataFrame) -> list[dict]:
@@ -199,13 +208,15 @@ def main() -> None:
         "coil_after",
     ]
     out = []
-    for key, g in m.groupby(["segments", "alpha_deg", "floor", "rtol"]):
+    m = m.assign(step=[_step(r) for _, r in m.iterrows()])
+    for key, g in m.groupby(["segments", "alpha_deg", "floor", "step"]):
         out.append(
             {
                 "segments": int(key[0]),
                 "alpha_deg": key[1],
                 "floor": key[2],
-                "rtol": float(key[3]),
+                "step": key[3],
+                "rtol": float(g["rtol"].iloc[0]),
                 "runs": int(len(g)),
                 **{c: {"mean": float(g[c].mean()), "min": float(g[c].min()), "max": float(g[c].max())} for c in cols},
             }
@@ -230,11 +241,11 @@ def main() -> None:
     if args.json:
         print(json.dumps({"groups": out, "paired": paired, "scatter": scatter}))
         return
-    print("| N | alpha | floor | rtol | runs | " + " | ".join(cols) + " |")
+    print("| N | alpha | floor | method, rtol or dt | runs | " + " | ".join(cols) + " |")
     print("|---|---|---|---|---|" + "---|" * len(cols))
     for o in out:
         cells = [f"{o[c]['mean']:.3g} ({o[c]['min']:.3g}..{o[c]['max']:.3g})" for c in cols]
-        head = f"| {o['segments']} | {o['alpha_deg']:g} | {o['floor']} | {o['rtol']:g} | {o['runs']} | "
+        head = f"| {o['segments']} | {o['alpha_deg']:g} | {o['floor']} | {o['step']} | {o['runs']} | "
         print(head + " | ".join(cells) + " |")
     if scatter:
         print("\n| N | alpha | floor | starts at every rtol | rtols | sd across rtol (one start) | sd across starts |")
