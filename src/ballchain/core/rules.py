@@ -180,10 +180,11 @@ def hold_at(chain, j, pts):
       anchored neighbour: within COINCIDE_TOL of it along the floor, plus COINCIDE_DEPTHS
       times the depth at which j touched (a touch found d below the floor, on a path at
       an angle theta to it, is d / tan(theta) off along the floor: the time-stepper's
-      touches end a step up to a few 1e-6 b deep, the event-driven ones 1e-9).  A fold of the chain whose two ends meet, as a
-      planar two-segment fold that lands on its own pivot; two anchors a round-off
-      apart would be a different, ill-posed constraint, the fold then swinging only
-      about the line through them, a direction set by round-off;
+      touches end a step up to a few 1e-6 b deep, the event-driven ones 1e-9).  A fold
+      of the chain whose two ends meet, as a planar two-segment fold that lands on its
+      own pivot; two anchors a round-off apart would be a different, ill-posed
+      constraint, the fold then swinging only about the line through them, a direction
+      set by round-off;
     * else, beside an anchored neighbour, at that neighbour's anchor plus the segment
       between them (pts[j] - pts[j +- 1]), so that a landed segment's anchors are its
       length apart (the located state drifts from the old anchors by up to ~1e-10 b; an

@@ -352,16 +352,18 @@ def _book(t, h, na, chain, ws, sc, books, log):
 
 
 @njit(cache=True)
-def _project(model, chain, ws, sc):
+def _project(model, chain, ws, sc, books):
     """Part 6: the hinges found past their limit are put back on it, the anchors at
     their points (positions only).  A projection that would move a point by more than
     PROJ_MOVE_MAX (an ill-conditioned set of rows far from its solution) is undone and
-    tried with the anchors alone, then not at all.  Returns the number of tries undone."""
+    tried with the anchors alone, then not at all.  The change of U + T it makes goes to
+    the ledger (books.projected).  Returns the number of tries undone."""
     e, anchored, locked = chain.Y[0], chain.anchored, chain.locked
     hinge_gaps(e, model.cos_alpha, sc.gaps)
     point_positions(e, sc.pv)
     if _nothing_to_project(model, chain, sc):
         return 0
+    before = mechanical_energy(e, chain.Y[1], sc.pts, sc.vel)
     _copy3(e, sc.e_pred)
     undone = 0
     for attempt in range(2):
@@ -383,6 +385,7 @@ def _project(model, chain, ws, sc):
         undone += 1
     for k in range(locked.shape[0]):
         locked[k] = sc.was[k]
+    books.projected[PROJECTED_IN_STEPS] += mechanical_energy(e, chain.Y[1], sc.pts, sc.vel) - before
     return undone
 
 
@@ -486,9 +489,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     z_top = 2.0 * np.sum(e[:, 2])
     _mid_rates(w, sc)
     rotate_axes(e, sc.w_mid, h, anchored, e)
-    before = mechanical_energy(e, w, sc.pts, sc.vel)
-    _project(model, chain, ws, sc)
-    books.projected[PROJECTED_IN_STEPS] += mechanical_energy(e, w, sc.pts, sc.vel) - before
+    _project(model, chain, ws, sc, books)
     t_end = t + h
     z_end = 2.0 * np.sum(e[:, 2])
     if top_event(model.floor) and z_top > 0.0 and z_end <= 0.0:
