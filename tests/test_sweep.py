@@ -343,6 +343,21 @@ def test_stats_cli_json_and_plot(tmp_path):
     text = runner.invoke(app, ["stats", path])
     assert text.exit_code == 0 and "optimal alpha" in text.stdout and "20 deg" in text.stdout
     assert "books of the 12 landed runs (event): worst |imbalance| / E0 2e-09" in text.stdout
+
+
+def test_stats_depth_only_where_the_floor_watches_every_point(tmp_path):
+    """Under floor pivot the chain passes through the floor by design: its depth is not a
+    missed landing and is left out of the books' deepest point (NaN when no run watches)."""
+    from ballchain.sweeps.stats import books_stats
+
+    df = pd.read_parquet(_synthetic(tmp_path, {(45, k): 1.0 for k in range(3)}))
+    df["max_depth"] = [1e-12, 5e-12, 2e-12]
+    assert books_stats(df)["event"]["deepest"] == pytest.approx(5e-12, rel=1e-12)
+    df.loc[1, "floor"] = "pivot"
+    df.loc[1, "max_depth"] = 300.0  # sunk through the floor, as floor pivot does
+    assert books_stats(df)["event"]["deepest"] == pytest.approx(2e-12, rel=1e-12)
+    df["floor"] = "pivot"
+    assert math.isnan(books_stats(df)["event"]["deepest"])
     bad = runner.invoke(app, ["stats", str(tmp_path / "none.parquet")])
     assert bad.exit_code == 2 and bad.stderr.startswith("error:")
 

@@ -944,7 +944,7 @@ def stats_text(res: dict) -> str:
     for method, b in res.get("books", {}).items():
         lines.append(
             f"books of the {b['runs']} landed runs ({method}): worst |imbalance| / E0 {f(b['worst_imbalance'], '.2g')}, "
-            f"deepest point {f(b['deepest'], '.2g')} b below the floor"
+            f"deepest point {f(b['deepest'], '.2g')} b below a floor that watches every point"
         )
     for key in ("plot", "plot_n"):
         if res.get(key):

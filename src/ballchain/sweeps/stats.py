@@ -16,6 +16,8 @@ import warnings
 
 import numpy as np
 
+from ..floors.registry import WATCHES_EVERY_POINT
+
 CONFIDENCE = 0.95
 N_RESAMPLES = 9999
 SEED = 20261123
@@ -175,8 +177,10 @@ def table_stats(path) -> dict:
 
 def books_stats(df) -> dict:
     """How well the landed runs closed their books: the largest |imbalance| / E0 and
-    the deepest point below the floor (b), per method (each run has checked its own
-    against the method's bounds; a run that failed them says status error)."""
+    the deepest point below the floor (b) among the runs whose floor watches every point
+    (under floor ``pivot`` the chain passes through the floor by design: NaN if no run
+    has such a floor), per method (each run has checked its own against the method's
+    bounds; a run that failed them says status error)."""
     out = {}
     if not len(df) or "energy_imbalance" not in df:
         return out
@@ -184,7 +188,8 @@ def books_stats(df) -> dict:
     methods = landed["method"].fillna("event") if "method" in landed else ["event"] * len(landed)
     for method, g in landed.groupby(list(methods)):
         imb = (g["energy_imbalance"].abs() / g["energy_initial"]).to_numpy(float)
-        depth = g["max_depth"].to_numpy(float) if "max_depth" in g else np.array([])
+        watched = g[g["floor"].isin(WATCHES_EVERY_POINT)] if "floor" in g else g
+        depth = watched["max_depth"].to_numpy(float) if "max_depth" in g else np.array([])
         out[str(method)] = {
             "runs": int(len(g)),
             "worst_imbalance": float(np.nanmax(imb)) if np.isfinite(imb).any() else math.nan,
