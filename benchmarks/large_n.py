@@ -4,7 +4,8 @@
 
 Reads every landed run of the tables at one alpha and floor (``--alpha-deg 45``, ``--floor
 all``) (``ballchain sweep`` output, any mix of methods and
-N; rows are grouped by N, method, dt, rtol and engine) and prints, per group: the runs, the
+N; rows are grouped by N, method, dt, rtol and engine; a run found in several tables,
+the same ``run_id`` made by the same engine, counts once) and prints, per group: the runs, the
 mean of t_fall/t_ff with its 95% bootstrap (BCa) interval, the fraction of runs faster
 than free fall, and the medians of gamma measured (the floor's momentum record) and
 inferred (from t_fall/t_ff), as a Markdown table.  ``--events`` adds a second table:
@@ -161,6 +162,8 @@ def main() -> None:
         df["dt"] = math.nan
     df["dt"] = df["dt"].where(df["method"] == "timestep", math.nan)
     df["engine"] = df["engine"].fillna("unknown") if "engine" in df else "unknown"
+    if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
+        df = df.drop_duplicates(subset=["run_id", "engine"])
     df = df[(df["status"] == "landed") & np.isfinite(df["ratio"])]
     df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
     if df.empty:
