@@ -112,6 +112,16 @@ def _fit_rank(g: dict, method: str) -> tuple:
     return (g["method"] == method, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
 
 
+def _best_per_n(groups: list[dict], method: str) -> dict:
+    """At each N, the group that ranks first by ``_fit_rank(g, method)``."""
+    best = {}
+    for g in groups:
+        cur = best.get(g["segments"])
+        if cur is None or _fit_rank(g, method) > _fit_rank(cur, method):
+            best[g["segments"]] = g
+    return best
+
+
 def _law(n, r_inf, c, p):
     return r_inf + c * n ** (-p)
 
@@ -170,13 +180,7 @@ def main() -> None:
         sys.exit("no landed runs in the tables")
     groups = _groups(df)
     # the fit: at each N one group, chosen by _fit_rank
-    by_n = {}
-    for g in groups:
-        if g["runs"] < 2:
-            continue
-        cur = by_n.get(g["segments"])
-        if cur is None or _fit_rank(g, args.fit_method) > _fit_rank(cur, args.fit_method):
-            by_n[g["segments"]] = g
+    by_n = _best_per_n([g for g in groups if g["runs"] >= 2], args.fit_method)
     ns = sorted(by_n)
     fit = None
     if len(ns) >= 4:
@@ -207,11 +211,7 @@ def main() -> None:
                     f"| {g['unlock_per_segment']:.1f} | {g['hold_per_segment']:.1f} | {g['e_lock']:.3f} |"
                 )
         if args.paired:
-            best_event = {}
-            for g in groups:
-                cur = best_event.get(g["segments"])
-                if g["method"] == "event" and (cur is None or _fit_rank(g, "event") > _fit_rank(cur, "event")):
-                    best_event[g["segments"]] = g
+            best_event = _best_per_n([g for g in groups if g["method"] == "event"], "event")
             print(
                 "\n| N | time-stepping | engine | against event-driven | pairs | t_fall/t_ff: ts - ed [95%] | KS p | E_lock/E0: ts - ed [95%] |"
             )

@@ -343,6 +343,8 @@ def test_stats_cli_json_and_plot(tmp_path):
     text = runner.invoke(app, ["stats", path])
     assert text.exit_code == 0 and "optimal alpha" in text.stdout and "20 deg" in text.stdout
     assert "books of the 12 landed runs (event): worst |imbalance| / E0 2e-09" in text.stdout
+    bad = runner.invoke(app, ["stats", str(tmp_path / "none.parquet")])
+    assert bad.exit_code == 2 and bad.stderr.startswith("error:")
 
 
 def test_stats_depth_only_where_the_floor_watches_every_point(tmp_path):
@@ -358,8 +360,6 @@ def test_stats_depth_only_where_the_floor_watches_every_point(tmp_path):
     assert books_stats(df)["event"]["deepest"] == pytest.approx(2e-12, rel=1e-12)
     df["floor"] = "pivot"
     assert math.isnan(books_stats(df)["event"]["deepest"])
-    bad = runner.invoke(app, ["stats", str(tmp_path / "none.parquet")])
-    assert bad.exit_code == 2 and bad.stderr.startswith("error:")
 
 
 def test_a_foreign_parquet_file_is_refused(tmp_path):
