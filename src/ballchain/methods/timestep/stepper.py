@@ -40,7 +40,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point, mechanical_energy
+from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
 from ...core.dynamics import (
     W_V,
     fits4,
@@ -357,13 +357,15 @@ def _project(model, chain, ws, sc, books):
     their points (positions only).  A projection that would move a point by more than
     PROJ_MOVE_MAX (an ill-conditioned set of rows far from its solution) is undone and
     tried with the anchors alone, then not at all.  The change of U + T it makes goes to
-    the ledger (books.projected).  Returns the number of tries undone."""
+    the ledger (books.projected): of U alone, since the velocity state (V, w) is kept
+    (T = sum 1/2 |V_i|^2 + |w_i|^2 / 6 does not depend on the axes).  Returns the number
+    of tries undone."""
     e, anchored, locked = chain.Y[0], chain.anchored, chain.locked
     hinge_gaps(e, model.cos_alpha, sc.gaps)
     point_positions(e, sc.pv)
     if _nothing_to_project(model, chain, sc):
         return 0
-    before = mechanical_energy(e, chain.Y[1], sc.pts, sc.vel)
+    before = potential_energy(e)
     _copy3(e, sc.e_pred)
     undone = 0
     for attempt in range(2):
@@ -385,17 +387,18 @@ def _project(model, chain, ws, sc, books):
         undone += 1
     for k in range(locked.shape[0]):
         locked[k] = sc.was[k]
-    books.projected[PROJECTED_IN_STEPS] += mechanical_energy(e, chain.Y[1], sc.pts, sc.vel) - before
+    books.projected[PROJECTED_IN_STEPS] += potential_energy(e) - before
     return undone
 
 
 @njit(cache=True)
 def _nothing_to_project(model, chain, sc):
-    """No hinge in force past its limit (sc.gaps) and every anchored point at its anchor
-    to PROJ_TOL (sc.pv: the point positions)."""
+    """No hinge in force past its limit (sc.gaps, by more than PROJ_TOL: a hinge put on
+    its limit by the last projection sits there to round-off, either side) and every
+    anchored point at its anchor to PROJ_TOL (sc.pv: the point positions)."""
     anchored = chain.anchored
     for k in range(sc.gaps.shape[0]):
-        if sc.gaps[k] < 0.0 and limit_in_force(anchored, k, model.cone, model.alpha):
+        if sc.gaps[k] < -PROJ_TOL and limit_in_force(anchored, k, model.cone, model.alpha):
             return False
     for j in range(anchored.shape[0]):
         if anchored[j] != 0:
