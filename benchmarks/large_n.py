@@ -23,7 +23,12 @@ standard errors, over one group (of two runs or more) at each N: the event-drive
 method's where both methods ran (``--fit-method timestep``: the time-stepper's), then
 rows of a known engine, then the one with the most runs, then the smallest dt; r_inf's 95% interval comes from
 refitting on bootstrap resamples of the runs.  ``--plot`` draws the means with their
-intervals against N (log axis), both methods, and the fit.
+intervals against N (log axis), both methods, and the fit.  ``--cost`` adds the cost of
+a fall per group (the median wall seconds of its runs, the time-stepper's median steps and
+its cost per step and segment) and, per method, the exponent q of wall ~ N^q fitted to
+the group that stands for each N from 64 up; ``--cost-plot`` draws those walls log-log.
+The walls are those the sweeps measured, each run on one core of a 2-core machine with
+a second run on the other core.
 """
 
 from __future__ import annotations
@@ -80,6 +85,8 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                     for kind in ("lock", "unlock", "hold")
                 },
                 "e_lock": _median(g.assign(e_lock=g["energy_lost_locking"] / g["energy_initial"]), "e_lock"),
+                "wall": _median(g, "wall_seconds"),
+                "steps": _median(g, "n_steps"),
             }
         )
     return sorted(out, key=lambda r: (r["segments"], r["method"]))
@@ -122,6 +129,69 @@ def _best_per_n(groups: list[dict], method: str) -> dict:
     return best
 
 
+def _cost_slopes(groups: list[dict]) -> dict:
+    """Per method and step (dt, or rtol), the exponent q of wall ~ N^q: a least-squares
+    line through the log median walls of one group per N (N >= 64; the one with the
+    most runs), where three N or more have one."""
+    out = {}
+    for key in sorted({(g["method"], _step_label(g)) for g in groups}):
+        best = {}
+        for g in groups:
+            if (g["method"], _step_label(g)) == key and g["segments"] >= 64 and math.isfinite(g["wall"]):
+                cur = best.get(g["segments"])
+                if cur is None or (g["engine"] != "unknown", g["runs"]) > (cur["engine"] != "unknown", cur["runs"]):
+                    best[g["segments"]] = g
+        ns = sorted(best)
+        if len(ns) >= 3:
+            q, _ = np.polyfit(np.log(ns), np.log([best[n]["wall"] for n in ns]), 1)
+            out[key] = {"q": float(q), "N": ns, "wall": [best[n]["wall"] for n in ns]}
+    return out
+
+
+def _print_cost(groups: list[dict], slopes: dict) -> None:
+    """The cost table: median wall per fall, the time-stepper's steps and cost per step
+    and segment, and the fitted exponents."""
+    print(
+        "\n| N | method | dt (t_ff/N) / rtol | engine | runs | median wall per fall (s) | median steps | ns / step / segment |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for g in groups:
+        per = ""
+        if g["method"] == "timestep" and g["steps"] > 0:
+            per = f"{1e9 * g['wall'] / g['steps'] / g['segments']:.0f}"
+        steps = f"{g['steps']:.0f}" if g["method"] == "timestep" else ""
+        print(
+            f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['engine']} | {g['runs']} | {g['wall']:.3g} "
+            f"| {steps} | {per} |"
+        )
+    for (method, step), sl in slopes.items():
+        print(f"\ncost of a fall by {method} ({step}): wall ~ N^{sl['q']:.2f} over N = {sl['N']}")
+
+
+def _cost_figure(slopes: dict, path: str) -> None:
+    """Median wall per fall against N, log-log, each method with its fitted line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for (method, step), sl in slopes.items():
+        marker = "o" if method == "event" else "s"
+        ns, wall = np.array(sl["N"], float), np.array(sl["wall"])
+        label = f"{'event-driven' if method == 'event' else 'time-stepping'}, {step}"
+        (pts,) = ax.loglog(ns, wall, marker, label=f"{label} (median of the starts)")
+        c = np.exp(np.mean(np.log(wall) - sl["q"] * np.log(ns)))
+        ax.loglog(ns, c * ns ** sl["q"], "--", lw=1, color=pts.get_color(), label=f"{label}: N^{sl['q']:.2f}")
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("N (segments)")
+    ax.set_ylabel("wall seconds per fall (one core)")
+    ax.set_title("cost of a fall, alpha = 45 deg, floor all")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
 def _law(n, r_inf, c, p):
     return r_inf + c * n ** (-p)
 
@@ -161,6 +231,8 @@ def main() -> None:
         choices=["event", "timestep"],
         help="the method whose rows stand for an N in the fit where both ran (default: event, the exact one)",
     )
+    ap.add_argument("--cost", action="store_true", help="also the cost of a fall: median wall, steps, exponent")
+    ap.add_argument("--cost-plot", help="figure of the median wall per fall against N (log-log)")
     ap.add_argument("--alpha-deg", type=float, default=45.0, help="the alpha of the rows used (degrees)")
     ap.add_argument("--floor", default="all", help="the floor model of the rows used")
     args = ap.parse_args()
@@ -226,11 +298,15 @@ def main() -> None:
                         f"| {pr['pairs']} | {m[0]:+.4f} [{lo[0]:+.4f}, {hi[0]:+.4f}] | {pr['ks_p']:.2f} "
                         f"| {m[1]:+.4f} [{lo[1]:+.4f}, {hi[1]:+.4f}] |"
                     )
+        if args.cost:
+            _print_cost(groups, _cost_slopes(groups))
         if fit:
             print(
                 f"\nfit over N = {fit['N']}: t_fall/t_ff = {fit['r_inf']:.3f} + {fit['c']:.3g} N^-{fit['p']:.2f}; "
                 f"r_inf 95% [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}] ({fit['boot']} bootstrap refits)"
             )
+    if args.cost_plot:
+        _cost_figure(_cost_slopes(groups), args.cost_plot)
     if args.plot:
         import matplotlib
 
