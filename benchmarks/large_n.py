@@ -183,10 +183,15 @@ def _cost_figure(slopes: dict, path: str) -> None:
         (pts,) = ax.loglog(ns, wall, marker, label=f"{label} (median of the starts)")
         c = np.exp(np.mean(np.log(wall) - sl["q"] * np.log(ns)))
         ax.loglog(ns, c * ns ** sl["q"], "--", lw=1, color=pts.get_color(), label=f"{label}: N^{sl['q']:.2f}")
+    _save(fig, ax, "wall seconds per fall (one core)", "cost of a fall, alpha = 45 deg, floor all", path)
+
+
+def _save(fig, ax, ylabel: str, title: str, path: str) -> None:
+    """Log-2 N axis, labels, legend; the figure written to path."""
     ax.set_xscale("log", base=2)
     ax.set_xlabel("N (segments)")
-    ax.set_ylabel("wall seconds per fall (one core)")
-    ax.set_title("cost of a fall, alpha = 45 deg, floor all")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -328,13 +333,7 @@ def main() -> None:
             ax.plot(xs, _law(xs, fit["r_inf"], fit["c"], fit["p"]), "k--", lw=1, label="fit r_inf + c N^-p")
             ax.axhspan(*fit["r_inf_95"], color="0.85", zorder=0, label="r_inf, 95%")
         ax.axhline(1.0, color="0.5", lw=0.8)
-        ax.set_xscale("log", base=2)
-        ax.set_xlabel("N (segments)")
-        ax.set_ylabel("t_fall / t_ff")
-        ax.set_title("alpha = 45 deg, floor all, random starts")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(args.plot, dpi=120)
+        _save(fig, ax, "t_fall / t_ff", "alpha = 45 deg, floor all, random starts", args.plot)
 
 
 if __name__ == "__main__":
