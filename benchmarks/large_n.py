@@ -8,11 +8,13 @@ N; rows are grouped by N, method, dt, rtol and engine; a run found in several ta
 the same ``run_id`` made by the same engine, counts once) and prints, per group: the runs, the
 mean of t_fall/t_ff with its 95% bootstrap (BCa) interval, the fraction of runs faster
 than free fall, and the medians of gamma measured (the floor's momentum record) and
-inferred (from t_fall/t_ff), as a Markdown table.  ``--events`` adds a second table:
+inferred (from t_fall/t_ff), and how many of its runs did not land (status ``error``:
+a broken run, e.g. books that do not close; they are left out of the rest), as a
+Markdown table.  ``--events`` adds a second table:
 per group, the mean lock, unlock and hold events per segment (a hold: the event-driven
 method's accumulation rule, docs/model.md section 3; the time-stepper has none, and its
 locks are the steps at which a hinge starts to take impulse) and the median share of the
-run's energy lost at the hinges (E_lock/E0).  ``--paired`` adds a third: each
+run's energy lost at the hinges (E_lock/E0) and the books' imbalance (mean, largest).  ``--paired`` adds a third: each
 time-stepping group against the event-driven group that stands for its N (``_fit_rank``),
 on the starts both ran (the same spawn keys): the mean paired difference of t_fall/t_ff
 and of E_lock/E0 (time-stepping - event-driven) with 95% bootstrap intervals, and the
@@ -85,6 +87,8 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                     for kind in ("lock", "unlock", "hold")
                 },
                 "e_lock": _median(g.assign(e_lock=g["energy_lost_locking"] / g["energy_initial"]), "e_lock"),
+                "imbalance_mean": float(np.mean(g["energy_imbalance"] / g["energy_initial"])),
+                "imbalance_max": float(np.max(np.abs(g["energy_imbalance"] / g["energy_initial"]))),
                 "wall": _median(g, "wall_seconds"),
                 "steps": _median(g, "n_steps"),
             }
@@ -251,11 +255,17 @@ def main() -> None:
     df["engine"] = df["engine"].fillna("unknown") if "engine" in df else "unknown"
     if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
         df = df.drop_duplicates(subset=["run_id", "engine"])
-    df = df[(df["status"] == "landed") & np.isfinite(df["ratio"])]
     df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
+    ok = (df["status"] == "landed") & np.isfinite(df["ratio"])
+    keys = ["segments", "method", "dt", "rtol", "engine"]
+    bad = df[~ok].assign(rtol=df["rtol"].where(df["method"] != "timestep", math.nan))
+    failed = bad.fillna({"dt": -1.0, "rtol": -1.0}).groupby(keys).size().to_dict()
+    df = df[ok]
     if df.empty:
         sys.exit("no landed runs in the tables")
     groups = _groups(df)
+    for g in groups:  # the runs of the group that did not land (status error: a broken run, books not closed)
+        g["failed"] = int(failed.get((g["segments"], g["method"], g["dt"] or -1.0, g["rtol"] or -1.0, g["engine"]), 0))
     # the fit: at each N one group, chosen by _fit_rank
     by_n = _best_per_n([g for g in groups if g["runs"] >= 2], args.fit_method)
     ns = sorted(by_n)
@@ -269,23 +279,25 @@ def main() -> None:
     else:
         print(
             "| N | method | dt (t_ff/N) / rtol | engine | runs | t_fall/t_ff [95%] | faster than free fall "
-            "| gamma measured | gamma inferred |"
+            "| gamma measured | gamma inferred | runs not landed |"
         )
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|")
         for g in groups:
             print(
                 f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['engine']} | {g['runs']} | {g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}] "
-                f"| {g['fast']:.2f} | {g['gamma_measured']:.2f} | {g['gamma_inferred']:.2f} |"
+                f"| {g['fast']:.2f} | {g['gamma_measured']:.2f} | {g['gamma_inferred']:.2f} | {g['failed']} |"
             )
         if args.events:
             print(
-                "\n| N | method | dt (t_ff/N) / rtol | runs | locks / N | unlocks / N | holds / N | E_lock/E0 (median) |"
+                "\n| N | method | dt (t_ff/N) / rtol | runs | locks / N | unlocks / N | holds / N | E_lock/E0 (median) "
+                "| imbalance/E0: mean | max abs |"
             )
-            print("|---|---|---|---|---|---|---|---|")
+            print("|---|---|---|---|---|---|---|---|---|---|")
             for g in groups:
                 print(
                     f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['runs']} | {g['lock_per_segment']:.1f} "
-                    f"| {g['unlock_per_segment']:.1f} | {g['hold_per_segment']:.1f} | {g['e_lock']:.3f} |"
+                    f"| {g['unlock_per_segment']:.1f} | {g['hold_per_segment']:.1f} | {g['e_lock']:.3f} "
+                    f"| {g['imbalance_mean']:+.2g} | {g['imbalance_max']:.2g} |"
                 )
         if args.paired:
             best_event = _best_per_n([g for g in groups if g["method"] == "event"], "event")
