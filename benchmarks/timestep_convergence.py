@@ -3,12 +3,18 @@ analytic truth: the tables of docs/timestep.md.
 
     python benchmarks/timestep_convergence.py                       # all tables (about 10 min)
     python benchmarks/timestep_convergence.py --only rod
+    python benchmarks/timestep_convergence.py --only pi --segments 16
     python benchmarks/timestep_convergence.py --only ensembles --segments 64,128 --starts 16 --dts 0.04,0.02,0.01
 
 1. ``rod``: a rod (N = 1) falling over from 0.3 rad, t_fall against the quadrature of its
    energy equation, and the energy imbalance, for dt = 0.08 .. 0.005 (first order: each
    halving of dt halves both).
-2. ``ensembles``: N = 64, 128 (``--segments``), alpha = pi/4, floor all, random starts
+2. ``pi``: a chain with no bend limit (alpha = pi; N = ``--segments``, the first; a
+   random start, seed 1, spawn key 0) falling onto floor all, against the event-driven
+   run of the same start: the first landing time, the energy lost at landings, the
+   imbalance, and t_fall, for dt = 0.08 .. 0.0025.  No lock: one run is well conditioned
+   up to its first landings; after them the order of landings can change with dt.
+3. ``ensembles``: N = 64, 128 (``--segments``), alpha = pi/4, floor all, random starts
    (seed 1, spawn keys 0 .. starts-1, the same for both methods): the mean of t_fall/t_ff,
    t_landed/t_ff and E_lock/E0 per method and dt, the difference of means with its 95%
    interval, the two-sample Kolmogorov-Smirnov p value, the imbalance, the deepest point,
@@ -32,6 +38,7 @@ from scipy.integrate import quad
 sys.path.insert(0, str(Path(__file__).parent))
 from machine import machine_info  # noqa: E402
 
+from ballchain.core.kinds import EVENT_CODES  # noqa: E402
 from ballchain.engine import load_kernels, simulate  # noqa: E402
 from ballchain.model import ChainParams, InitialCondition, SolverOptions  # noqa: E402
 
@@ -57,6 +64,35 @@ def rod_table(dts) -> None:
         ratios = ("", "") if prev is None else (f"{prev[0] / err:.2f}", f"{prev[1] / imb:.2f}")
         print(f"| {dt:g} | {r.n_steps} | {err:.3e} | {ratios[0]} | {imb:.3e} | {ratios[1]} |")
         prev = (err, imb)
+
+
+def pi_table(n: int, dts) -> None:
+    p = ChainParams(segments=n, alpha=math.pi)
+    ic = InitialCondition(kind="random", seed=1, spawn_key=(0,))
+    ref = simulate(p, ic, SolverOptions(frames_per_tff=1))
+    e0 = ref.energy["initial"]
+    land0 = ref.event_t[ref.event_kind == EVENT_CODES["landing"]][0] / ref.t_ff
+    print(
+        f"\n## N = {n}, alpha = pi (no bend limit), floor all, one random start: against the event-driven run "
+        f"(first landing {land0:.8f} t_ff, E_land {ref.energy['lost_landing'] / e0:.6f} E0, "
+        f"t_fall {ref.t_fall / ref.t_ff:.6f} t_ff)\n"
+    )
+    print(
+        "| dt (t_ff/N) | steps | first landing: error (t_ff) | ratio | E_land: error / E0 | ratio "
+        "| imbalance / E0 | t_fall: error (t_ff) | status |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    prev = None
+    for dt in dts:
+        r = simulate(p, ic, SolverOptions(method="timestep", dt=dt, frames_per_tff=1))
+        land = r.event_t[r.event_kind == EVENT_CODES["landing"]][0] / r.t_ff
+        err = (land - land0, (r.energy["lost_landing"] - ref.energy["lost_landing"]) / e0)
+        ratios = ("", "") if prev is None else (f"{prev[0] / err[0]:.2f}", f"{prev[1] / err[1]:.2f}")
+        print(
+            f"| {dt:g} | {r.n_steps} | {err[0]:+.3e} | {ratios[0]} | {err[1]:+.3e} | {ratios[1]} "
+            f"| {r.energy['imbalance'] / e0:+.3e} | {r.t_fall / r.t_ff - ref.t_fall / ref.t_ff:+.2e} | {r.status} |"
+        )
+        prev = err
 
 
 def _ensemble(n: int, starts: int, options: SolverOptions) -> dict:
@@ -123,7 +159,7 @@ def ensemble_tables(segments, starts: int, dts) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", choices=("rod", "ensembles"), default=None)
+    ap.add_argument("--only", choices=("rod", "pi", "ensembles"), default=None)
     ap.add_argument("--segments", default="64,128")
     ap.add_argument("--starts", type=int, default=16)
     ap.add_argument("--dts", default="0.04,0.02,0.01")
@@ -135,6 +171,8 @@ def main() -> None:
     print(f"(kernels loaded in {time.perf_counter() - t0:.1f} s)")
     if a.only in (None, "rod"):
         rod_table([0.08, 0.04, 0.02, 0.01, 0.005])
+    if a.only in (None, "pi"):
+        pi_table(int(a.segments.split(",")[0]) if a.only == "pi" else 16, [0.08, 0.04, 0.02, 0.01, 0.005, 0.0025])
     if a.only in (None, "ensembles"):
         ensemble_tables([int(x) for x in a.segments.split(",")], a.starts, [float(x) for x in a.dts.split(",")])
 
