@@ -157,3 +157,22 @@ def test_a_fully_folded_pair_on_one_anchor_creates_no_energy():
     assert r.status != "error", r.message
     assert r.energy["imbalance"] > -1e-3 * r.energy["initial"], r.energy
     assert r.energy["kinetic"] < 1e-6 * r.energy["initial"]  # at rest at the time cap
+
+
+def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
+    """Each landing step's floor impulse changes the chain's momentum, whose size is at
+    most sqrt(2 M T) <= sqrt(2 N E0) (units m = b = g = 1), so their sum over the N
+    landings is bounded by (N + 1) sqrt(2 N E0).  A segment held between two anchors has
+    nearly dependent rows whose impulses split between its ends without bound; the
+    record once summed the new anchor's share alone (6e5 against a bound of 5e4 here)."""
+    n = 64
+    r = simulate(
+        ChainParams(segments=n, alpha=math.pi / 4),
+        InitialCondition(kind="random", seed=1, spawn_key=(0,)),
+        SolverOptions(method="timestep", dt=0.01, frames_per_tff=1),
+    )
+    assert r.status == "landed", r.message
+    bound = (n + 1) * math.sqrt(2.0 * n * r.energy["initial"])
+    assert np.all(np.abs(r.floor_impulse) < bound), (r.floor_impulse, bound)
+    # the whole impulse is the weight's, N g t_end (the chain starts and ends at rest)
+    assert r.floor_impulse_total[2] == pytest.approx(n * r.t_landed, rel=1e-6)

@@ -320,21 +320,27 @@ def _solve(chain, ws, sc):
 def _book(t, h, na, chain, ws, sc, books, log):
     """The step's impulses into the books: the energy removed at the lock and anchor
     rows, the floor's impulse, the anchors' mean force (for the frames); the locks,
-    unlocks and landings logged."""
+    unlocks and landings logged.  The floor's impulse of a step is the sum over all its
+    anchors: a segment lying between two anchors is held by rows that are (nearly)
+    dependent, and how their impulses split between its two ends is not determined (one
+    end can take +6e5 and the other -6e5).  A step in which a point lands puts it all
+    into the impacts' account (books.floor_impulse); any other step into the flow, and
+    its mean force, divided by h, is what the frames record (kept through a landing
+    step)."""
     anchored, locked = chain.anchored, chain.locked
     iw = sc.iw
     books.lost_locking[0] += iw.split[0]
     if na > 0:  # a landing: what the impulses removed beyond the locks' share
         books.lost_landing[0] += sc.removed[0] - iw.split[0]
     for q in range(3):
-        sc.force[q] = 0.0
-    for j in range(anchored.shape[0]):
-        for q in range(3):
-            if anchored[j] == 2:
-                books.floor_impulse[q] += iw.anchor_impulse[j, q]
-            else:
-                books.floor_flow[q] += iw.anchor_impulse[j, q]
-                sc.force[q] += iw.anchor_impulse[j, q] / h
+        p = 0.0
+        for j in range(anchored.shape[0]):
+            p += iw.anchor_impulse[j, q]
+        if na > 0:
+            books.floor_impulse[q] += p
+        else:
+            books.floor_flow[q] += p
+            sc.force[q] = p / h
     pile_pull(anchored, ws.kind, ws.nrow, ws.x, sc.pull)
     for q in range(3):
         sc.pull[q] /= h
