@@ -174,5 +174,9 @@ def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
     assert r.status == "landed", r.message
     bound = (n + 1) * math.sqrt(2.0 * n * r.energy["initial"])
     assert np.all(np.abs(r.floor_impulse) < bound), (r.floor_impulse, bound)
+    # each landing row of the log: one step's impulse, at most the chain's momentum (it read 6.5e5)
+    landing = r.event_kind == 3  # core.kinds: landing
+    assert landing.sum() >= n
+    assert np.max(np.linalg.norm(r.event_impulse[landing], axis=1)) < math.sqrt(2.0 * n * r.energy["initial"])
     # the whole impulse is the weight's, N g t_end (the chain starts and ends at rest)
     assert r.floor_impulse_total[2] == pytest.approx(n * r.t_landed, rel=1e-6)

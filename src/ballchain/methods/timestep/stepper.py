@@ -30,6 +30,8 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
    the anchors at their points (``dynamics.project_state``).
 
 A hinge *locks* in the log when it starts to take impulse and *unlocks* when it stops;
+a *landing* row carries its step's floor impulse (over all anchors) and loss to landing,
+shared equally by the points that land in that step;
 ``Chain.locked`` is the set that took impulse in the last step.
 """
 
@@ -108,8 +110,8 @@ Scratch = namedtuple(
         "w_mid",  # (N, 3): the rates the axes turn at, (w + w+) / 2
         "v_pre",  # (N, 3): V at the start of the step
         "new_anchor",  # (N+1,) int64: points anchored in this step
-        "pre_v",  # (N+1, 3): their velocities before the impact
         "removed",  # (1,): the kinetic energy the last impact problem removed (negative: it rose)
+        "step_impulse",  # (3,): the floor's impulse in the last step (all anchors)
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
@@ -125,8 +127,8 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
     sc = Scratch(
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
-        np.zeros(n + 1, np.int64), v3(n + 1),
-        np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n),
+        np.zeros(n + 1, np.int64),
+        np.zeros(1), np.zeros(3), np.zeros(3), np.zeros(3), new_impact_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -168,8 +170,6 @@ def _touches(t, r0, model, chain, sc, books):
     na = floor_contacts(model.floor, e, sc.pts, sc.pv, anchored, True, ztol, sc.new_anchor[r0:])
     for r in range(r0, r0 + na):
         j = sc.new_anchor[r]
-        for q in range(3):
-            sc.pre_v[r, q] = sc.pv[j, q]
         hold_at(chain, j, sc.pts)
         anchored[j] = 2
         chain.anchor_t[j] = t
@@ -336,6 +336,7 @@ def _book(t, h, na, chain, ws, sc, books, log):
         p = 0.0
         for j in range(anchored.shape[0]):
             p += iw.anchor_impulse[j, q]
+        sc.step_impulse[q] = p
         if na > 0:
             books.floor_impulse[q] += p
         else:
@@ -351,11 +352,12 @@ def _book(t, h, na, chain, ws, sc, books, log):
         elif sc.was[k] and not sc.active[k]:
             log_row(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
         locked[k] = sc.active[k]
-    for r in range(na):
-        j = sc.new_anchor[r]
-        a0, a1, a2 = iw.anchor_impulse[j, 0], iw.anchor_impulse[j, 1], iw.anchor_impulse[j, 2]
-        lost = -0.5 * (a0 * sc.pre_v[r, 0] + a1 * sc.pre_v[r, 1] + a2 * sc.pre_v[r, 2])
-        log_row(log, t, LOG_LANDING, j, a0, a1, a2, lost, sc.pts, j)
+    if na > 0:  # the landings share the step's floor impulse and its loss at landing equally
+        share = 1.0 / na
+        lost = share * (sc.removed[0] - iw.split[0])
+        for r in range(na):
+            a = (sc.step_impulse[0] * share, sc.step_impulse[1] * share, sc.step_impulse[2] * share)
+            log_row(log, t, LOG_LANDING, sc.new_anchor[r], a[0], a[1], a[2], lost, sc.pts, sc.new_anchor[r])
 
 
 @njit(cache=True)
