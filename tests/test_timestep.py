@@ -180,3 +180,25 @@ def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
     assert np.max(np.linalg.norm(r.event_impulse[landing], axis=1)) < math.sqrt(2.0 * n * r.energy["initial"])
     # the whole impulse is the weight's, N g t_end (the chain starts and ends at rest)
     assert r.floor_impulse_total[2] == pytest.approx(n * r.t_landed, rel=1e-6)
+
+
+def test_books_past_half_their_bound_are_a_warning(tmp_path):
+    """A run whose books close within the method's bound but past half of it says so (its
+    error is first order: halving dt halves it); one well inside says nothing; the
+    event-driven method, whose bounds are round-off's, never."""
+    from ballchain.records.audit import near_bounds
+
+    coarse, fine = _rod(0.04), _rod(0.005)  # imbalance 0.054 and 0.0067 of E0 (the rod table)
+    assert coarse.status == fine.status == "landed"
+    assert len(near_bounds(coarse)) == 1 and "0.02" in near_bounds(coarse)[0]
+    assert near_bounds(fine) == []
+    e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
+    np.save(tmp_path / "rod.npy", e0)
+    args = ["simulate", "-N", "1", "--alpha", "pi", "--initial", str(tmp_path / "rod.npy"), "--frames-per-tff", "1"]
+    runner = CliRunner()
+    res = runner.invoke(app, [*args, "--method", "timestep", "--dt", "0.04"])
+    assert res.exit_code == 0, res.output
+    assert "past half the method's bound" in res.output
+    res = runner.invoke(app, args)  # event-driven
+    assert res.exit_code == 0, res.output
+    assert "past half" not in res.output

@@ -529,6 +529,10 @@ def simulate(
         raise typer.Exit(EXIT_RUN_ERROR)
     if result.status == "max_time":
         typer.echo(f"warning: stopped at the time cap ({options.max_time} t_ff) before every segment landed", err=True)
+    from .records.audit import near_bounds
+
+    for sentence in near_bounds(result):
+        typer.echo(f"warning: {sentence}", err=True)
 
 
 @app.command()

@@ -73,6 +73,35 @@ def audit(result: Result) -> list[str]:
     return failed
 
 
+NEAR_BOUND = 0.5  # a time-stepping run past this fraction of a bound gets a warning
+
+
+def near_bounds(result: Result) -> list[str]:
+    """For a time-stepping run whose books close: the ones past NEAR_BOUND of the
+    method's bound, each as a sentence (its error is first order in dt: halving --dt
+    halves it).  Empty for the event-driven method, whose bounds are round-off's."""
+    if result.options.method != "timestep":
+        return []
+    energy_rtol, depth_tol = tolerances("timestep")
+    e = result.energy
+    e0 = abs(float(e.get("initial", math.nan)))
+    ratio = abs(float(e.get("imbalance", math.nan))) / e0 if e0 > 0 else math.nan
+    depth = float(result.max_depth) / result.params.half_length
+    out = []
+    dt = result.options.dt
+    if NEAR_BOUND * energy_rtol < ratio <= energy_rtol:
+        out.append(
+            f"the energy books close to {ratio:.3g} of E0, past half the method's bound ({energy_rtol:g}): "
+            f"the error is first order, --dt {dt / 2:g} would about halve it"
+        )
+    if result.params.floor in WATCHES_EVERY_POINT and NEAR_BOUND * depth_tol < depth <= depth_tol:
+        out.append(
+            f"a point went {depth:.3g} b below the floor, past half the method's bound ({depth_tol:g} b): "
+            f"--dt {dt / 2:g} would about halve it"
+        )
+    return out
+
+
 def audited(result: Result) -> Result:
     """``result`` with status ``error`` and the failed books in its message if any does
     not close (a run that already failed keeps its status and gets them appended)."""
