@@ -135,16 +135,16 @@ def _best_per_n(groups: list[dict], method: str) -> dict:
 
 def _cost_slopes(groups: list[dict]) -> dict:
     """Per method and step (dt, or rtol), the exponent q of wall ~ N^q: a least-squares
-    line through the log median walls of one group per N (N >= 64; the one with the
-    most runs), where three N or more have one."""
+    line through the log median walls of one group per N (N >= 64; ``_best_per_n``:
+    known engine, then the most runs), where three N or more have one."""
     out = {}
     for key in sorted({(g["method"], _step_label(g)) for g in groups}):
-        best = {}
-        for g in groups:
-            if (g["method"], _step_label(g)) == key and g["segments"] >= 64 and math.isfinite(g["wall"]):
-                cur = best.get(g["segments"])
-                if cur is None or (g["engine"] != "unknown", g["runs"]) > (cur["engine"] != "unknown", cur["runs"]):
-                    best[g["segments"]] = g
+        same = [
+            g
+            for g in groups
+            if (g["method"], _step_label(g)) == key and g["segments"] >= 64 and math.isfinite(g["wall"])
+        ]
+        best = _best_per_n(same, key[0])
         ns = sorted(best)
         if len(ns) >= 3:
             q, _ = np.polyfit(np.log(ns), np.log([best[n]["wall"] for n in ns]), 1)

@@ -52,13 +52,22 @@ def _projection_share(e: dict, e0: float) -> str:
     )
 
 
+def _measured(result: Result) -> tuple[float, float, float]:
+    """(E0, the imbalance, the deepest point in b: NaN unless the floor watches every
+    point) of ``result``'s books."""
+    e = result.energy
+    depth = math.nan
+    if result.params.floor in WATCHES_EVERY_POINT:
+        depth = float(result.max_depth) / result.params.half_length
+    return abs(float(e.get("initial", math.nan))), float(e.get("imbalance", math.nan)), depth
+
+
 def audit(result: Result) -> list[str]:
     """The books of ``result`` that do not close, each as a sentence (empty: all close)."""
     failed = []
     energy_rtol, depth_tol = tolerances(result.options.method)
     e = result.energy
-    e0 = abs(float(e.get("initial", math.nan)))
-    imbalance = float(e.get("imbalance", math.nan))
+    e0, imbalance, depth = _measured(result)
     if not (math.isfinite(imbalance) and abs(imbalance) <= energy_rtol * e0):
         kind = "created" if imbalance < 0 else "lost unaccounted"
         failed.append(
@@ -66,10 +75,8 @@ def audit(result: Result) -> list[str]:
             f"(E0 - U - T - E_lock - E_land = {imbalance:.6g}; tolerance {energy_rtol:g} of E0)"
             + _projection_share(e, e0)
         )
-    if result.params.floor in WATCHES_EVERY_POINT:
-        depth = float(result.max_depth) / result.params.half_length
-        if not depth <= depth_tol:
-            failed.append(f"a point went {depth:.3g} b below the floor (tolerance {depth_tol:g} b): a missed landing")
+    if result.params.floor in WATCHES_EVERY_POINT and not depth <= depth_tol:
+        failed.append(f"a point went {depth:.3g} b below the floor (tolerance {depth_tol:g} b): a missed landing")
     return failed
 
 
@@ -83,10 +90,8 @@ def near_bounds(result: Result) -> list[str]:
     if result.options.method != "timestep":
         return []
     energy_rtol, depth_tol = tolerances("timestep")
-    e = result.energy
-    e0 = abs(float(e.get("initial", math.nan)))
-    ratio = abs(float(e.get("imbalance", math.nan))) / e0 if e0 > 0 else math.nan
-    depth = float(result.max_depth) / result.params.half_length
+    e0, imbalance, depth = _measured(result)
+    ratio = abs(imbalance) / e0 if e0 > 0 else math.nan
     out = []
     dt = result.options.dt
     if NEAR_BOUND * energy_rtol < ratio <= energy_rtol:
@@ -94,7 +99,7 @@ def near_bounds(result: Result) -> list[str]:
             f"the energy books close to {ratio:.3g} of E0, past half the method's bound ({energy_rtol:g}): "
             f"the error is first order, --dt {dt / 2:g} would about halve it"
         )
-    if result.params.floor in WATCHES_EVERY_POINT and NEAR_BOUND * depth_tol < depth <= depth_tol:
+    if NEAR_BOUND * depth_tol < depth <= depth_tol:  # NaN (floor pivot): never
         out.append(
             f"a point went {depth:.3g} b below the floor, past half the method's bound ({depth_tol:g} b): "
             f"--dt {dt / 2:g} would about halve it"

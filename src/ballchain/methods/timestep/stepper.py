@@ -111,7 +111,6 @@ Scratch = namedtuple(
         "v_pre",  # (N, 3): V at the start of the step
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "removed",  # (1,): the kinetic energy the last impact problem removed (negative: it rose)
-        "step_impulse",  # (3,): the floor's impulse in the last step (all anchors)
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
@@ -128,7 +127,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64),
-        np.zeros(1), np.zeros(3), np.zeros(3), np.zeros(3), new_impact_work(n),
+        np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -332,16 +331,17 @@ def _book(t, h, na, chain, ws, sc, books, log):
     books.lost_locking[0] += iw.split[0]
     if na > 0:  # a landing: what the impulses removed beyond the locks' share
         books.lost_landing[0] += sc.removed[0] - iw.split[0]
-    for q in range(3):
-        p = 0.0
-        for j in range(anchored.shape[0]):
-            p += iw.anchor_impulse[j, q]
-        sc.step_impulse[q] = p
-        if na > 0:
-            books.floor_impulse[q] += p
-        else:
-            books.floor_flow[q] += p
-            sc.force[q] = p / h
+    px, py, pz = 0.0, 0.0, 0.0
+    for j in range(anchored.shape[0]):
+        px += iw.anchor_impulse[j, 0]
+        py += iw.anchor_impulse[j, 1]
+        pz += iw.anchor_impulse[j, 2]
+    account = books.floor_impulse if na > 0 else books.floor_flow
+    account[0] += px
+    account[1] += py
+    account[2] += pz
+    if na == 0:
+        sc.force[0], sc.force[1], sc.force[2] = px / h, py / h, pz / h
     pile_pull(anchored, ws.kind, ws.nrow, ws.x, sc.pull)
     for q in range(3):
         sc.pull[q] /= h
@@ -356,8 +356,8 @@ def _book(t, h, na, chain, ws, sc, books, log):
         share = 1.0 / na
         lost = share * (sc.removed[0] - iw.split[0])
         for r in range(na):
-            a = (sc.step_impulse[0] * share, sc.step_impulse[1] * share, sc.step_impulse[2] * share)
-            log_row(log, t, LOG_LANDING, sc.new_anchor[r], a[0], a[1], a[2], lost, sc.pts, sc.new_anchor[r])
+            j = sc.new_anchor[r]
+            log_row(log, t, LOG_LANDING, j, px * share, py * share, pz * share, lost, sc.pts, j)
 
 
 @njit(cache=True)
