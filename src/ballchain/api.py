@@ -38,13 +38,16 @@ def simulate(
     options: SolverOptions | None = None,
     *,
     progress=None,
+    checkpoint=None,
     **keywords: Any,
 ):
     """One fall: ``simulate(segments=128, alpha="45deg", ...)`` (the CLI's options as
     keywords), or ``simulate(ChainParams(...), InitialCondition(...), SolverOptions(...))``.
     ``initial``: an initial state instead of ``ic`` (an N x 3 or N x 6 array, or a file as
     ``--initial`` takes).  Returns the ``Result`` (in SI units if ``length``/``mass`` were
-    given).  Unknown keywords raise TypeError; invalid values ParameterError."""
+    given).  ``checkpoint``: a file the run saves its state to every 10 minutes and
+    resumes from (``engine.simulate``).  Unknown keywords raise TypeError; invalid
+    values ParameterError."""
     from .engine import simulate as run
 
     unknown = sorted(set(keywords) - set(SIMULATE_KEYWORDS))
@@ -74,6 +77,7 @@ def simulate(
         options if options is not None else kw_options,
         state=state,
         progress=progress,
+        checkpoint=checkpoint,
     )
 
 
@@ -118,6 +122,8 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "max_time": SolverOptions.max_time,
     "method": SolverOptions.method,
     "dt": SolverOptions.dt,
+    "checkpoints": None,
+    "checkpoint_every": 600.0,
 }
 
 
@@ -150,7 +156,22 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
         alphas=tuple(parse_angle(a) for a in listed(g["alpha"])),
         floors=tuple(listed(g["floor"])),
         ics=tuple(listed(g["ic"])),
-        **{k: g[k] for k in ("runs", "seed", "eps", "rtol", "until", "frames_per_tff", "max_time", "method", "dt")},
+        **{
+            k: g[k]
+            for k in (
+                "runs",
+                "seed",
+                "eps",
+                "rtol",
+                "until",
+                "frames_per_tff",
+                "max_time",
+                "method",
+                "dt",
+                "checkpoints",
+                "checkpoint_every",
+            )
+        },  # fmt: skip
     )
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(out) if out is not None else Path(tmp) / "sweep.parquet"

@@ -289,7 +289,7 @@ TIMESTEP_WARNING = (
 )
 
 
-def _run_engine(params, init, options, show_progress: bool, state=None):
+def _run_engine(params, init, options, show_progress: bool, state=None, checkpoint=None):
     from .engine import kernels_cached, load_kernels, simulate  # lazy: the engine (numba) is heavy to import
 
     if options.method == "timestep":
@@ -303,13 +303,14 @@ def _run_engine(params, init, options, show_progress: bool, state=None):
     else:
         load()  # before the run: its wall time is the integration alone
     setup = time.perf_counter() - t0
-    result = _simulate_with_progress(simulate, params, init, options, show_progress, state)
+    result = _simulate_with_progress(simulate, params, init, options, show_progress, state, checkpoint)
     result.extra["setup_seconds"] = setup
     result.extra["setup_compiled"] = cold
     return result
 
 
-def _simulate_with_progress(simulate, params, init, options, show_progress: bool, state):
+def _simulate_with_progress(simulate, params, init, options, show_progress: bool, state, checkpoint=None):
+    simulate = functools.partial(simulate, checkpoint=checkpoint)
     if not show_progress:
         return simulate(params, init, options, progress=None, state=state)
 
@@ -420,6 +421,16 @@ def simulate(
     ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+    checkpoint: str | None = typer.Option(
+        None,
+        "--checkpoint",
+        help="Save the run's state to this file (.npz) every --checkpoint-every seconds and when interrupted; "
+        "if it holds this run's state (same chain, start, options and engine), resume from it. Removed once "
+        "the run has ended and its result is saved.",
+    ),
+    checkpoint_every: float = typer.Option(
+        600.0, "--checkpoint-every", help="Seconds of wall time between checkpoints (with --checkpoint)."
+    ),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (the run's summary) on stdout."),
     length: float | None = typer.Option(
         None, "--length", help="Total length of the chain in m (SI units; needs --mass)."
@@ -478,12 +489,19 @@ def simulate(
         params, init, options = build_inputs(values)
         if output is not None:
             check_writable(output, force)
+        ck = None
+        if checkpoint is not None:
+            from .methods.checkpoint import Checkpoint
+
+            ck = Checkpoint(checkpoint, every=checkpoint_every)
     except (ParameterError, ResultFileError, FileExistsError) as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
 
     try:
-        result = _run_engine(params, None if state else init, options, show_progress=not quiet, state=state)
+        result = _run_engine(
+            params, None if state else init, options, show_progress=not quiet, state=state, checkpoint=ck
+        )
         if initial is not None:
             result.extra["initial"] = str(initial)
         if from_ is not None:
@@ -523,10 +541,17 @@ def simulate(
         _error(
             f"interrupted by {result.message}"
             + (f" (partial result saved to {saved})" if saved else " (no --output: not saved)")
+            + (
+                f"; the same command resumes from the checkpoint{' (with --force, to overwrite the partial result)' if saved and not force else ''}"
+                if ck is not None
+                else ""
+            )
         )
         raise typer.Exit(EXIT_TERMINATED if "SIGTERM" in result.message else EXIT_INTERRUPTED)
     if save_failed:
         raise typer.Exit(EXIT_RUN_ERROR)
+    if ck is not None:
+        ck.discard()  # the run has ended and its result is saved (or was not asked for)
     if result.status == "max_time":
         typer.echo(f"warning: stopped at the time cap ({options.max_time} t_ff) before every segment landed", err=True)
     from .records.audit import near_bounds
@@ -807,6 +832,15 @@ def sweep(
     save_runs: str | None = typer.Option(
         None, "--save-runs", help="Also keep each run's result file (HDF5) in this directory."
     ),
+    checkpoints: str | None = typer.Option(
+        None,
+        "--checkpoints",
+        help="Each run saves its state in this directory every --checkpoint-every seconds; a sweep run again "
+        "resumes its unfinished runs from there (long falls survive a kill).",
+    ),
+    checkpoint_every: float = typer.Option(
+        600.0, "--checkpoint-every", help="Seconds of wall time between a run's checkpoints (with --checkpoints)."
+    ),
     retry_errors: bool = typer.Option(False, "--retry-errors", help="Run again the runs whose row says error."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (what the sweep did) on stdout."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
@@ -833,6 +867,8 @@ def sweep(
             method=method,
             dt=dt,
             save_runs=save_runs,
+            checkpoints=checkpoints,
+            checkpoint_every=checkpoint_every,
         )
         from .sweeps.execute import check_scheduler, run_sweep
 
@@ -842,6 +878,8 @@ def sweep(
         check_writable(out, force=True)  # (an existing table is resumed, then rewritten)
         if save_runs is not None:
             check_output_dir(save_runs, "--save-runs")
+        if checkpoints is not None:
+            check_output_dir(checkpoints, "--checkpoints")
         if scheduler is not None:
             check_scheduler(scheduler)
         report = run_sweep(

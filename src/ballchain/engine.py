@@ -15,7 +15,8 @@ import signal
 import threading
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -26,6 +27,7 @@ from .core.kinds import EVENT_KINDS
 from .core.rules import is_landed
 from .initial import check_inside_cone, initial_directions
 from .methods import method_runner
+from .methods.checkpoint import Checkpoint
 from .methods.outputs import FRAME_CHUNK_BYTES, RunOutput, SimulationError, frame_bytes  # noqa: F401  (re-exported)
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from .provenance import engine_fingerprint
@@ -173,6 +175,7 @@ class Setup:
     t_ff: float  # free-fall time of the top end, sqrt(2 z0)
     t_stop: float  # the run stops here at the latest
     E0: float  # energy at t = 0 (potential + kinetic)
+    checkpoint: Checkpoint | None = None  # where the run saves its state, and resumes from
 
 
 def _setup(params: ChainParams, ic: InitialCondition | None, options: SolverOptions, state) -> Setup:
@@ -235,13 +238,23 @@ def simulate(
     *,
     state=None,
     progress: Callable[[float, dict], None] | None = None,
+    checkpoint: Checkpoint | str | Path | None = None,
 ) -> Result:
     """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
-    overrides the initial condition family.  Returns a Result in the run's units."""
+    overrides the initial condition family.  ``checkpoint`` (a path, or a
+    ``methods.checkpoint.Checkpoint`` to set how often it is written): the run saves its
+    state there every 10 minutes of wall time and when interrupted, and, if the file
+    holds this run's state (same parameters, start and engine), resumes from it; the
+    file is left in place (``Checkpoint.discard`` it once the result is saved).
+    Returns a Result in the run's units."""
     options = options or SolverOptions()
     check_memory(params, options)
     wall0 = _time.perf_counter()
     setup = _setup(params, ic, options, state)
+    if checkpoint is not None:
+        ck = checkpoint if isinstance(checkpoint, Checkpoint) else Checkpoint(checkpoint)
+        ck.open(setup, options.method, engine_fingerprint())
+        setup = replace(setup, checkpoint=ck)
     report = _Progress(setup, progress)
     with _StopOnSignals() as stopper:
         out = method_runner(options.method)(setup, report, stopper)
@@ -283,7 +296,7 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         options=setup.options,
         version=__version__,
         status=out.status,
-        message=out.message,
+        message=_resumed_note(setup, out.message),
         z0=setup.z0 * lu,
         t_ff=setup.t_ff * tu,
         t_fall=float(books.t_fall[0]) * tu,
@@ -315,10 +328,27 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         max_depth=-min(float(books.lowest[0]), 0.0) * lu,
         floor_impulse=books.floor_impulse * iu,
         floor_impulse_total=(books.floor_impulse + books.floor_flow) * iu,
-        wall_seconds=_time.perf_counter() - wall0,
+        wall_seconds=_wall_seconds(setup, wall0),
         n_steps=int(books.n_steps[0]),
         n_evals=int(books.n_evals[0]),
         n_instants=int(books.n_instants[0]),
         units="SI" if params.is_si else "nondimensional",
         engine=engine_fingerprint(),
     )
+
+
+def _wall_seconds(setup: Setup, wall0: float) -> float:
+    """The run's wall time: this process's, plus what the processes before it spent on
+    the run if it resumed from a checkpoint."""
+    ck = setup.checkpoint
+    before = ck.wall_before if ck is not None and ck.resumes else 0.0
+    return before + _time.perf_counter() - wall0
+
+
+def _resumed_note(setup: Setup, message: str) -> str:
+    """The run's message, with a note of where it resumed from a checkpoint (if it did)."""
+    ck = setup.checkpoint
+    if ck is None or not ck.resumes:
+        return message
+    note = f"resumed at t/t_ff = {float(ck.header['t']) / setup.t_ff:.6f} from checkpoint {ck.path.name}"
+    return f"{message}; {note}" if message else note

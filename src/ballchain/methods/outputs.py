@@ -100,19 +100,28 @@ class LogBuffer:
 GO_ON, FLUSH, LANDED, STOPPED = 0, 1, 2, 3
 
 
-def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int) -> RunOutput:
+def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int, state: dict | None = None) -> RunOutput:
     """The Python side of every method.  ``advance(t)`` runs the method's compiled loop
     from t and returns (verdict, t): GO_ON (progress is reported), FLUSH (the trace and
     frame buffers are emptied), LANDED, STOPPED (the stop time) -- or raises
     SimulationError.  A stop request ends the run with status ``interrupted``, a failure
     with ``error``; the work is kept.  ``out`` holds the run's bundles (its status and
-    message are filled in); the log gets room for ``log_rows`` before each call."""
+    message are filled in); the log gets room for ``log_rows`` before each call.
+    ``state``: the method's mutable bundles by name (beside the outputs), which a
+    checkpoint (``setup.checkpoint``, ``methods.checkpoint``) saves at GO_ON returns when
+    due and at an interruption, and from which a run resumes."""
+    ck = getattr(setup, "checkpoint", None)
     t = 0.0
+    if ck is not None and ck.resumes:
+        t = ck.resume(state, out)
     status, message = "landed", ""
     try:
         while True:
             if stop.reason is not None:
                 status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
+                if ck is not None:
+                    ck.save(t, state, out)
+                    message += f"; checkpoint saved to {ck.path}"
                 break
             out.log.reserve(log_rows)
             verdict, t = advance(t)
@@ -127,6 +136,8 @@ def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int) -> RunO
                 break
             else:
                 progress(t, out.chain, out.log, out.books)
+                if ck is not None:
+                    ck.save_if_due(t, state, out)
     except SimulationError as exc:
         status, message = "error", str(exc)
     except MemoryError:

@@ -30,11 +30,18 @@ def run_task(task: Task) -> dict:
     try:
         from ..engine import simulate
 
-        result = simulate(task.params, task.ic, task.options)
+        ck = None
+        if task.checkpoint_path is not None:
+            from ..methods.checkpoint import Checkpoint
+
+            ck = Checkpoint(task.checkpoint_path, every=task.checkpoint_every)
+        result = simulate(task.params, task.ic, task.options, checkpoint=ck)
         if task.save_path is not None:
             from ..records.files import save_result
 
             save_result(result, task.save_path, force=True)
+        if ck is not None and result.status != "interrupted":
+            ck.discard()  # the run has ended and its result is saved
         return result_row(task, result, where)
     except BaseException as exc:  # noqa: BLE001 - a run must never stop the sweep
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
@@ -119,11 +126,12 @@ def run_sweep(
 ) -> SweepReport:
     """Run every task of ``spec`` that ``out`` does not hold yet; rows go to ``out``."""
     tasks = spec.tasks()  # validates everything first
-    if spec.save_runs is not None:
-        try:
-            Path(spec.save_runs).mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ParameterError(f"save-runs: cannot create {spec.save_runs!r} ({exc.strerror})") from None
+    for name, where in (("save-runs", spec.save_runs), ("checkpoints", spec.checkpoints)):
+        if where is not None:
+            try:
+                Path(where).mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ParameterError(f"{name}: cannot create {where!r} ({exc.strerror})") from None
     return run_tasks(
         tasks, out, workers=workers, scheduler=scheduler, retry_errors=retry_errors, progress=progress, log=log
     )

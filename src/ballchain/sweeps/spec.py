@@ -14,6 +14,7 @@ Everything is validated here, before anything runs: a bad specification is one
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
@@ -110,6 +111,8 @@ class Task:
     ic: InitialCondition
     options: SolverOptions
     save_path: str | None = None
+    checkpoint_path: str | None = None  # the run's checkpoint (``methods.checkpoint``), if the sweep keeps them
+    checkpoint_every: float = 600.0  # seconds of wall time between checkpoints
 
 
 @dataclass(frozen=True)
@@ -130,6 +133,8 @@ class SweepSpec:
     method: str = SolverOptions.method
     dt: float = SolverOptions.dt
     save_runs: str | None = None
+    checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
+    checkpoint_every: float = 600.0
     options: SolverOptions = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -137,6 +142,8 @@ class SweepSpec:
             raise ParameterError("sweep: every axis (segments, alpha, floor, ic) needs at least one value")
         if int(self.runs) != self.runs or self.runs < 1:
             raise ParameterError(f"runs must be an integer >= 1, got {self.runs!r}")
+        if not (self.checkpoint_every >= 0.0):
+            raise ParameterError(f"checkpoint-every must be >= 0 seconds, got {self.checkpoint_every!r}")
         if int(self.seed) != self.seed or self.seed < 0:
             raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
         for kind in self.ics:
@@ -196,12 +203,12 @@ class SweepSpec:
                                     ) from None
                                 checked.add(key)
                             rid = run_id(params, ic, self.options)
-                            path = None
+                            path = ck = None
                             if self.save_runs is not None:
-                                import os
-
                                 path = os.path.join(self.save_runs, rid + ".h5")
-                            out.append(Task(rid, k, params, ic, self.options, path))
+                            if self.checkpoints is not None:
+                                ck = os.path.join(self.checkpoints, rid + ".ckpt.npz")
+                            out.append(Task(rid, k, params, ic, self.options, path, ck, self.checkpoint_every))
         return out
 
 

@@ -106,7 +106,7 @@ def run(setup, progress, stop) -> RunOutput:
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
     _arm(model, chain, watch, sc, books)
-    h = [H0]  # the step size carried from one call of the compiled loop to the next
+    h = np.array([H0])  # the step size carried from one call of the compiled loop to the next
 
     def advance(t):
         code, t, h[0] = run_events(
@@ -126,4 +126,5 @@ def run(setup, progress, stop) -> RunOutput:
         return GO_ON, t
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
-    return drive(setup, progress, stop, advance, out, 4 * log_room(n))
+    state = {"chain": chain, "watch": watch, "work": ws, "stepper": st, "instant": sc, "books": books, "h": h}
+    return drive(setup, progress, stop, advance, out, 4 * log_room(n), state)

@@ -78,7 +78,8 @@ def run(setup, progress, stop) -> RunOutput:
         return GO_ON, t
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
-    return drive(setup, progress, stop, advance, out, 4 * (3 * n + 8))
+    state = {"chain": chain, "work": ws, "scratch": sc, "books": books}
+    return drive(setup, progress, stop, advance, out, 4 * (3 * n + 8), state)
 
 
 __all__ = ["run", "step_size"]
