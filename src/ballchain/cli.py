@@ -310,7 +310,8 @@ def _run_engine(params, init, options, show_progress: bool, state=None, checkpoi
 
 
 def _simulate_with_progress(simulate, params, init, options, show_progress: bool, state, checkpoint=None):
-    simulate = functools.partial(simulate, checkpoint=checkpoint)
+    if checkpoint is not None:
+        simulate = functools.partial(simulate, checkpoint=checkpoint)
     if not show_progress:
         return simulate(params, init, options, progress=None, state=state)
 
