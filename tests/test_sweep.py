@@ -156,6 +156,24 @@ def test_a_row_rebuilds_with_simulate(tmp_path):
     assert s["ratio"] == row.ratio and s["n_evals"] == row.n_evals and s["events"]["lock"] == row.events_lock
 
 
+def test_a_timestep_sweep_states_method_dt_and_theta_and_its_rows_rebuild(tmp_path):
+    out = tmp_path / "ts.parquet"
+    args = ["sweep", "-N", "10", "--runs", "2", "--seed", "4", "--method", "timestep", "--dt", "0.02"]
+    res = runner.invoke(app, [*args, "--theta", "1", "--out", str(out), "--workers", "1", "-q"])
+    assert res.exit_code == 0, res.output
+    table = _table(out)
+    assert list(table.method) == ["timestep"] * 2 and list(table.dt) == [0.02] * 2 and list(table.theta) == [1.0] * 2
+    assert all(rid.endswith("_timestep_dt0.02_theta1") for rid in table.run_id)
+    row = table.iloc[1]
+    sim = runner.invoke(
+        app,
+        ["simulate", "-N", "10", "--ic", "random", "--seed", "4", "--spawn-key", row.spawn_key, "--method",
+         "timestep", "--dt", "0.02", "--theta", "1", "--json", "-q"],
+    )  # fmt: skip
+    s = json.loads(sim.stdout)
+    assert s["ratio"] == row.ratio and s["n_steps"] == row.n_steps  # the same run on the same machine
+
+
 def test_a_run_that_fails_is_a_row_and_the_sweep_goes_on(tmp_path):
     good = SweepSpec(segments=(6,), alphas=(math.pi / 3,), runs=2).tasks()
     # a task built by hand around the validation: its start is outside the cone, so the

@@ -22,7 +22,8 @@ from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
 SIMULATE_KEYWORDS = (
     "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key", "rtol",
-    "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "length", "mass", "gravity", "initial",
+    "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "theta",
+    "length", "mass", "gravity", "initial",
 )  # fmt: skip
 
 
@@ -122,6 +123,7 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "max_time": SolverOptions.max_time,
     "method": SolverOptions.method,
     "dt": SolverOptions.dt,
+    "theta": SolverOptions.theta,
     "checkpoints": None,
     "checkpoint_every": 600.0,
 }
@@ -168,6 +170,7 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
                 "max_time",
                 "method",
                 "dt",
+                "theta",
                 "checkpoints",
                 "checkpoint_every",
             )

@@ -420,6 +420,12 @@ def simulate(
         "--dt",
         help="The time step of --method timestep, in units of t_ff/N (N segments).",
     ),
+    theta: float = typer.Option(
+        _SOLVER.theta,
+        "--theta",
+        help="The position update of --method timestep, in [0.5, 1]: the axes turn at theta w+ + (1 - theta) w, "
+        "w and w+ the rates before and after a step's impulses.",
+    ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     checkpoint: str | None = typer.Option(
@@ -471,6 +477,7 @@ def simulate(
             max_events=max_events,
             method=method,
             dt=dt,
+            theta=theta,
             length=length,
             mass=mass,
             gravity=gravity,
@@ -823,6 +830,9 @@ def sweep(
         _SOLVER.method, "--method", help="Integration method of every run: event or timestep (as simulate)."
     ),
     dt: float = typer.Option(_SOLVER.dt, "--dt", help="Time step of --method timestep, in units of t_ff/N."),
+    theta: float = typer.Option(
+        _SOLVER.theta, "--theta", help="Position update of --method timestep, in [0.5, 1] (as simulate)."
+    ),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
     ),
@@ -867,6 +877,7 @@ def sweep(
             max_time=max_time,
             method=method,
             dt=dt,
+            theta=theta,
             save_runs=save_runs,
             checkpoints=checkpoints,
             checkpoint_every=checkpoint_every,

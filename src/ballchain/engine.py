@@ -286,6 +286,9 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         # the integrator's own error is the rest): at event instants, after steps
         "projected_at_instants": float(books.projected[PROJECTED_AT_INSTANTS]) * eu,
         "projected_in_steps": float(books.projected[PROJECTED_IN_STEPS]) * eu,
+        # time-stepping: gravity's kick on T plus the position update's change of U over the steps
+        # (zero in exact dynamics; with the projections and the impacts' unbooked share, -imbalance)
+        "work_error_in_steps": float(books.work_error[0]) * eu,
     }
     tr_t, tr_z = out.trace.arrays()
     fr = out.frames.arrays()

@@ -73,5 +73,6 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         max_events=v.get("max_events", _SOLVER.max_events),
         method=v.get("method", _SOLVER.method),
         dt=v.get("dt", _SOLVER.dt),
+        theta=v.get("theta", _SOLVER.theta),
     )
     return params, init, options

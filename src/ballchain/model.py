@@ -224,6 +224,10 @@ class SolverOptions:
     dt: the time-stepping method's step, in units of t_ff / N (N segments; about half
         the time a segment takes to land at the end of the fall is t_ff / 4N).  Not used
         by the event-driven method.
+    theta: the time-stepping method's position update, in [1/2, 1]: each axis turns by
+        h (theta w+ + (1 - theta) w), w and w+ the rates before and after the step's
+        impulses (1/2: the mean; 1: the rates after them).  Not used by the event-driven
+        method.
     """
 
     rtol: float = 1e-10
@@ -238,6 +242,7 @@ class SolverOptions:
     hold_apex: float = 1e-11
     method: str = "event"
     dt: float = 0.01
+    theta: float = 0.5
 
     def __post_init__(self) -> None:
         r = float(self.rtol)
@@ -265,6 +270,10 @@ class SolverOptions:
         object.__setattr__(self, "dt", _finite_positive("dt", self.dt))
         if self.dt > 4.0:
             raise ParameterError(f"dt must be at most 4 (units of t_ff/N), got {self.dt!r}")
+        t = float(self.theta)
+        if not (0.5 <= t <= 1.0):
+            raise ParameterError(f"theta must be in [0.5, 1] (below 1/2 the step is unstable), got {self.theta!r}")
+        object.__setattr__(self, "theta", t)
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 

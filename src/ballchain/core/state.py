@@ -41,6 +41,7 @@ Model = namedtuple(
         "max_events",  # event instants at most
         "zeno_window",  # event accumulation: ZENO_EVENTS instants within this time stop the run
         "return_every",  # event instants handled in compiled code between returns to Python
+        "theta",  # time-stepping: the axes turn by h (theta w+ + (1 - theta) w)
     ],
 )
 
@@ -61,6 +62,7 @@ def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every) ->
         np.int64(options.max_events),
         float(zeno_window),
         np.int64(return_every),
+        float(options.theta),
     )
 
 
@@ -140,6 +142,8 @@ Books = namedtuple(
         "n_instants",  # (1,) int64: event instants handled
         "projected",  # (2,): energy U + T changed by the projections onto the constraints (m g b):
         #   [0] at event instants, [1] after integrator steps (part of the imbalance, reported)
+        "work_error",  # (1,): time-stepping: gravity's kick on T plus the position update's change of U,
+        #   summed over the steps (m g b; zero in exact dynamics: part of -imbalance, reported)
     ],
 )
 
@@ -158,6 +162,7 @@ def new_books() -> Books:
         np.zeros(1, np.int64),
         np.zeros(1, np.int64),
         np.zeros(2),
+        np.zeros(1),
     )
 
 

@@ -46,10 +46,14 @@ def _projection_share(e: dict, e0: float) -> str:
     pi, ps = e.get("projected_at_instants"), e.get("projected_in_steps")
     if pi is None or ps is None or not e0 > 0:
         return ""
-    return (
+    share = (
         f"; the projections onto the constraints changed U + T by {(pi + ps) / e0:+.3g} of E0 "
-        f"({pi / e0:+.3g} at event instants, {ps / e0:+.3g} after steps), the integrator's error the rest"
+        f"({pi / e0:+.3g} at event instants, {ps / e0:+.3g} after steps)"
     )
+    we = e.get("work_error_in_steps", 0.0)
+    if we:
+        share += f", the steps' error in gravity's work (kick against position update) {we / e0:+.3g} of E0"
+    return share + ", the integrator's error the rest"
 
 
 def _measured(result: Result) -> tuple[float, float, float]:

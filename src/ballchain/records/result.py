@@ -89,7 +89,10 @@ class Result:
     Anchors: ``anchor_t`` (N+1,) time each point was anchored (NaN: never; 0 for the
     pivot), ``anchor_pos`` (N+1, 3).
     ``energy``: initial, potential, kinetic, lost_locking, lost_landing, imbalance
-    (initial - potential - kinetic - losses), at the end of the run.
+    (initial - potential - kinetic - losses), at the end of the run; and what parts of
+    the imbalance the method can name: ``projected_at_instants``, ``projected_in_steps``
+    (U + T changed by the projections onto the constraints) and ``work_error_in_steps``
+    (time-stepping: gravity's kick on T plus the position update's change of U).
     ``floor_impulse``: the floor's impulses on the chain at impacts (3,: landings and
     anchored points); ``floor_impulse_total``: its whole impulse from t = 0 to the end
     (3,: impacts, the continuous force integrated by the integrator's quadrature, and
@@ -257,6 +260,7 @@ class Result:
             "rtol": self.options.rtol,
             "method": self.options.method,
             "dt": self.options.dt,
+            "theta": self.options.theta,
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
             "n_instants": int(self.n_instants),

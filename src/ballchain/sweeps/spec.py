@@ -132,6 +132,7 @@ class SweepSpec:
     max_time: float = SolverOptions.max_time
     method: str = SolverOptions.method
     dt: float = SolverOptions.dt
+    theta: float = SolverOptions.theta
     save_runs: str | None = None
     checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
     checkpoint_every: float = 600.0
@@ -167,6 +168,7 @@ class SweepSpec:
                 max_time=self.max_time,
                 method=self.method,
                 dt=self.dt,
+                theta=self.theta,
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
@@ -223,4 +225,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         f"_fr{options.frames_per_tff:.12g}"
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
         + ("" if options.method == SolverOptions.method else f"_{options.method}_dt{options.dt:.12g}")
+        + ("" if options.method == "event" or options.theta == SolverOptions.theta else f"_theta{options.theta:.12g}")
     )

@@ -42,6 +42,11 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "rtol": ("float64", "integrator tolerance"),
     "method": ("string", "integration method: event (event-driven) or timestep (Moreau-Jean)"),
     "dt": ("float64", "time step of the timestep method, units of t_ff/N (not used by the event method)"),
+    "theta": (
+        "float64",
+        "position update of the timestep method (axes turn at theta w+ + (1 - theta) w; not used by the event "
+        "method; empty in tables written before the column: 0.5)",
+    ),
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
     "version": ("string", "ballchain version that ran it"),
@@ -59,6 +64,11 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "energy_lost_locking": ("float64", "kinetic energy lost in hinge locking, m g b"),
     "energy_lost_landing": ("float64", "kinetic energy lost in landings, m g b"),
     "energy_imbalance": ("float64", "initial - potential - kinetic - losses at the end, m g b"),
+    "energy_work_error": (
+        "float64",
+        "time-stepping: gravity's kick on T plus the position update's change of U over the steps, m g b "
+        "(zero in exact dynamics; part of -imbalance; empty in tables written before the column)",
+    ),
     "floor_impulse_x": ("float64", "floor's impulse at impacts, x, m sqrt(g b)"),
     "floor_impulse_y": ("float64", "floor's impulse at impacts, y"),
     "floor_impulse_z": ("float64", "floor's impulse at impacts, z"),
@@ -102,7 +112,7 @@ CONVENTIONS = (
     "impulses in m sqrt(g b); ratio columns in units of t_ff = sqrt(2 z0 / g); one row per run; "
     "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
     "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --rtol RTOL "
-    "--method METHOD --dt DT --frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
+    "--method METHOD --dt DT --theta THETA --frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
 )
 
 
@@ -142,6 +152,7 @@ def input_row(task) -> dict:
         "rtol": o.rtol,
         "method": o.method,
         "dt": o.dt,
+        "theta": o.theta,
         "until": math.nan if o.until is None else o.until,
         "frames_per_tff": o.frames_per_tff,
     }
@@ -173,6 +184,7 @@ def result_row(task, result, worker: str = "") -> dict:
                 f"energy_{k}": _num(result.energy.get(k))
                 for k in ("initial", "lost_locking", "lost_landing", "imbalance")
             },
+            "energy_work_error": _num(result.energy.get("work_error_in_steps")),
             "floor_impulse_x": fi[0],
             "floor_impulse_y": fi[1],
             "floor_impulse_z": fi[2],

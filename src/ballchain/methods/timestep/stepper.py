@@ -25,7 +25,8 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
    both ends has one redundant row).  What the other steps' hinge and anchor rows
    remove is not booked: it is the method's own error (gravity's kick on anchored
    points, the turn of the axes), part of the imbalance, which shrinks with dt.
-5. **Positions**: each airborne axis turns by h w+ exactly (Rodrigues); V+ is kept.
+5. **Positions**: each airborne axis turns exactly (Rodrigues) by h (theta w+ + (1 - theta) w),
+   theta = ``SolverOptions.theta`` (1/2 by default); V+ is kept.
 6. **Projection** (positions only): any hinge found past its limit is put back on it,
    the anchors at their points (``dynamics.project_state``).
 
@@ -74,7 +75,6 @@ TOUCH_TOL = 1e-9  # a floor function at or below this touches (b, or e_z under f
 TOUCH_FRACTION = 1e-6  # ... or one predicted to reach zero within this fraction of a step
 LAND_SLACK = 1e-3  # a point that ends a step this close to the floor (in units of its travel) is due
 MAX_CUTS = 4  # a step is cut at most this many times at a landing (then taken as it is)
-THETA = 0.5  # the axes turn by h (theta w+ + (1 - theta) w)
 TURN_MAX = 0.1  # rad: no segment turns more than this in a step (a whip gets shorter steps)
 MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
 ANCHOR_RATE_TOL = 1e-6  # an anchored point faster than this after the impact problem: its rows were not met
@@ -198,7 +198,7 @@ def _landing_cut(h, model, chain, sc):
     that end the step at the floor (within LAND_SLACK of the step's travel) are marked
     due: they touch at the start of the next step."""
     e, anchored = chain.Y[0], chain.anchored
-    _mid_rates(chain.Y[1], sc)
+    _mid_rates(model.theta, chain.Y[1], sc)
     rotate_axes(e, sc.w_mid, h, anchored, sc.e_pred)
     floor_values(model.floor, e, anchored, sc.fv)
     floor_values(model.floor, sc.e_pred, anchored, sc.fv_pred)
@@ -214,12 +214,12 @@ def _landing_cut(h, model, chain, sc):
 
 
 @njit(cache=True)
-def _mid_rates(w, sc):
-    """sc.w_mid = (w0 + w+) / 2: the axes turn at the mean of the rates before and after
-    the step (theta = 1/2), which keeps a free fall's energy to second order."""
+def _mid_rates(theta, w, sc):
+    """sc.w_mid = theta w+ + (1 - theta) w0: the rates the axes turn at, between those
+    before (sc.w_pre) and after (w) the step's impulses (theta = 1/2: their mean)."""
     for i in range(w.shape[0]):
         for q in range(3):
-            sc.w_mid[i, q] = THETA * w[i, q] + (1.0 - THETA) * sc.w_pre[i, q]
+            sc.w_mid[i, q] = theta * w[i, q] + (1.0 - theta) * sc.w_pre[i, q]
 
 
 @njit(cache=True)
@@ -268,6 +268,21 @@ def _free_velocity(h, chain, sc):
         dv[i, 2] -= h
         for q in range(3):
             sc.vmax[i, q] = sc.vel[i, q] + dv[i, q]
+
+
+@njit(cache=True)
+def _kick_energy(h, anchored, v_pre):
+    """The kinetic energy gravity's kick gave the airborne segments in the step (part 3):
+    sum 1/2 |V - h e_z|^2 - 1/2 |V|^2 = sum (h^2 / 2 - h V_z), V the velocities at its
+    start.  With the position update's change of U it is the step's error in gravity's
+    work (books.work_error): of order h (V+ - V) h, it does not vanish with theta = 1/2
+    (the kick takes V, the turn (V + V+) / 2) nor with theta = 1 (the exact turn's
+    second-order, centripetal, part)."""
+    s = 0.0
+    for i in range(v_pre.shape[0]):
+        if not is_landed(anchored, i):
+            s += 0.5 * h * h - h * v_pre[i, 2]
+    return s
 
 
 @njit(cache=True)
@@ -502,8 +517,10 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
             for q in range(3):
                 sc.vmax[i, q] = 0.0
     z_top = 2.0 * np.sum(e[:, 2])
-    _mid_rates(w, sc)
+    _mid_rates(model.theta, w, sc)
+    u0 = potential_energy(e)
     rotate_axes(e, sc.w_mid, h, anchored, e)
+    books.work_error[0] += _kick_energy(h, anchored, sc.v_pre) + potential_energy(e) - u0
     _project(model, chain, ws, sc, books)
     t_end = t + h
     z_end = 2.0 * np.sum(e[:, 2])
