@@ -56,7 +56,7 @@ def _median(g: pd.DataFrame, col: str) -> float:
 
 def _groups(df: pd.DataFrame) -> list[dict]:
     out = []
-    keys = ["segments", "method", "dt", "rtol", "engine"]
+    keys = ["segments", "method", "dt", "theta", "rtol", "engine"]
     for key, g in df.groupby(keys, dropna=False):
         x = g["ratio"].to_numpy(float)
         lo, hi = mean_interval(x)
@@ -65,8 +65,9 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "segments": int(key[0]),
                 "method": key[1],
                 "dt": float(key[2]) if key[1] == "timestep" else None,
-                "rtol": float(key[3]) if key[1] != "timestep" else None,
-                "engine": key[4],
+                "theta": float(key[3]) if key[1] == "timestep" else None,
+                "rtol": float(key[4]) if key[1] != "timestep" else None,
+                "engine": key[5],
                 "runs": len(x),
                 "mean": float(np.mean(x)),
                 "lo": float(lo),
@@ -113,14 +114,16 @@ def _paired(ts: dict, ev: dict, seed=20261125, n_boot=4000) -> dict | None:
 
 def _step_label(g: dict) -> str:
     """The group's step (time-stepper) or tolerance (event-driven)."""
-    return f"dt {g['dt']:g}" if g["method"] == "timestep" else f"rtol {g['rtol']:g}"
+    if g["method"] != "timestep":
+        return f"rtol {g['rtol']:g}"
+    return f"dt {g['dt']:g}" + ("" if g["theta"] == 0.5 else f", theta {g['theta']:g}")
 
 
 def _fit_rank(g: dict, method: str) -> tuple:
     """Which group stands for its N in the fit: the method asked for (``--fit-method``)
     where it ran, then rows of a known engine, then the most runs, then the finest
     step (smallest dt)."""
-    return (g["method"] == method, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
+    return (g["method"] == method, g["theta"] in (None, 0.5), g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
 
 
 def _best_per_n(groups: list[dict], method: str) -> dict:
@@ -252,20 +255,24 @@ def main() -> None:
     if "dt" not in df:
         df["dt"] = math.nan
     df["dt"] = df["dt"].where(df["method"] == "timestep", math.nan)
+    if "theta" not in df:  # (tables written before the column: the update was theta = 1/2)
+        df["theta"] = math.nan
+    df["theta"] = df["theta"].fillna(0.5).where(df["method"] == "timestep", math.nan)
     df["engine"] = df["engine"].fillna("unknown") if "engine" in df else "unknown"
     if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
         df = df.drop_duplicates(subset=["run_id", "engine"])
     df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
     ok = (df["status"] == "landed") & np.isfinite(df["ratio"])
-    keys = ["segments", "method", "dt", "rtol", "engine"]
+    keys = ["segments", "method", "dt", "theta", "rtol", "engine"]
     bad = df[~ok].assign(rtol=df["rtol"].where(df["method"] != "timestep", math.nan))
-    failed = bad.fillna({"dt": -1.0, "rtol": -1.0}).groupby(keys).size().to_dict()
+    failed = bad.fillna({"dt": -1.0, "theta": -1.0, "rtol": -1.0}).groupby(keys).size().to_dict()
     df = df[ok]
     if df.empty:
         sys.exit("no landed runs in the tables")
     groups = _groups(df)
     for g in groups:  # the runs of the group that did not land (status error: a broken run, books not closed)
-        g["failed"] = int(failed.get((g["segments"], g["method"], g["dt"] or -1.0, g["rtol"] or -1.0, g["engine"]), 0))
+        where = (g["segments"], g["method"], g["dt"] or -1.0, g["theta"] or -1.0, g["rtol"] or -1.0, g["engine"])
+        g["failed"] = int(failed.get(where, 0))
     # the fit: at each N one group, chosen by _fit_rank
     by_n = _best_per_n([g for g in groups if g["runs"] >= 2], args.fit_method)
     ns = sorted(by_n)
