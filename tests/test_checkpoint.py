@@ -167,3 +167,13 @@ def test_sweep_runs_resume_from_their_checkpoints(tmp_path):
     assert row["status"] == "landed" and row["message"].startswith("resumed at"), row
     assert row["ratio"] == ref.t_fall / ref.t_ff
     assert not os.path.exists(task.checkpoint_path)
+
+
+def test_sweep_cli_checkpoints_and_leaves_none_behind(tmp_path):
+    ck, out = tmp_path / "ck", tmp_path / "t.parquet"
+    args = ["sweep", "-N", "10", "--runs", "2", "--seed", "3", "--method", "timestep", "--dt", "0.02"]
+    res = CliRunner().invoke(app, [*args, "--checkpoints", str(ck), "--checkpoint-every", "0", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert ck.is_dir() and not list(ck.iterdir())  # every run ended: its checkpoint is gone
+    bad = CliRunner().invoke(app, [*args, "--checkpoint-every", "-1", "--out", str(tmp_path / "u.parquet")])
+    assert bad.exit_code == 2 and "checkpoint-every" in bad.output, bad.output
