@@ -177,3 +177,14 @@ def test_sweep_cli_checkpoints_and_leaves_none_behind(tmp_path):
     assert ck.is_dir() and not list(ck.iterdir())  # every run ended: its checkpoint is gone
     bad = CliRunner().invoke(app, [*args, "--checkpoint-every", "-1", "--out", str(tmp_path / "u.parquet")])
     assert bad.exit_code == 2 and "checkpoint-every" in bad.output, bad.output
+
+
+def test_a_checkpoint_that_cannot_be_written_does_not_stop_the_run(tmp_path):
+    """A full disk or a directory gone: the fall goes on to its end, and its message says
+    the checkpoint was not written."""
+    params, options = CASES["timestep"]
+    ck = Checkpoint(tmp_path / "gone" / "run.ckpt.npz", every=0.0)
+    (tmp_path / "gone").rmdir()  # (created by the constructor, removed before the run)
+    r = simulate(params, IC, options, checkpoint=ck)
+    assert r.status == "landed" and "checkpoint not written" in r.message, r.message
+    assert r.t_fall == simulate(params, IC, options).t_fall

@@ -97,6 +97,7 @@ class Checkpoint:
         self.payload: dict | None = None
         self.header: dict | None = None
         self.wall_before = 0.0  # wall time spent on this run before this process took it up
+        self.failure = ""  # why the last checkpoint could not be written (the run goes on)
         self.started = time.perf_counter()
         self.last = self.started
 
@@ -178,8 +179,20 @@ class Checkpoint:
         self.save(t, state, out)
         return True
 
-    def save(self, t: float, state: dict, out) -> Path:
-        """Write the run's state at time t (nondimensional) atomically."""
+    def save(self, t: float, state: dict, out) -> Path | None:
+        """Write the run's state at time t (nondimensional) atomically.  A file that
+        cannot be written (a full disk, a directory gone) does not stop the run: None,
+        and ``failure`` says why (the run's message carries it)."""
+        try:
+            path = self._write(t, state, out)
+        except OSError as exc:
+            self.failure = f"checkpoint not written at t = {t:.6g} ({type(exc).__name__}: {exc})"
+            self.last = time.perf_counter()
+            return None
+        self.failure = ""
+        return path
+
+    def _write(self, t: float, state: dict, out) -> Path:
         arrays: dict = {}
         for name, bundle in state.items():
             _arrays(name, bundle, arrays)
@@ -200,11 +213,15 @@ class Checkpoint:
         header = dict(self.identity or {}, t=float(t), wall_seconds=self.wall_seconds(), saved=_now())
         arrays["header"] = np.array(json.dumps(header, sort_keys=True))
         tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, self.path)
+        try:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, **arrays)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, self.path)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
         self.last = time.perf_counter()
         return self.path
 

@@ -120,8 +120,8 @@ def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int, state: 
             if stop.reason is not None:
                 status, message = "interrupted", f"{stop.reason} at t/t_ff = {t / setup.t_ff:.6f}"
                 if ck is not None:
-                    ck.save(t, state, out)
-                    message += f"; checkpoint saved to {ck.path}"
+                    saved = ck.save(t, state, out) is not None
+                    message += f"; checkpoint saved to {ck.path}" if saved else ""
                 break
             out.log.reserve(log_rows)
             verdict, t = advance(t)
@@ -146,6 +146,8 @@ def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int, state: 
             f"out of memory at t/t_ff = {t / setup.t_ff:.6f} after {out.frames.written()} frames "
             f"(lower --frames-per-tff or --until)"
         )
+    if ck is not None and ck.failure:
+        message += ("; " if message else "") + ck.failure
     out.status, out.message, out.t = status, message, t
     return out
 
