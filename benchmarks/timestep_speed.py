@@ -3,6 +3,7 @@ of docs/timestep.md.
 
     python benchmarks/timestep_speed.py                                   # N = 64 .. 2048
     python benchmarks/timestep_speed.py --segments 64,256,1024,4096 --event-max 512 --dt 0.02
+    python benchmarks/timestep_speed.py --segments 512,1024 --event-max 1024 --dt 0.02 --theta 1
 
 One random start per N (seed 1, spawn key 0), alpha = pi/4, floor all, two frames per t_ff
 (frames do not change either fall).  Per run: wall seconds (the median of --reps), the
@@ -46,6 +47,7 @@ def main() -> None:
     ap.add_argument("--event-max", type=int, default=512)
     ap.add_argument("--dt", type=float, default=SolverOptions.dt)
     ap.add_argument("--reps", type=int, default=1)
+    ap.add_argument("--theta", type=float, default=SolverOptions.theta, help="the time-stepper's position update")
     a = ap.parse_args()
     print(machine_info())
     load_kernels("event")
@@ -56,7 +58,7 @@ def main() -> None:
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in (int(x) for x in a.segments.split(",")):
-        ts_wall, r, peak = _run(n, SolverOptions(method="timestep", dt=a.dt, frames_per_tff=2), a.reps)
+        ts_wall, r, peak = _run(n, SolverOptions(method="timestep", dt=a.dt, frames_per_tff=2, theta=a.theta), a.reps)
         us = 1e6 * ts_wall / max(r.n_steps, 1)
         ev = ("", "", "")
         if n <= a.event_max:
