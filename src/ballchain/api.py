@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from .inputs import build_inputs
+from .methods.checkpoint import DEFAULT_EVERY
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
 SIMULATE_KEYWORDS = (
@@ -125,7 +126,7 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "dt": SolverOptions.dt,
     "theta": SolverOptions.theta,
     "checkpoints": None,
-    "checkpoint_every": 600.0,
+    "checkpoint_every": DEFAULT_EVERY,
 }
 
 

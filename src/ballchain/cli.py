@@ -25,6 +25,7 @@ from typer.core import TyperGroup
 
 from . import __version__
 from .inputs import _CHAIN, _SOLVER, _START, _parse_angle, build_inputs  # noqa: F401  (build_inputs: part of the CLI)
+from .methods.checkpoint import DEFAULT_EVERY
 from .model import InitialCondition, ParameterError, parse_angle
 from .records.files import ResultFileError, check_output_dir, check_writable, file_info, load_result, save_result
 
@@ -436,7 +437,7 @@ def simulate(
         "the run has ended and its result is saved.",
     ),
     checkpoint_every: float = typer.Option(
-        600.0, "--checkpoint-every", help="Seconds of wall time between checkpoints (with --checkpoint)."
+        DEFAULT_EVERY, "--checkpoint-every", help="Seconds of wall time between checkpoints (with --checkpoint)."
     ),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (the run's summary) on stdout."),
     length: float | None = typer.Option(
@@ -850,7 +851,9 @@ def sweep(
         "resumes its unfinished runs from there (long falls survive a kill).",
     ),
     checkpoint_every: float = typer.Option(
-        600.0, "--checkpoint-every", help="Seconds of wall time between a run's checkpoints (with --checkpoints)."
+        DEFAULT_EVERY,
+        "--checkpoint-every",
+        help="Seconds of wall time between a run's checkpoints (with --checkpoints).",
     ),
     retry_errors: bool = typer.Option(False, "--retry-errors", help="Run again the runs whose row says error."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (what the sweep did) on stdout."),

@@ -196,16 +196,11 @@ class Checkpoint:
         arrays: dict = {}
         for name, bundle in state.items():
             _arrays(name, bundle, arrays)
-        out.frames.flush()
-        out.trace.flush()
+        frames = out.frames.arrays()  # (emptied into one chunk each: the next save concatenates less)
+        out.frames.chunks = {name: [a] for name, a in frames.items()}
+        arrays.update({f"frames.chunk.{name}": a for name, a in frames.items()})
         _arrays("frames", _frame_state(out.frames.compiled), arrays)
-        for name, chunks in out.frames.chunks.items():
-            arrays[f"frames.chunk.{name}"] = (
-                np.concatenate(chunks) if chunks else getattr(out.frames.compiled, name)[:0]
-            )
-        out.frames.chunks = {name: [arrays[f"frames.chunk.{name}"]] for name in FRAME_FIELDS}
-        arrays["trace.t"] = np.concatenate(out.trace.t_chunks)
-        arrays["trace.z"] = np.concatenate(out.trace.z_chunks)
+        arrays["trace.t"], arrays["trace.z"] = out.trace.arrays()
         out.trace.t_chunks, out.trace.z_chunks = [arrays["trace.t"]], [arrays["trace.z"]]
         for name, rows in zip(LOG_FIELDS, out.log.view()):
             arrays[f"log.{name}"] = rows

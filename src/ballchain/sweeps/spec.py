@@ -17,6 +17,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
+from ..methods.checkpoint import DEFAULT_EVERY
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 MAX_RUNS = 1_000_000  # a guard against a typo in a range step
@@ -112,7 +113,7 @@ class Task:
     options: SolverOptions
     save_path: str | None = None
     checkpoint_path: str | None = None  # the run's checkpoint (``methods.checkpoint``), if the sweep keeps them
-    checkpoint_every: float = 600.0  # seconds of wall time between checkpoints
+    checkpoint_every: float = DEFAULT_EVERY  # seconds of wall time between checkpoints
 
 
 @dataclass(frozen=True)
@@ -135,7 +136,7 @@ class SweepSpec:
     theta: float = SolverOptions.theta
     save_runs: str | None = None
     checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
-    checkpoint_every: float = 600.0
+    checkpoint_every: float = DEFAULT_EVERY
     options: SolverOptions = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
