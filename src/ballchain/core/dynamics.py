@@ -1261,13 +1261,11 @@ def _rates_for_axes(e, de, w):
 
 
 @njit(cache=True)
-def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True, refactor=True):
+def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     """Remove constraint drift from the state of ``chain`` (``state.Chain``; ``pts``,
     ``vel``: scratch of the points' positions and the centres' velocities): normalise,
     then Gauss-Newton on anchor positions and locked angles
-    (delta = -W J^T (J W J^T)^{-1} c; ``refactor`` False: J W J^T factored at the first
-    iteration only, a simplified Newton that converges linearly at the rate of the move,
-    for drifts far below 1), then (``with_velocities``) the rates that keep
+    (delta = -W J^T (J W J^T)^{-1} c), then (``with_velocities``) the rates that keep
     the axes' velocities de_i/dt through that move (``_rates_for_axes``), and the same
     projection on velocities.  Returns the largest position residual before projection."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
@@ -1281,8 +1279,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True, refacto
     if with_velocities and res > tol:
         _axis_rates(e, w, vel)  # de_i/dt, kept through the move (the points' velocities)
     while res > tol and it < iters:
-        if refactor or it == 0:
-            factor(e, anchored, J, kind, nrow, S, G, drop)
+        factor(e, anchored, J, kind, nrow, S, G, drop)
         solve(nrow, S, G, drop, rhs, x)
         if fits:
             torques4(e, kind, nrow, x, gf)
