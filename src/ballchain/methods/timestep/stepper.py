@@ -30,9 +30,9 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
 5. **Positions**: each airborne axis turns exactly (Rodrigues) by h (theta w+ + (1 - theta) w),
    theta = ``SolverOptions.theta`` (1/2 by default); V+ is kept.
 6. **Projection** (positions only): any hinge found past its limit is put back on it,
-   the anchors at their points (``dynamics.project_state``: Gauss-Newton to PROJ_TOL;
-   a looser projection, to 1e-9, or one that factors J W J^T once, leaves the books
-   two to four times worse at dt = 0.04).
+   the anchors at their points (``dynamics.project_state``: Gauss-Newton to PROJ_TOL,
+   J W J^T factored at each iteration; a projection factored once, or stopped at 1e-9,
+   left the books' imbalance larger).
 
 A hinge *locks* in the log when it starts to take impulse and *unlocks* when it stops;
 a *landing* row carries its step's floor impulse (over all anchors) and loss to landing,
@@ -293,8 +293,8 @@ def _kick_energy(h, anchored, v_pre):
 @njit(cache=True)
 def _index_set(h, model, chain, sc):
     """Part 4, the index set: hinges in force whose predicted bend g + h dg/dt reaches
-    the limit; the warm start: all of them (1.45 trials a step at N = 1024 against 1.78
-    from those that took impulse last step or approach)."""
+    the limit; the warm start: all of them (fewer trials than from those that took
+    impulse last step or approach)."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
     hinge_gaps(e, model.cos_alpha, sc.gaps)
     hinge_rates(e, w, sc.rates)
