@@ -285,8 +285,9 @@ def _compile_with_notice(load_kernels, show_progress: bool) -> None:
 
 
 TIMESTEP_WARNING = (
-    "warning: --method timestep is experimental: first order in --dt; its agreement with the event-driven "
-    "method is shown only to about 0.1 t_ff on 16-start ensembles (docs/timestep.md)"
+    "warning: --method timestep is experimental: first order in --dt; its 16-start ensembles of t_fall come "
+    "within about 0.1 t_ff of the event-driven method's at N = 64-256 and 0.01 t_ff at N = 1024-2048, "
+    "single falls do not (docs/timestep.md, docs/large-n.md)"
 )
 
 
