@@ -125,6 +125,7 @@ def _measure_runs(df: pd.DataFrame, runs: str) -> list[dict]:
                     "rtol": r["rtol"],
                     "method": r.get("method") if isinstance(r.get("method"), str) else "event",
                     "dt": r.get("dt", math.nan),
+                    "theta": r.get("theta", math.nan),
                     "run_index": r["run_index"],
                     "engine": r.get("engine", "unknown"),
                     "ratio": r["ratio"],
@@ -137,7 +138,8 @@ def _measure_runs(df: pd.DataFrame, runs: str) -> list[dict]:
 def _step(r) -> str:
     """A run's method and its tolerance (event-driven) or step (time-stepping, t_ff/N)."""
     if r.get("method", "event") == "timestep":
-        return f"timestep dt {r['dt']:g}"
+        theta = r.get("theta", math.nan)  # NaN: a table from before the option (1/2)
+        return f"timestep dt {r['dt']:g}" + (f", theta {theta:g}" if theta == theta and theta != 0.5 else "")
     return f"event rtol {r['rtol']:g}"
 
 
