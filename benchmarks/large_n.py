@@ -119,19 +119,20 @@ def _step_label(g: dict) -> str:
     return f"dt {g['dt']:g}" + ("" if g["theta"] == 0.5 else f", theta {g['theta']:g}")
 
 
-def _fit_rank(g: dict, method: str) -> tuple:
+def _fit_rank(g: dict, method: str, theta: float = 0.5) -> tuple:
     """Which group stands for its N in the fit: the method asked for (``--fit-method``)
-    where it ran, then rows of a known engine, then the most runs, then the finest
-    step (smallest dt)."""
-    return (g["method"] == method, g["theta"] in (None, 0.5), g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
+    where it ran, then the time-stepper's theta asked for (``--fit-theta``), then rows
+    of a known engine, then the most runs, then the finest step (smallest dt)."""
+    g_theta = 0.5 if g["theta"] is None else g["theta"]
+    return (g["method"] == method, g_theta == theta, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
 
 
-def _best_per_n(groups: list[dict], method: str) -> dict:
-    """At each N, the group that ranks first by ``_fit_rank(g, method)``."""
+def _best_per_n(groups: list[dict], method: str, theta: float = 0.5) -> dict:
+    """At each N, the group that ranks first by ``_fit_rank(g, method, theta)``."""
     best = {}
     for g in groups:
         cur = best.get(g["segments"])
-        if cur is None or _fit_rank(g, method) > _fit_rank(cur, method):
+        if cur is None or _fit_rank(g, method, theta) > _fit_rank(cur, method, theta):
             best[g["segments"]] = g
     return best
 
@@ -243,6 +244,12 @@ def main() -> None:
         choices=["event", "timestep"],
         help="the method whose rows stand for an N in the fit where both ran (default: event, the exact one)",
     )
+    ap.add_argument(
+        "--fit-theta",
+        type=float,
+        default=0.5,
+        help="the time-stepper's theta whose rows stand for an N in the fit where several ran (default 0.5)",
+    )
     ap.add_argument("--cost", action="store_true", help="also the cost of a fall: median wall, steps, exponent")
     ap.add_argument("--cost-plot", help="figure of the median wall per fall against N (log-log)")
     ap.add_argument("--alpha-deg", type=float, default=45.0, help="the alpha of the rows used (degrees)")
@@ -274,7 +281,7 @@ def main() -> None:
         where = (g["segments"], g["method"], g["dt"] or -1.0, g["theta"] or -1.0, g["rtol"] or -1.0, g["engine"])
         g["failed"] = int(failed.get(where, 0))
     # the fit: at each N one group, chosen by _fit_rank
-    by_n = _best_per_n([g for g in groups if g["runs"] >= 2], args.fit_method)
+    by_n = _best_per_n([g for g in groups if g["runs"] >= 2], args.fit_method, args.fit_theta)
     ns = sorted(by_n)
     fit = None
     if len(ns) >= 4:
