@@ -188,3 +188,55 @@ def test_a_checkpoint_that_cannot_be_written_does_not_stop_the_run(tmp_path):
     r = simulate(params, IC, options, checkpoint=ck)
     assert r.status == "landed" and "checkpoint not written" in r.message, r.message
     assert r.t_fall == simulate(params, IC, options).t_fall
+
+
+def test_an_interrupted_sweep_saves_its_runs_checkpoints_and_resumes_them(tmp_path, monkeypatch):
+    """Ctrl-C on a sweep: its run under way (in a worker thread, which signals do not
+    reach) is asked to stop at its next return from compiled code and saves its
+    checkpoint there (no periodic one is due); its row is not written; the same sweep
+    resumes it from there and removes the checkpoint."""
+    import threading
+
+    import ballchain.engine as engine
+    from ballchain.engine import load_kernels
+    from ballchain.sweeps import SweepSpec
+    from ballchain.sweeps.execute import read_table, run_sweep
+
+    load_kernels("timestep")
+    spec = SweepSpec(
+        segments=(256,), alphas=(np.pi / 4,), runs=1, seed=7, method="timestep", dt=0.01,
+        checkpoints=str(tmp_path / "ck"), checkpoint_every=1e9,
+    )  # fmt: skip
+    (task,) = spec.tasks()
+    started = threading.Event()
+    real = engine.simulate
+
+    def watched(*args, **kwargs):
+        if kwargs.get("checkpoint") is not None:  # the sweep's run (not the kernels' warm-up)
+            started.set()
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(engine, "simulate", watched)
+
+    ended = threading.Event()
+
+    def interrupt():  # half a second into the run (a few returns from compiled code), if the sweep still runs
+        if started.wait(120) and not ended.wait(0.5):
+            os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt, daemon=True).start()
+    out = tmp_path / "t.parquet"
+    try:
+        report = run_sweep(spec, out, workers=1, progress=False)
+    finally:
+        ended.set()
+    assert report.interrupted and report.ran == 0
+    assert not read_table(out)  # no row: the run is not done
+    header = _header(task.checkpoint_path)
+    assert header["t"] > 0.0
+    assert engine.stop_requested() is None  # the request ends with the sweep
+    monkeypatch.setattr(engine, "simulate", real)
+    report = run_sweep(spec, out, workers=1, progress=False)
+    (row,) = read_table(out)
+    assert row["status"] == "landed" and row["message"].startswith("resumed at"), row
+    assert not os.path.exists(task.checkpoint_path)

@@ -67,24 +67,47 @@ class Interrupted(KeyboardInterrupt):
         self.reason = reason
 
 
+_STOP_REQUEST: list = [None]  # a stop asked of every run of this process (``request_stop``)
+
+
+def request_stop(reason: str | None) -> None:
+    """Ask every run of this process, under way or to come, to stop at its next return
+    from compiled code as a first Ctrl-C does (status ``interrupted``; a checkpointed
+    run saves its checkpoint); None withdraws the request.  An interrupted sweep asks
+    this of its workers (``sweeps.execute``), whose runs are in threads that signals
+    do not reach."""
+    _STOP_REQUEST[0] = reason
+
+
+def stop_requested() -> str | None:
+    """The reason of the stop asked by ``request_stop``, None if none."""
+    return _STOP_REQUEST[0]
+
+
 class _StopOnSignals:
     """While a run lasts (main thread only), the first SIGINT (Ctrl-C) or SIGTERM asks
     it to stop at the next return from compiled code, where the state and every buffer
     are consistent; the run then ends with status ``interrupted`` and keeps its work.
     A second signal, or one that comes before any work was done (``started`` is False:
-    e.g. while the kernels compile on a first run), stops at once (``Interrupted``)."""
+    e.g. while the kernels compile on a first run), stops at once (``Interrupted``).
+    A stop asked by ``request_stop`` (any thread) acts as the first signal."""
 
     NAMES = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM"}
 
     def __init__(self):
-        self.reason: str | None = None
+        self._reason: str | None = None
         self.started = False
         self.old: dict = {}
+
+    @property
+    def reason(self) -> str | None:
+        """Why the run is asked to stop (None: it is not)."""
+        return self._reason if self._reason is not None else _STOP_REQUEST[0]
 
     def _handler(self, signum, frame):
         if self.reason is not None or not self.started:
             raise Interrupted(self.NAMES.get(signum, str(signum)))
-        self.reason = self.NAMES.get(signum, str(signum))
+        self._reason = self.NAMES.get(signum, str(signum))
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():

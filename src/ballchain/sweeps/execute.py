@@ -22,13 +22,20 @@ from ..model import ParameterError
 from .spec import SweepSpec, Task
 from .table import TableWriter, error_row, read_table, result_row
 
+STOP_WAIT = 120.0  # s: an interrupted sweep waits this long for its runs under way to save their checkpoints
+
 
 def run_task(task: Task) -> dict:
-    """Run one task and return its table row (never raises)."""
+    """Run one task and return its table row (never raises).  A run interrupted by an
+    interrupted sweep (``engine.request_stop``) returns a row of status ``interrupted``,
+    which the sweep does not write: its checkpoint resumes it."""
     t0 = time.perf_counter()
     where = f"{socket.gethostname()}:{os.getpid()}"
     try:
-        from ..engine import simulate
+        from ..engine import simulate, stop_requested
+
+        if stop_requested() is not None:  # the sweep is stopping: do not start
+            return {"run_id": task.run_id, "status": "interrupted"}
 
         ck = None
         if task.checkpoint_path is not None:
@@ -36,11 +43,13 @@ def run_task(task: Task) -> dict:
 
             ck = Checkpoint(task.checkpoint_path, every=task.checkpoint_every)
         result = simulate(task.params, task.ic, task.options, checkpoint=ck)
+        if result.status == "interrupted":
+            return {"run_id": task.run_id, "status": "interrupted"}
         if task.save_path is not None:
             from ..records.files import save_result
 
             save_result(result, task.save_path, force=True)
-        if ck is not None and result.status != "interrupted":
+        if ck is not None:
             ck.discard()  # the run has ended and its result is saved
         return result_row(task, result, where)
     except BaseException as exc:  # noqa: BLE001 - a run must never stop the sweep
@@ -209,6 +218,9 @@ def run_tasks(
     finally:
         for sig, h in old.items():
             signal.signal(sig, h)
+        from ..engine import request_stop
+
+        request_stop(None)  # (a stop asked of this process's runs by _let_runs_save)
         writer.flush()
     report.wall_seconds = time.perf_counter() - t0
     return _finish(report, writer, tasks)
@@ -220,12 +232,12 @@ def _run_on_cluster(todo, scheduler, workers, writer, report, progress, log) -> 
     from distributed import as_completed
 
     client = cluster = bar = None
+    by_key, futures = {}, []
     try:
         client, cluster = _connect(scheduler, workers, log)
         if scheduler is not None:
             report.workers = len(client.scheduler_info().get("workers", {}))
         client.run(warm_kernels, todo[0].options.method)
-        by_key, futures = {}, []
         for n in sorted({t.params.segments for t in todo}, reverse=True):  # the longest runs first
             group = [t for t in todo if t.params.segments == n]
             fs = client.map(
@@ -237,15 +249,13 @@ def _run_on_cluster(todo, scheduler, workers, writer, report, progress, log) -> 
         bar = _Bar(len(todo), progress, log)
         for fut in as_completed(futures):
             task = by_key[fut.key]
-            try:
-                row = fut.result()
-            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the worker died in this run
-                row = error_row(task, f"worker failed: {type(exc).__name__}: {exc}".splitlines()[0])
-            writer.add(row)
-            report.ran += 1
-            report.failed += row["status"] == "error"
+            _record(fut, task, writer, report)
             bar.advance(report.failed)
             fut.release()
+    except _Stop as exc:
+        if client is not None:
+            _let_runs_save(client, futures, by_key, writer, report, str(exc), log)
+        raise
     finally:
         if bar is not None:
             bar.close()
@@ -255,6 +265,53 @@ def _run_on_cluster(todo, scheduler, workers, writer, report, progress, log) -> 
                     thing.close(timeout=10)
                 except Exception:  # noqa: BLE001
                     pass
+
+
+def _record(fut, task, writer, report) -> None:
+    """The row of a finished task into the table (a failed worker: an error row); an
+    interrupted run's row is not written (the same command runs it again)."""
+    try:
+        row = fut.result()
+    except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the worker died in this run
+        row = error_row(task, f"worker failed: {type(exc).__name__}: {exc}".splitlines()[0])
+    if row["status"] == "interrupted":
+        return
+    writer.add(row)
+    report.ran += 1
+    report.failed += row["status"] == "error"
+
+
+def _let_runs_save(client, futures, by_key, writer, report, reason: str, log) -> None:
+    """An interrupted sweep with checkpoints: ask the runs under way to stop at their
+    next return from compiled code, as a first Ctrl-C asks one run (``engine.request_stop``
+    in every worker and in this process, whose thread runs the tasks of a one-worker
+    sweep), so that each saves its checkpoint; the tasks not started return at once.
+    Waits STOP_WAIT s at most (a second Ctrl-C: at once).  Runs that ended meanwhile get
+    their rows."""
+    from distributed import wait
+
+    from ..engine import request_stop
+
+    left = [f for f in futures if not f.done()]
+    if not any(by_key[f.key].checkpoint_path is not None for f in left):
+        return
+    print(
+        f"\nsweep interrupted ({reason}): the runs under way save their checkpoints (Ctrl-C again: at once)...",
+        file=log,
+        flush=True,
+    )
+    request_stop(reason)
+    try:
+        client.run(request_stop, reason)
+    except Exception:  # noqa: BLE001 - a worker gone: its runs keep their last periodic checkpoint
+        pass
+    try:
+        wait(left, timeout=STOP_WAIT)
+    except Exception:  # noqa: BLE001 - the wait spent: the runs not stopped keep their last periodic checkpoint
+        pass
+    for f in left:
+        if f.done() and f.status == "finished":
+            _record(f, by_key[f.key], writer, report)
 
 
 def _finish(report: SweepReport, writer: TableWriter, tasks) -> SweepReport:
