@@ -139,7 +139,7 @@ def _step(r) -> str:
     """A run's method and its tolerance (event-driven) or step (time-stepping, t_ff/N)."""
     if r.get("method", "event") == "timestep":
         theta = r.get("theta", math.nan)  # NaN: a table from before the option (1/2)
-        return f"timestep dt {r['dt']:g}" + (f", theta {theta:g}" if theta == theta and theta != 0.5 else "")
+        return f"timestep dt {r['dt']:g}" + (f", theta {theta:g}" if not math.isnan(theta) and theta != 0.5 else "")
     return f"event rtol {r['rtol']:g}"
 
 

@@ -35,7 +35,7 @@ def run_task(task: Task) -> dict:
         from ..engine import simulate, stop_requested
 
         if stop_requested() is not None:  # the sweep is stopping: do not start
-            return {"run_id": task.run_id, "status": "interrupted"}
+            return _interrupted_row(task)
 
         ck = None
         if task.checkpoint_path is not None:
@@ -44,7 +44,7 @@ def run_task(task: Task) -> dict:
             ck = Checkpoint(task.checkpoint_path, every=task.checkpoint_every)
         result = simulate(task.params, task.ic, task.options, checkpoint=ck)
         if result.status == "interrupted":
-            return {"run_id": task.run_id, "status": "interrupted"}
+            return _interrupted_row(task)
         if task.save_path is not None:
             from ..records.files import save_result
 
@@ -57,6 +57,11 @@ def run_task(task: Task) -> dict:
         return error_row(
             task, f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__, time.perf_counter() - t0, where
         )
+
+
+def _interrupted_row(task: Task) -> dict:
+    """The row of a run an interrupted sweep stopped (never written: ``_record``)."""
+    return {"run_id": task.run_id, "status": "interrupted"}
 
 
 def warm_kernels(method: str = "event") -> bool:
