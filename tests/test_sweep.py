@@ -192,6 +192,51 @@ def test_a_run_that_fails_is_a_row_and_the_sweep_goes_on(tmp_path):
     assert run_tasks([*good, bad], out, workers=1, progress=False, retry_errors=True).ran == 1
 
 
+def test_a_saved_run_whose_row_was_lost_is_recorded_not_run_again(tmp_path, monkeypatch):
+    """A sweep killed between saving a run (--save-runs) and writing its row: the next
+    sweep records the run from its file.  A file of another engine, or one cut short, is
+    run again."""
+    import ballchain.engine as engine
+    import ballchain.provenance as provenance
+
+    spec = SweepSpec(segments=(8,), alphas=(math.pi / 4,), runs=2, seed=3, save_runs=str(tmp_path / "runs"))
+    out = tmp_path / "t.parquet"
+    assert run_sweep(spec, out, workers=1, progress=False).ran == 2
+    first = _table(out).set_index("run_id")
+    out.unlink()  # the rows are lost; the saved runs stay
+
+    real = engine.simulate
+    ran = []
+
+    def counted(*args, **kwargs):
+        if args[0].segments == 8:  # a run of the sweep, not the kernels' warm-up
+            ran.append(args[0].segments)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(engine, "simulate", counted)
+    assert run_sweep(spec, out, workers=1, progress=False).ran == 2
+    assert ran == []  # nothing was run again
+    again = _table(out).set_index("run_id")
+    cols = ["status", "ratio", "landed_ratio", "events_lock", "energy_imbalance", "n_evals", "wall_seconds", "engine"]
+    assert again.loc[first.index, cols].equals(first[cols])
+
+    # another engine's file, or a file cut short, is not trusted: those runs run again
+    t0, t1 = spec.tasks()
+    with open(t1.save_path, "r+b") as f:
+        f.truncate(os.path.getsize(t1.save_path) // 2)
+    out.unlink()
+    monkeypatch.setattr(provenance, "engine_fingerprint", lambda: "another")
+    import ballchain.sweeps.execute as execute
+
+    assert execute._saved_result(t0) is None
+    monkeypatch.undo()
+    monkeypatch.setattr(engine, "simulate", counted)
+    assert execute._saved_result(t0) is not None and execute._saved_result(t1) is None
+    assert run_sweep(spec, out, workers=1, progress=False).ran == 2
+    assert ran == [8]  # only the cut file's run
+    assert _table(out).set_index("run_id").loc[t1.run_id, "ratio"] == first.loc[t1.run_id, "ratio"]
+
+
 @pytest.mark.slow
 def test_resume_after_kill_9_recomputes_only_what_is_missing(tmp_path):
     out = tmp_path / "t.parquet"

@@ -4,7 +4,8 @@ Each run is one task (``run_task``): it never raises, a failure is a row with st
 ``error`` and its message.  The kernels are compiled once, in this process, before the
 workers start (they load numba's on-disk cache); on an existing cluster each worker
 loads or compiles them once, before the first task.  Rows go to the table as runs
-finish (``table.TableWriter``); runs already in the table are not run again.
+finish (``table.TableWriter``); runs already in the table are not run again, nor are runs
+this engine saved (``--save-runs``) whose rows a killed sweep never wrote.
 """
 
 from __future__ import annotations
@@ -42,6 +43,11 @@ def run_task(task: Task) -> dict:
             from ..methods.checkpoint import Checkpoint
 
             ck = Checkpoint(task.checkpoint_path, every=task.checkpoint_every)
+        saved = _saved_result(task)
+        if saved is not None:  # saved, but its row never written: record it, do not run it again
+            if ck is not None:
+                ck.discard()
+            return result_row(task, saved, where)
         result = simulate(task.params, task.ic, task.options, checkpoint=ck)
         if result.status == "interrupted":
             return _interrupted_row(task)
@@ -57,6 +63,26 @@ def run_task(task: Task) -> dict:
         return error_row(
             task, f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__, time.perf_counter() - t0, where
         )
+
+
+def _saved_result(task: Task):
+    """The run's saved file (``--save-runs``), if this engine made it from the task's inputs
+    and the run ended; else None.  A sweep killed between saving a run and writing its row
+    leaves such a file: the run is recorded from it, not run again.  A file that cannot be
+    read (a save cut short), of other inputs or another engine, is run again and overwritten."""
+    if task.save_path is None or not os.path.isfile(task.save_path):
+        return None
+    from ..provenance import engine_fingerprint
+    from ..records.files import load_result
+
+    try:
+        r = load_result(task.save_path)
+    except Exception:  # noqa: BLE001 - any unreadable file means: run again
+        return None
+    same = (r.params, r.ic, r.options) == (task.params, task.ic, task.options)
+    if not same or r.engine != engine_fingerprint() or r.status == "interrupted":
+        return None
+    return r
 
 
 def _interrupted_row(task: Task) -> dict:
