@@ -129,6 +129,10 @@ def test_cli_method_and_dt_in_json():
     assert res.exit_code == 0, res.stderr
     summary = json.loads(res.stdout)
     assert summary["method"] == "timestep" and summary["dt"] == 0.05 and summary["theta"] == 0.5
+    # the run says it is experimental and names the step shown to agree at large N
+    assert "experimental" in res.stderr and "--dt 0.02 --theta 1" in res.stderr
+    event = runner.invoke(app, ["simulate", "-N", "6", "--json", "-q"])
+    assert event.exit_code == 0 and "experimental" not in event.stderr
     res = runner.invoke(app, [*args, "--theta", "1"])
     assert res.exit_code == 0 and json.loads(res.stdout)["theta"] == 1.0, res.stderr
     bad = runner.invoke(app, ["simulate", "-N", "6", "--method", "timestep", "--dt", "0", "-q"])
