@@ -288,7 +288,7 @@ TIMESTEP_WARNING = (
     "warning: --method timestep is experimental: first order in --dt; its ensembles of t_fall come "
     "within about 0.1 t_ff of the event-driven method's at N = 64-256 and 0.01 t_ff at N = 1024, "
     "single falls do not; from N = 2048 on use --dt 0.02 --theta 1, which agrees with the exact method "
-    "to 0.004 t_ff at N = 2048 and 4096 (the default falls about 0.008 t_ff early at N = 2048 and 0.017 "
+    "to 0.004 t_ff at N = 2048 and 4096 (the default falls about 0.008 t_ff early at N = 2048 and 0.013 "
     "at 4096) (docs/timestep.md, docs/large-n.md)"
 )
 
