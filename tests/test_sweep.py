@@ -156,19 +156,20 @@ def test_a_row_rebuilds_with_simulate(tmp_path):
     assert s["ratio"] == row.ratio and s["n_evals"] == row.n_evals and s["events"]["lock"] == row.events_lock
 
 
-def test_a_timestep_sweep_states_method_dt_and_theta_and_its_rows_rebuild(tmp_path):
+def test_a_timestep_sweep_states_method_dt_theta_and_rule_and_its_rows_rebuild(tmp_path):
     out = tmp_path / "ts.parquet"
     args = ["sweep", "-N", "10", "--runs", "2", "--seed", "4", "--method", "timestep", "--dt", "0.02"]
-    res = runner.invoke(app, [*args, "--theta", "1", "--out", str(out), "--workers", "1", "-q"])
+    res = runner.invoke(app, [*args, "--theta", "1", "--dt-rule", "landing", "--out", str(out), "--workers", "1", "-q"])
     assert res.exit_code == 0, res.output
     table = _table(out)
     assert list(table.method) == ["timestep"] * 2 and list(table.dt) == [0.02] * 2 and list(table.theta) == [1.0] * 2
-    assert all(rid.endswith("_timestep_dt0.02_theta1") for rid in table.run_id)
+    assert list(table.dt_rule) == ["landing"] * 2
+    assert all(rid.endswith("_timestep_dt0.02_theta1_landing") for rid in table.run_id)
     row = table.iloc[1]
     sim = runner.invoke(
         app,
         ["simulate", "-N", "10", "--ic", "random", "--seed", "4", "--spawn-key", row.spawn_key, "--method",
-         "timestep", "--dt", "0.02", "--theta", "1", "--json", "-q"],
+         "timestep", "--dt", "0.02", "--theta", "1", "--dt-rule", "landing", "--json", "-q"],
     )  # fmt: skip
     s = json.loads(sim.stdout)
     assert s["ratio"] == row.ratio and s["n_steps"] == row.n_steps  # the same run on the same machine

@@ -35,16 +35,20 @@ def _rod_fall_time(theta0: float) -> float:
     return quad(lambda th: 1.0 / math.sqrt(1.5 * (math.cos(theta0) - math.cos(th))), theta0, math.pi / 2, limit=200)[0]
 
 
-def _rod(dt: float, theta: float = 0.5):
+def _rod(dt: float, theta: float = 0.5, dt_rule: str = "fixed"):
     e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
-    options = SolverOptions(method="timestep", dt=dt, frames_per_tff=1, theta=theta)
+    options = SolverOptions(method="timestep", dt=dt, frames_per_tff=1, theta=theta, dt_rule=dt_rule)
     return simulate(ChainParams(segments=1, alpha=math.pi), None, options, state=(e0, None))
 
 
-@pytest.mark.parametrize("theta", [0.5, 1.0])
-def test_rod_fall_time_converges_at_first_order(theta):
+@pytest.mark.parametrize(
+    "theta, dt_rule, dts",
+    # dt_rule landing: the rod starts slow, so its steps start 4 dt t_ff / N long; a finer dt
+    [(0.5, "fixed", (0.04, 0.02, 0.01)), (1.0, "fixed", (0.04, 0.02, 0.01)), (1.0, "landing", (0.02, 0.01, 0.005))],
+)
+def test_rod_fall_time_converges_at_first_order(theta, dt_rule, dts):
     exact = _rod_fall_time(THETA0)
-    errors = [abs(_rod(dt, theta).t_fall - exact) for dt in (0.04, 0.02, 0.01)]
+    errors = [abs(_rod(dt, theta, dt_rule).t_fall - exact) for dt in dts]
     # first order: halving dt halves the error (ratios 2 +- 0.4), and it is small
     for coarse, fine in zip(errors, errors[1:]):
         assert 1.6 < coarse / fine < 2.4, errors
@@ -63,20 +67,64 @@ def test_rod_energy_imbalance_shrinks_with_dt(theta):
         assert 1.6 < coarse / fine < 2.4, imb
 
 
-def _first_landing(method: str, dt: float = 0.02) -> float:
+def _first_landing(method: str, dt: float = 0.02, dt_rule: str = "fixed") -> float:
     p = ChainParams(segments=8, alpha=math.pi)
     ic = InitialCondition(kind="planar", eps=0.2)
-    r = simulate(p, ic, SolverOptions(method=method, dt=dt, frames_per_tff=1, until=0.9))
+    r = simulate(p, ic, SolverOptions(method=method, dt=dt, frames_per_tff=1, until=0.9, dt_rule=dt_rule))
     landings = r.event_t[r.event_kind == 3]  # core.kinds: landing
     assert len(landings) > 0
     return float(landings[0] / r.t_ff)
 
 
-def test_first_landing_converges_to_the_event_driven_one():
+@pytest.mark.parametrize("dt_rule", ["fixed", "landing"])
+def test_first_landing_converges_to_the_event_driven_one(dt_rule):
     ref = _first_landing("event")
-    errs = [abs(_first_landing("timestep", dt) - ref) for dt in (0.08, 0.02, 0.005)]
+    errs = [abs(_first_landing("timestep", dt, dt_rule) - ref) for dt in (0.08, 0.02, 0.005)]
     assert errs[2] < errs[0]
     assert errs[2] < 0.01
+
+
+def _fall_speed(e: np.ndarray, w: np.ndarray, anchored: np.ndarray) -> float:
+    """-mean dz/dt of the airborne segments' centres, from the axes and rates alone: the
+    point N is the origin and point j = 2 sum_{i >= j} e_i, so the centre of segment i is
+    at e_i + 2 sum_{k > i} e_k and moves at de_i/dt + 2 sum_{k > i} de_k/dt, de/dt = w x e."""
+    dez = np.cross(w, e)[:, 2]
+    above = np.concatenate([np.cumsum(dez[::-1])[::-1][1:], [0.0]])  # sum_{k > i} de_k/dt
+    vz = dez + 2.0 * above
+    airborne = ~(anchored[:-1].astype(bool) & anchored[1:].astype(bool))
+    return float(-vz[airborne].mean())
+
+
+def test_the_landing_rule_sizes_each_step_by_the_chains_fall_speed():
+    """dt_rule landing: a step is dt t_ff/N times v_ff / v (v the airborne chain's mean
+    fall speed, v_ff = g t_ff), within a factor 4 either way; here v is computed from the
+    frames' axes and rates with numpy, and each step that starts at a frame is that long
+    unless a landing or the next frame cut it.  At the end of the
+    fall the chain falls at about free-fall speed, and the steps there are about dt t_ff/N;
+    over the whole fall the rule takes fewer steps than the fixed one."""
+    n, dt = 48, 0.01
+    p, ic = ChainParams(segments=n, alpha=math.pi / 4), InitialCondition(kind="random", seed=3, spawn_key=(0,))
+    r = simulate(p, ic, SolverOptions(method="timestep", dt=dt, theta=1.0, dt_rule="landing", frames_per_tff=50))
+    fixed = simulate(p, ic, SolverOptions(method="timestep", dt=dt, theta=1.0, frames_per_tff=50))
+    assert r.status == fixed.status == "landed", (r.message, fixed.message)
+    h0 = dt * r.t_ff / n
+    steps_t = np.asarray(r.t)  # the trace: the end of every step
+    matched, checked = 0, 0
+    for k in range(1, len(r.frame_t) - 1):
+        t = r.frame_t[k]
+        if t >= r.t_fall:
+            break
+        anchored = r.frame_anchored[k]
+        if anchored[:-1].astype(bool).all():
+            continue
+        v = _fall_speed(r.frame_e[k], r.frame_omega[k], anchored)
+        rule = h0 * (4.0 if v <= 0 else min(4.0, max(0.25, r.t_ff / v)))  # v_ff = g t_ff = t_ff (m = b = g = 1)
+        h = steps_t[np.searchsorted(steps_t, t * (1 + 1e-12))] - t
+        assert h <= rule * (1 + 1e-9), (t, h, rule)
+        checked += 1
+        matched += math.isclose(h, rule, rel_tol=1e-9)
+    assert checked > 30 and matched >= 0.8 * checked, (matched, checked)
+    assert r.n_steps < 0.8 * fixed.n_steps, (r.n_steps, fixed.n_steps)
 
 
 def test_a_fall_with_locks_keeps_its_books_and_log():
@@ -122,6 +170,11 @@ def test_bad_theta_is_refused(theta):
         SolverOptions(method="timestep", theta=theta)
 
 
+def test_bad_dt_rule_is_refused():
+    with pytest.raises(ParameterError, match="dt_rule"):
+        SolverOptions(method="timestep", dt_rule="adaptive")
+
+
 def test_cli_method_and_dt_in_json():
     runner = CliRunner()
     args = ["simulate", "-N", "6", "--method", "timestep", "--dt", "0.05", "--json", "-q"]
@@ -135,6 +188,11 @@ def test_cli_method_and_dt_in_json():
     assert event.exit_code == 0 and "experimental" not in event.stderr
     res = runner.invoke(app, [*args, "--theta", "1"])
     assert res.exit_code == 0 and json.loads(res.stdout)["theta"] == 1.0, res.stderr
+    assert json.loads(res.stdout)["dt_rule"] == "fixed"
+    res = runner.invoke(app, [*args, "--dt-rule", "landing"])
+    assert res.exit_code == 0 and json.loads(res.stdout)["dt_rule"] == "landing", res.stderr
+    bad = runner.invoke(app, [*args, "--dt-rule", "adaptive"])
+    assert bad.exit_code == 2 and "dt_rule" in bad.stderr and "Traceback" not in bad.stderr
     bad = runner.invoke(app, ["simulate", "-N", "6", "--method", "timestep", "--dt", "0", "-q"])
     assert bad.exit_code == 2 and "dt" in bad.stderr and "Traceback" not in bad.stderr
 

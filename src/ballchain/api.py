@@ -23,7 +23,7 @@ from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
 SIMULATE_KEYWORDS = (
     "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key", "rtol",
-    "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "theta",
+    "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "theta", "dt_rule",
     "length", "mass", "gravity", "initial",
 )  # fmt: skip
 
@@ -125,6 +125,7 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "method": SolverOptions.method,
     "dt": SolverOptions.dt,
     "theta": SolverOptions.theta,
+    "dt_rule": SolverOptions.dt_rule,
     "checkpoints": None,
     "checkpoint_every": DEFAULT_EVERY,
 }
@@ -172,6 +173,7 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
                 "method",
                 "dt",
                 "theta",
+                "dt_rule",
                 "checkpoints",
                 "checkpoint_every",
             )

@@ -230,7 +230,7 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
     p, o = r.params, r.options
     base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone, rtol=o.rtol,
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
-                method=o.method, dt=o.dt)  # fmt: skip
+                method=o.method, dt=o.dt, theta=o.theta, dt_rule=o.dt_rule)  # fmt: skip
     if p.is_si:
         base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
     state = None
@@ -430,6 +430,13 @@ def simulate(
         help="The position update of --method timestep, in [0.5, 1]: the axes turn at theta w+ + (1 - theta) w, "
         "w and w+ the rates before and after a step's impulses.",
     ),
+    dt_rule: str = typer.Option(
+        _SOLVER.dt_rule,
+        "--dt-rule",
+        help="How --method timestep sizes its steps: fixed (every step --dt t_ff/N) or landing (--dt t_ff/N times "
+        "the speed of free fall at t_ff over the airborne chain's mean fall speed, within a factor 4: each landing "
+        "gets as many steps at every speed).",
+    ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     checkpoint: str | None = typer.Option(
@@ -482,6 +489,7 @@ def simulate(
             method=method,
             dt=dt,
             theta=theta,
+            dt_rule=dt_rule,
             length=length,
             mass=mass,
             gravity=gravity,
@@ -837,6 +845,9 @@ def sweep(
     theta: float = typer.Option(
         _SOLVER.theta, "--theta", help="Position update of --method timestep, in [0.5, 1] (as simulate)."
     ),
+    dt_rule: str = typer.Option(
+        _SOLVER.dt_rule, "--dt-rule", help="How --method timestep sizes its steps: fixed or landing (as simulate)."
+    ),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
     ),
@@ -884,6 +895,7 @@ def sweep(
             method=method,
             dt=dt,
             theta=theta,
+            dt_rule=dt_rule,
             save_runs=save_runs,
             checkpoints=checkpoints,
             checkpoint_every=checkpoint_every,

@@ -74,5 +74,6 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         method=v.get("method", _SOLVER.method),
         dt=v.get("dt", _SOLVER.dt),
         theta=v.get("theta", _SOLVER.theta),
+        dt_rule=v.get("dt_rule", _SOLVER.dt_rule),
     )
     return params, init, options

@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
-from .methods import METHOD_NAMES  # noqa: E402  (one registry of methods)
+from .methods import DT_RULES, METHOD_NAMES  # noqa: E402  (one registry of methods)
 
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
@@ -228,6 +228,13 @@ class SolverOptions:
         h (theta w+ + (1 - theta) w), w and w+ the rates before and after the step's
         impulses (1/2: the mean; 1: the rates after them).  Not used by the event-driven
         method.
+    dt_rule: how the time-stepping method sizes its steps (``DT_RULES``): ``fixed``,
+        every step dt t_ff / N; ``landing``, each step dt t_ff / N times v_ff / v, v the
+        airborne chain's mean fall speed and v_ff = g t_ff the speed of free fall at
+        t_ff, kept within a factor ``LANDING_STEP_RANGE`` of dt t_ff / N: a segment takes
+        about 2b / v to land, so each landing gets as many steps at every speed as the
+        fixed step gives it at the end of a free fall.  Not used by the event-driven
+        method.
     """
 
     rtol: float = 1e-10
@@ -243,6 +250,7 @@ class SolverOptions:
     method: str = "event"
     dt: float = 0.01
     theta: float = 0.5
+    dt_rule: str = "fixed"
 
     def __post_init__(self) -> None:
         r = float(self.rtol)
@@ -274,6 +282,8 @@ class SolverOptions:
         if not (0.5 <= t <= 1.0):
             raise ParameterError(f"theta must be in [0.5, 1] (below 1/2 the step is unstable), got {self.theta!r}")
         object.__setattr__(self, "theta", t)
+        if self.dt_rule not in DT_RULES:
+            raise ParameterError(f"dt_rule must be one of {tuple(DT_RULES)}, got {self.dt_rule!r}")
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 

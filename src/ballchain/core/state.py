@@ -42,12 +42,15 @@ Model = namedtuple(
         "zeno_window",  # event accumulation: ZENO_EVENTS instants within this time stop the run
         "return_every",  # event instants handled in compiled code between returns to Python
         "theta",  # time-stepping: the axes turn by h (theta w+ + (1 - theta) w)
+        "dt_rule",  # time-stepping: how steps are sized (methods.DT_RULES: 0 fixed, 1 landing)
+        "v_ff",  # time-stepping, dt_rule landing: g t_ff, the speed of free fall at t_ff (sqrt(g b))
     ],
 )
 
 
-def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every) -> Model:
-    """The constant model of a run (``options``: ``model.SolverOptions``)."""
+def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every, dt_rule=0, v_ff=0.0) -> Model:
+    """The constant model of a run (``options``: ``model.SolverOptions``; ``dt_rule``,
+    ``v_ff``: the time-stepper's step rule, as its code, and g t_ff)."""
     return Model(
         float(alpha),
         math.cos(alpha),
@@ -63,6 +66,8 @@ def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every) ->
         float(zeno_window),
         np.int64(return_every),
         float(options.theta),
+        np.int64(dt_rule),
+        float(v_ff),
     )
 
 

@@ -261,6 +261,7 @@ class Result:
             "method": self.options.method,
             "dt": self.options.dt,
             "theta": self.options.theta,
+            "dt_rule": self.options.dt_rule,
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
             "n_instants": int(self.n_instants),

@@ -134,6 +134,7 @@ class SweepSpec:
     method: str = SolverOptions.method
     dt: float = SolverOptions.dt
     theta: float = SolverOptions.theta
+    dt_rule: str = SolverOptions.dt_rule
     save_runs: str | None = None
     checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
     checkpoint_every: float = DEFAULT_EVERY
@@ -170,6 +171,7 @@ class SweepSpec:
                 method=self.method,
                 dt=self.dt,
                 theta=self.theta,
+                dt_rule=self.dt_rule,
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
@@ -227,4 +229,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
         + ("" if options.method == SolverOptions.method else f"_{options.method}_dt{options.dt:.12g}")
         + ("" if options.method == "event" or options.theta == SolverOptions.theta else f"_theta{options.theta:.12g}")
+        + ("" if options.method == "event" or options.dt_rule == SolverOptions.dt_rule else f"_{options.dt_rule}")
     )

@@ -47,6 +47,11 @@ COLUMNS: dict[str, tuple[str, str]] = {
         "position update of the timestep method (axes turn at theta w+ + (1 - theta) w; not used by the event "
         "method; empty in tables written before the column: 0.5)",
     ),
+    "dt_rule": (
+        "string",
+        "how the timestep method sizes its steps: fixed (dt t_ff/N) or landing (scaled by the speed of free fall "
+        "at t_ff over the airborne chain's mean fall speed); empty in tables written before the column: fixed",
+    ),
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
     "version": ("string", "ballchain version that ran it"),
@@ -112,7 +117,7 @@ CONVENTIONS = (
     "impulses in m sqrt(g b); ratio columns in units of t_ff = sqrt(2 z0 / g); one row per run; "
     "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
     "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --rtol RTOL "
-    "--method METHOD --dt DT --theta THETA --frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
+    "--method METHOD --dt DT --theta THETA --dt-rule DT_RULE --frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
 )
 
 
@@ -153,6 +158,7 @@ def input_row(task) -> dict:
         "method": o.method,
         "dt": o.dt,
         "theta": o.theta,
+        "dt_rule": o.dt_rule,
         "until": math.nan if o.until is None else o.until,
         "frames_per_tff": o.frames_per_tff,
     }

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from ...core.state import new_books, new_chain, new_model, new_work
 from ...floors.registry import FLOOR_CODES
+from .. import DT_RULES
 from ..outputs import (
     FLUSH,
     GO_ON,
@@ -42,7 +43,8 @@ ERROR_MESSAGES = {
 
 
 def step_size(setup) -> float:
-    """The step h (sqrt(b/g)) of ``setup``: dt t_ff / N."""
+    """The step h (sqrt(b/g)) of ``setup``: dt t_ff / N (under dt_rule landing, the step
+    at the end of a free fall; the stepper scales it with the chain's speed)."""
     return setup.options.dt * setup.t_ff / setup.params.segments
 
 
@@ -51,7 +53,17 @@ def run(setup, progress, stop) -> RunOutput:
     ``progress(t, chain, log, books)`` is called on each return from compiled code;
     ``stop.reason`` (not None) asks the run to stop there (status ``interrupted``)."""
     p, o, n = setup.params, setup.options, setup.params.segments
-    model = new_model(p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, 0.0, RETURN_EVERY)
+    model = new_model(
+        p.alpha,
+        FLOOR_CODES[p.floor],
+        p.anchor_cone,
+        o,
+        setup.t_stop,
+        0.0,
+        RETURN_EVERY,
+        DT_RULES[o.dt_rule],
+        setup.t_ff,
+    )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     ws, sc, books = new_work(n), new_scratch(n, setup.w0, setup.e0), new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)

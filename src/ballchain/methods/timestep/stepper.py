@@ -4,7 +4,8 @@ The velocity state is that of maximal coordinates: each segment's centre velocit
 (kept in ``Scratch.vmax``) and angular velocity w_i; the positions are the axes e, so
 the chain is joined by construction.  One step from t to t + h (``step``), each part O(N):
 
-1. **Step size**: h = min(dt, the next output frame, the stop time), cut at the first
+1. **Step size**: h = min(dt, the next output frame, the stop time), dt as the rule
+   ``SolverOptions.dt_rule`` gives it (``_step_by_rule``), cut at the first
    predicted landing (the floor functions after a free turn of the axes by h w, linear
    in the step) so that a landing starts the next step on the floor, not above it.
 2. **Touches** (the floor model's rule, ``floors.dispatch.floor_contacts``): a watched
@@ -75,12 +76,14 @@ from ...core.rules import (
     settle_anchors,
 )
 from ...floors.dispatch import floor_contacts, floor_values, top_event
+from .. import DT_RULES, LANDING_STEP_RANGE
 
 TOUCH_TOL = 1e-9  # a floor function at or below this touches (b, or e_z under floor "pivot")
 TOUCH_FRACTION = 1e-6  # ... or one predicted to reach zero within this fraction of a step
 LAND_SLACK = 1e-3  # a point that ends a step this close to the floor (in units of its travel) is due
 MAX_CUTS = 4  # a step is cut at most this many times at a landing (then taken as it is)
 TURN_MAX = 0.1  # rad: no segment turns more than this in a step (a whip gets shorter steps)
+DT_LANDING = DT_RULES["landing"]  # the code of dt_rule landing
 MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
 ANCHOR_RATE_TOL = 1e-6  # an anchored point faster than this after the impact problem: its rows were not met
 KE_RTOL = 1e-9  # an impact problem may raise the kinetic energy by this fraction at most (round-off)
@@ -484,13 +487,45 @@ def record_frame(t, chain, sc, books, frames):
 
 
 @njit(cache=True)
+def fall_speed(e, w, anchored):
+    """v = -mean dz_i/dt over the airborne segments' centres, from the axes and rates
+    alone: point N is the origin and the centre of segment i is at e_i + 2 sum_{k>i} e_k,
+    so dz_i/dt = (w_i x e_i)_z + 2 sum_{k>i} (w_k x e_k)_z.  0 when every segment has landed."""
+    fall = 0.0
+    above = 0.0
+    m = 0
+    for i in range(e.shape[0] - 1, -1, -1):
+        dez = w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0]
+        if not is_landed(anchored, i):
+            fall -= dez + 2.0 * above
+            m += 1
+        above += dez
+    return fall / m if m > 0 else 0.0
+
+
+@njit(cache=True)
+def _step_by_rule(dt, model, chain):
+    """The step before any cut (part 1): dt under dt_rule fixed; under landing
+    dt v_ff / v, v the airborne segments' mean fall speed (``fall_speed``) and
+    v_ff = g t_ff, within LANDING_STEP_RANGE of dt either way (its top when nothing falls).
+    A segment takes about 2b / v to land: each landing gets the same number of steps at
+    every speed, as many as dt gives it at the end of a free fall."""
+    if model.dt_rule != DT_LANDING:
+        return dt
+    v = fall_speed(chain.Y[0], chain.Y[1], chain.anchored)
+    if v <= model.v_ff / LANDING_STEP_RANGE:
+        return LANDING_STEP_RANGE * dt
+    return dt * max(1.0 / LANDING_STEP_RANGE, model.v_ff / v)
+
+
+@njit(cache=True)
 def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     """One Moreau-Jean step from t (module docstring, parts 1-6), of size dt at most.
     Returns (code, t + h): 0, or ERR_*."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
         record_frame(t, chain, sc, books, frames)
-    h = min(dt, frames.next[0] - t, model.t_stop - t)
+    h = min(_step_by_rule(dt, model, chain), frames.next[0] - t, model.t_stop - t)
     _copy3(sc.vmax, sc.v_pre)
     na = _touches(t, 0, model, chain, sc, books)
     _copy3(w, sc.w_pre)
