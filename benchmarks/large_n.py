@@ -56,7 +56,7 @@ def _median(g: pd.DataFrame, col: str) -> float:
 
 def _groups(df: pd.DataFrame) -> list[dict]:
     out = []
-    keys = ["segments", "method", "dt", "theta", "rtol", "engine"]
+    keys = ["segments", "method", "dt", "theta", "dt_rule", "rtol", "engine"]
     for key, g in df.groupby(keys, dropna=False):
         x = g["ratio"].to_numpy(float)
         lo, hi = mean_interval(x)
@@ -66,8 +66,9 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "method": key[1],
                 "dt": float(key[2]) if key[1] == "timestep" else None,
                 "theta": float(key[3]) if key[1] == "timestep" else None,
-                "rtol": float(key[4]) if key[1] != "timestep" else None,
-                "engine": key[5],
+                "dt_rule": key[4] if key[1] == "timestep" else None,
+                "rtol": float(key[5]) if key[1] != "timestep" else None,
+                "engine": key[6],
                 "runs": len(x),
                 "mean": float(np.mean(x)),
                 "lo": float(lo),
@@ -116,15 +117,21 @@ def _step_label(g: dict) -> str:
     """The group's step (time-stepper) or tolerance (event-driven)."""
     if g["method"] != "timestep":
         return f"rtol {g['rtol']:g}"
-    return f"dt {g['dt']:g}" + ("" if g["theta"] == 0.5 else f", theta {g['theta']:g}")
+    return (
+        f"dt {g['dt']:g}"
+        + ("" if g["theta"] == 0.5 else f", theta {g['theta']:g}")
+        + ("" if g["dt_rule"] == "fixed" else f", {g['dt_rule']}")
+    )
 
 
 def _fit_rank(g: dict, method: str, theta: float = 0.5) -> tuple:
     """Which group stands for its N in the fit: the method asked for (``--fit-method``)
-    where it ran, then the time-stepper's theta asked for (``--fit-theta``), then rows
-    of a known engine, then the most runs, then the finest step (smallest dt)."""
+    where it ran, then the time-stepper's theta asked for (``--fit-theta``), then fixed
+    steps (dt_rule), then rows of a known engine, then the most runs, then the finest
+    step (smallest dt)."""
     g_theta = 0.5 if g["theta"] is None else g["theta"]
-    return (g["method"] == method, g_theta == theta, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
+    fixed = g["dt_rule"] in (None, "fixed")
+    return (g["method"] == method, g_theta == theta, fixed, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
 
 
 def _best_per_n(groups: list[dict], method: str, theta: float = 0.5) -> dict:
@@ -265,12 +272,15 @@ def main() -> None:
     if "theta" not in df:  # (tables written before the column: the update was theta = 1/2)
         df["theta"] = math.nan
     df["theta"] = df["theta"].fillna(0.5).where(df["method"] == "timestep", math.nan)
+    if "dt_rule" not in df:  # (tables written before the column: every step was dt t_ff/N)
+        df["dt_rule"] = None
+    df["dt_rule"] = df["dt_rule"].fillna("fixed").where(df["method"] == "timestep", "")
     df["engine"] = df["engine"].fillna("unknown") if "engine" in df else "unknown"
     if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
         df = df.drop_duplicates(subset=["run_id", "engine"])
     df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
     ok = (df["status"] == "landed") & np.isfinite(df["ratio"])
-    keys = ["segments", "method", "dt", "theta", "rtol", "engine"]
+    keys = ["segments", "method", "dt", "theta", "dt_rule", "rtol", "engine"]
     bad = df[~ok].assign(rtol=df["rtol"].where(df["method"] != "timestep", math.nan))
     failed = bad.fillna({"dt": -1.0, "theta": -1.0, "rtol": -1.0}).groupby(keys).size().to_dict()
     df = df[ok]
@@ -278,7 +288,10 @@ def main() -> None:
         sys.exit("no landed runs in the tables")
     groups = _groups(df)
     for g in groups:  # the runs of the group that did not land (status error: a broken run, books not closed)
-        where = (g["segments"], g["method"], g["dt"] or -1.0, g["theta"] or -1.0, g["rtol"] or -1.0, g["engine"])
+        where = (
+            g["segments"], g["method"], g["dt"] or -1.0, g["theta"] or -1.0, g["dt_rule"] or "", g["rtol"] or -1.0,
+            g["engine"],
+        )  # fmt: skip
         g["failed"] = int(failed.get(where, 0))
     # the fit: at each N one group, chosen by _fit_rank
     by_n = _best_per_n([g for g in groups if g["runs"] >= 2], args.fit_method, args.fit_theta)

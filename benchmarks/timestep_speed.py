@@ -4,9 +4,11 @@ of docs/timestep.md.
     python benchmarks/timestep_speed.py                                   # N = 64 .. 2048
     python benchmarks/timestep_speed.py --segments 64,256,1024,4096 --event-max 512 --dt 0.02
     python benchmarks/timestep_speed.py --segments 512,1024 --event-max 1024 --dt 0.02 --theta 1
+    python benchmarks/timestep_speed.py --segments 1024 --event-max 1024 --dt 0.02 --theta 1 --dt-rule landing,fixed
 
 One random start per N (seed 1, spawn key 0), alpha = pi/4, floor all, two frames per t_ff
-(frames do not change either fall).  Per run: wall seconds (the median of --reps), the
+(frames do not change either fall).  ``--dt-rule``: the time-stepper's step rules
+(``SolverOptions.dt_rule``), comma-separated, each timed on the same start.  Per run: wall seconds (the median of --reps), the
 time-stepper's steps and its cost per step and per step and segment, the event-driven
 method's wall time where N <= --event-max, their ratio, and the peak memory the run
 added (tracemalloc).  Machine and versions are printed first.
@@ -48,27 +50,32 @@ def main() -> None:
     ap.add_argument("--dt", type=float, default=SolverOptions.dt)
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--theta", type=float, default=SolverOptions.theta, help="the time-stepper's position update")
+    ap.add_argument("--dt-rule", default=SolverOptions.dt_rule, help="the time-stepper's step rules, comma-separated")
     a = ap.parse_args()
     print(machine_info())
     load_kernels("event")
     load_kernels("timestep")
     print(
-        "\n| N | timestep wall (s) | steps | us / step | ns / step / segment | t_fall/t_ff | status | "
+        "\n| N | step rule | timestep wall (s) | steps | us / step | ns / step / segment | t_fall/t_ff | status | "
         "event wall (s) | event t_fall/t_ff | event / timestep | peak memory (MB) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in (int(x) for x in a.segments.split(",")):
-        ts_wall, r, peak = _run(n, SolverOptions(method="timestep", dt=a.dt, frames_per_tff=2, theta=a.theta), a.reps)
-        us = 1e6 * ts_wall / max(r.n_steps, 1)
-        ev = ("", "", "")
+        ev_wall, rev = None, None
         if n <= a.event_max:
             ev_wall, rev, _ = _run(n, SolverOptions(frames_per_tff=2), a.reps)
-            ev = (f"{ev_wall:.2f}", f"{rev.t_fall / rev.t_ff:.4f}", f"{ev_wall / ts_wall:.1f}")
-        print(
-            f"| {n} | {ts_wall:.2f} | {r.n_steps} | {us:.1f} | {1e3 * us / n:.0f} | {r.t_fall / r.t_ff:.4f} | "
-            f"{r.status} | {ev[0]} | {ev[1]} | {ev[2]} | {peak / 2**20:.0f} |",
-            flush=True,
-        )
+        for rule in a.dt_rule.split(","):
+            o = SolverOptions(method="timestep", dt=a.dt, frames_per_tff=2, theta=a.theta, dt_rule=rule)
+            ts_wall, r, peak = _run(n, o, a.reps)
+            us = 1e6 * ts_wall / max(r.n_steps, 1)
+            ev = ("", "", "")
+            if rev is not None:
+                ev = (f"{ev_wall:.2f}", f"{rev.t_fall / rev.t_ff:.4f}", f"{ev_wall / ts_wall:.1f}")
+            print(
+                f"| {n} | {rule} | {ts_wall:.2f} | {r.n_steps} | {us:.1f} | {1e3 * us / n:.0f} | "
+                f"{r.t_fall / r.t_ff:.4f} | {r.status} | {ev[0]} | {ev[1]} | {ev[2]} | {peak / 2**20:.0f} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":
