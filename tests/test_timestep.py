@@ -184,6 +184,7 @@ def test_cli_method_and_dt_in_json():
     assert summary["method"] == "timestep" and summary["dt"] == 0.05 and summary["theta"] == 0.5
     # the run says it is experimental and names the step shown to agree at large N
     assert "experimental" in res.stderr and "--dt 0.02 --theta 1" in res.stderr
+    assert "--dt-rule landing" not in res.stderr  # the fixed step: no word of the landing rule
     event = runner.invoke(app, ["simulate", "-N", "6", "--json", "-q"])
     assert event.exit_code == 0 and "experimental" not in event.stderr
     res = runner.invoke(app, [*args, "--theta", "1"])
@@ -191,6 +192,7 @@ def test_cli_method_and_dt_in_json():
     assert json.loads(res.stdout)["dt_rule"] == "fixed"
     res = runner.invoke(app, [*args, "--dt-rule", "landing"])
     assert res.exit_code == 0 and json.loads(res.stdout)["dt_rule"] == "landing", res.stderr
+    assert "--dt-rule landing was checked from N = 256" in res.stderr  # N = 6: below where it was checked
     bad = runner.invoke(app, [*args, "--dt-rule", "adaptive"])
     assert bad.exit_code == 2 and "dt_rule" in bad.stderr and "Traceback" not in bad.stderr
     bad = runner.invoke(app, ["simulate", "-N", "6", "--method", "timestep", "--dt", "0", "-q"])
