@@ -113,6 +113,13 @@ def _paired(ts: dict, ev: dict, seed=20261125, n_boot=4000) -> dict | None:
     return {"pairs": len(keys), "mean": d.mean(axis=0), "lo": lo, "hi": hi, "ks_p": float(ks)}
 
 
+def _mean_text(g: dict) -> str:
+    """The group's mean t_fall/t_ff and its 95% interval (one start: no interval)."""
+    if g["runs"] < 2:
+        return f"{g['mean']:.3f} (one start)"
+    return f"{g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}]"
+
+
 def _step_label(g: dict) -> str:
     """The group's step (time-stepper) or tolerance (event-driven)."""
     if g["method"] != "timestep":
@@ -311,7 +318,7 @@ def main() -> None:
         print("|---|---|---|---|---|---|---|---|---|---|")
         for g in groups:
             print(
-                f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['engine']} | {g['runs']} | {g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}] "
+                f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['engine']} | {g['runs']} | {_mean_text(g)} "
                 f"| {g['fast']:.2f} | {g['gamma_measured']:.2f} | {g['gamma_inferred']:.2f} | {g['failed']} |"
             )
         if args.events:
