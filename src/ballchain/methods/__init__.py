@@ -29,7 +29,7 @@ METHODS = {
 METHOD_NAMES = tuple(METHODS)
 
 # How the time-stepping method sizes its steps (``SolverOptions.dt_rule``) -> the code its
-# compiled step reads (``timestep.stepper.step_size``).
+# compiled step reads (``timestep.stepper._step_by_rule``).
 DT_RULES = {"fixed": 0, "landing": 1}
 LANDING_STEP_RANGE = 4.0  # dt_rule "landing": a step within this factor of dt t_ff / N, either way
 

@@ -487,24 +487,22 @@ def record_frame(t, chain, sc, books, frames):
 
 
 @njit(cache=True)
-def fall_speed(e, w, anchored):
-    """v = -mean dz_i/dt over the airborne segments' centres, from the axes and rates
-    alone: point N is the origin and the centre of segment i is at e_i + 2 sum_{k>i} e_k,
-    so dz_i/dt = (w_i x e_i)_z + 2 sum_{k>i} (w_k x e_k)_z.  0 when every segment has landed."""
+def fall_speed(e, w, anchored, pv, vel):
+    """v = -mean V_z over the airborne segments, V their centres' velocities from the
+    axes and rates alone (``dynamics.velocities``, into the scratch pv, vel); 0 when
+    every segment has landed."""
+    velocities(e, w, pv, vel)
     fall = 0.0
-    above = 0.0
     m = 0
     for i in range(e.shape[0] - 1, -1, -1):
-        dez = w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0]
         if not is_landed(anchored, i):
-            fall -= dez + 2.0 * above
+            fall -= vel[i, 2]
             m += 1
-        above += dez
     return fall / m if m > 0 else 0.0
 
 
 @njit(cache=True)
-def _step_by_rule(dt, model, chain):
+def _step_by_rule(dt, model, chain, sc):
     """The step before any cut (part 1): dt under dt_rule fixed; under landing
     dt v_ff / v, v the airborne segments' mean fall speed (``fall_speed``) and
     v_ff = g t_ff, within LANDING_STEP_RANGE of dt either way (its top when nothing falls).
@@ -512,7 +510,7 @@ def _step_by_rule(dt, model, chain):
     every speed, as many as dt gives it at the end of a free fall."""
     if model.dt_rule != DT_LANDING:
         return dt
-    v = fall_speed(chain.Y[0], chain.Y[1], chain.anchored)
+    v = fall_speed(chain.Y[0], chain.Y[1], chain.anchored, sc.pv, sc.vel)
     if v <= model.v_ff / LANDING_STEP_RANGE:
         return LANDING_STEP_RANGE * dt
     return dt * max(1.0 / LANDING_STEP_RANGE, model.v_ff / v)
@@ -525,7 +523,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
         record_frame(t, chain, sc, books, frames)
-    h = min(_step_by_rule(dt, model, chain), frames.next[0] - t, model.t_stop - t)
+    h = min(_step_by_rule(dt, model, chain, sc), frames.next[0] - t, model.t_stop - t)
     _copy3(sc.vmax, sc.v_pre)
     na = _touches(t, 0, model, chain, sc, books)
     _copy3(w, sc.w_pre)
