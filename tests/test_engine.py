@@ -201,3 +201,58 @@ def test_helix_is_exactly_model_md():
         phi = 2 * math.pi * q * (n - nn) / n + phi0
         v = np.array([eps * math.cos(phi), eps * math.sin(phi), 1.0])
         np.testing.assert_allclose(e[i], v / np.linalg.norm(v), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    "method, n, module, kernel",
+    [
+        ("event", 64, "ballchain.methods.event_driven.driver", "run_events"),
+        ("timestep", 256, "ballchain.methods.timestep.driver", "run_steps"),
+    ],
+)
+def test_the_compiled_loop_lets_other_threads_run(monkeypatch, method, n, module, kernel):
+    """While a run is in its compiled loop, another Python thread runs: the loop releases
+    the GIL.  (A sweep's one worker is a thread of the sweep's process; a loop that held
+    the GIL would starve the event loop that sends its heartbeats.)  A second thread
+    wakes every millisecond and notes the time; holding the GIL, the loop would let it
+    run only between calls, never inside one."""
+    import importlib
+    import threading
+    import time
+
+    driver = importlib.import_module(module)
+    compiled = getattr(driver, kernel)
+    calls = []
+
+    def timed(*args):
+        t0 = time.perf_counter()
+        out = compiled(*args)
+        calls.append((t0, time.perf_counter()))
+        return out
+
+    params = ChainParams(segments=n, alpha=math.pi / 4, floor="all")
+    ic = InitialCondition(kind="random", seed=3)
+    opts = SolverOptions(method=method, **({"dt": 0.02} if method == "timestep" else {}))
+    simulate(ChainParams(segments=8, alpha=math.pi / 4, floor="all"), ic, opts)  # compiled before timing
+    monkeypatch.setattr(driver, kernel, timed)
+    ticks, done = [], threading.Event()
+
+    def ticker():
+        while not done.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    th = threading.Thread(target=ticker, daemon=True)
+    th.start()
+    try:
+        res = simulate(params, ic, opts)
+    finally:
+        done.set()
+        th.join()
+    assert res.status == "landed", res.message
+    ticks = np.array(ticks)
+    long_calls = [(a, b) for a, b in calls if b - a > 0.02]
+    inside = sum(int(np.count_nonzero((ticks > a + 0.005) & (ticks < b - 0.005))) for a, b in long_calls)
+    busy = sum(b - a for a, b in long_calls)
+    assert busy > 0.2, f"the test needs compiled calls of 20 ms or more: {len(long_calls)} of {len(calls)}"
+    assert inside >= 20, f"the other thread ran {inside} times in {busy:.2f} s of compiled loop"

@@ -455,3 +455,26 @@ def test_an_existing_cluster_by_its_address(tmp_path):
     pd.testing.assert_frame_equal(
         _table(tmp_path / "remote.parquet")[stable], _table(tmp_path / "local.parquet")[stable]
     )
+
+
+def test_a_one_worker_sweep_never_loses_its_worker_to_late_heartbeats():
+    """The one-worker sweep's worker is a thread of this process: while a task holds the
+    GIL its event loop sends no heartbeats, and a scheduler with a time-to-live removes
+    such a worker and loses the result of the run it holds (the sweep then waits for it
+    forever; seen with a time-to-live of 1 s and a task holding the GIL 4 s at a time).
+    The runs' compiled loops release the GIL (``test_engine.py``); beyond that the
+    in-process scheduler has no time-to-live, even where the configuration sets one.
+    A cluster of worker processes keeps it (a worker process can die alone)."""
+    import dask
+    import distributed  # noqa: F401  (its configuration keys)
+
+    from ballchain.sweeps.execute import _connect
+
+    with dask.config.set({"distributed.scheduler.worker-ttl": "1s"}):
+        client, cluster = _connect(None, 1, None)
+    try:
+        assert cluster.scheduler.worker_ttl is None
+        assert client.submit(sum, [1, 2], pure=False).result(timeout=60) == 3
+    finally:
+        client.close()
+        cluster.close()

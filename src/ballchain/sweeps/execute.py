@@ -127,6 +127,7 @@ def _connect(scheduler: str | None, workers: int, log):
     sweeps needs no ``if __name__ == "__main__"`` guard)."""
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -140,11 +141,18 @@ def _connect(scheduler: str | None, workers: int, log):
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     where = dict(processes=True, host="127.0.0.1") if workers > 1 else dict(processes=False)  # (in-process: inproc://)
+    config = {}
     if workers <= 1:  # in this process: its loggers are ours to quiet
         logging.getLogger("distributed").setLevel(logging.ERROR)
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, dashboard_address=":0", silence_logs=logging.ERROR, **where
-    )
+        # A worker in this process dies only with it; the scheduler's time-to-live would
+        # instead remove it when its heartbeats come late (a thread that holds the GIL
+        # starves the event loop), and the result of the run it holds would be lost:
+        # the sweep would wait for it forever.
+        config["distributed.scheduler.worker-ttl"] = None
+    with dask.config.set(config):
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, dashboard_address=":0", silence_logs=logging.ERROR, **where
+        )
     return Client(cluster), cluster
 
 

@@ -392,7 +392,7 @@ def _count_instant(t, model, ring, books):
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
 def run_events(t, h, model, chain, watch, ws, st, sc, books, frames, trace, log):
     """Integrate and handle events in one compiled loop.  Returns (code, t, h): an
     integrator code (integrator.ADV_*; never ADV_EVENT; ADV_BUFFER: the trace or frame

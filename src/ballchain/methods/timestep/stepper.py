@@ -582,7 +582,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
 def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
     """Steps until the fall ends, the stop time, full buffers or ``model.return_every``
     steps.  Returns (code, t): TS_* or a negative ERR_*."""
