@@ -47,9 +47,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--segments", default="64,128,256,512,1024,2048")
     ap.add_argument("--event-max", type=int, default=512)
-    ap.add_argument("--dt", type=float, default=SolverOptions.dt)
+    ap.add_argument("--dt", type=float, default=None, help="the time-stepper's step (default: by N, as simulate)")
     ap.add_argument("--reps", type=int, default=1)
-    ap.add_argument("--theta", type=float, default=SolverOptions.theta, help="the time-stepper's position update")
+    ap.add_argument(
+        "--theta", type=float, default=None, help="the time-stepper's position update (default: by N, as simulate)"
+    )
     ap.add_argument("--dt-rule", default=SolverOptions.dt_rule, help="the time-stepper's step rules, comma-separated")
     a = ap.parse_args()
     print(machine_info())

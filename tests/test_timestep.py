@@ -170,6 +170,58 @@ def test_bad_theta_is_refused(theta):
         SolverOptions(method="timestep", theta=theta)
 
 
+def test_the_default_step_is_the_long_one_from_n_1024():
+    """Left unset, dt and theta are the short step (0.01, 1/2) below N = 1024 and the long
+    one (0.02, 1) from it: the run records them and takes the steps they give (until
+    t = 0.01 t_ff: 0.01 N / dt steps), and a value set is kept."""
+    from ballchain.methods import LONG_STEP, LONG_STEP_FROM, SHORT_STEP
+
+    o = SolverOptions(method="timestep")
+    assert o.dt is None and o.theta is None
+    assert (o.for_segments(LONG_STEP_FROM - 1).dt, o.for_segments(LONG_STEP_FROM - 1).theta) == SHORT_STEP
+    assert (o.for_segments(LONG_STEP_FROM).dt, o.for_segments(LONG_STEP_FROM).theta) == LONG_STEP
+    kept = SolverOptions(method="timestep", dt=0.005).for_segments(4096)
+    assert (kept.dt, kept.theta) == (0.005, 1.0)
+    kept = SolverOptions(method="timestep", theta=0.5).for_segments(4096)
+    assert (kept.dt, kept.theta) == (0.02, 0.5)
+    assert SolverOptions().for_segments(4096).dt == SHORT_STEP[0]  # not used by the event-driven method
+    ic = InitialCondition(kind="random", seed=3)
+    for n, (dt, theta) in ((512, SHORT_STEP), (1024, LONG_STEP)):
+        r = simulate(
+            ChainParams(segments=n, alpha=math.pi / 4, floor="all"), ic, SolverOptions(method="timestep", until=0.01)
+        )
+        assert (r.options.dt, r.options.theta) == (dt, theta)
+        assert abs(r.n_steps - 0.01 * n / dt) <= 2, r.n_steps  # (a frame at 0.01 t_ff may cut one step)
+
+
+def test_a_sweep_names_the_default_step_as_the_same_step_set_by_hand():
+    """A sweep that leaves dt and theta unset names its runs as one that sets the step the
+    default gives at that N: a table made either way resumes the other."""
+    from ballchain.sweeps import SweepSpec
+
+    def ids(**kw):
+        spec = SweepSpec(segments=[512, 1024], alphas=[math.pi / 4], floors=["all"], ics=["random"], runs=2, **kw)
+        return [t.run_id for t in spec.tasks()]
+
+    default = ids(method="timestep")
+    assert default[:2] == ids(method="timestep", dt=0.01, theta=0.5)[:2]
+    assert default[2:] == ids(method="timestep", dt=0.02, theta=1.0)[2:]
+    assert all("_dt0.02_theta1" in i for i in default[2:]) and all(i.endswith("_dt0.01") for i in default[:2])
+
+
+def test_the_cli_warns_of_the_short_step_at_large_n():
+    """theta = 1/2 set by hand from N = 2048 on: the run says it falls early there."""
+    runner = CliRunner()
+    args = ["simulate", "-N", "2048", "--method", "timestep", "--until", "0.0005", "--json", "-q"]
+    res = runner.invoke(app, [*args, "--theta", "0.5"])
+    assert res.exit_code == 0, res.stderr
+    assert json.loads(res.stdout)["theta"] == 0.5 and "--theta 0.5 falls early" in res.stderr
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.stderr
+    assert json.loads(res.stdout)["dt"] == 0.02 and json.loads(res.stdout)["theta"] == 1.0
+    assert "falls early" not in res.stderr
+
+
 def test_bad_dt_rule_is_refused():
     with pytest.raises(ParameterError, match="dt_rule"):
         SolverOptions(method="timestep", dt_rule="adaptive")

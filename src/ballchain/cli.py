@@ -286,10 +286,13 @@ def _compile_with_notice(load_kernels, show_progress: bool) -> None:
 
 TIMESTEP_WARNING = (
     "warning: --method timestep is experimental: first order in --dt; its ensembles of t_fall come "
-    "within about 0.1 t_ff of the event-driven method's at N = 64-256 and 0.01 t_ff at N = 1024, "
-    "single falls do not; from N = 2048 on use --dt 0.02 --theta 1, which agrees with the exact method "
-    "to 0.004 t_ff at N = 2048 and 4096 (the default falls about 0.008 t_ff early at N = 2048 and 0.013 "
-    "at 4096) (docs/timestep.md, docs/large-n.md)"
+    "within about 0.1 t_ff of the event-driven method's at N = 64-256 (its default step there: --dt 0.01 "
+    "--theta 0.5) and within 0.005 t_ff at N = 1024-4096 (its default step from N = 1024 on: --dt 0.02 "
+    "--theta 1); single falls do not (docs/timestep.md, docs/large-n.md)"
+)
+SHORT_STEP_WARNING = (
+    "warning: at N = {n} --theta 0.5 falls early: about 0.008 t_ff at N = 2048 and 0.013 at 4096 against the "
+    "exact method, where the default from N = 1024 on (--dt 0.02 --theta 1) agrees with it (docs/large-n.md)"
 )
 
 
@@ -305,6 +308,8 @@ def _run_engine(params, init, options, show_progress: bool, state=None, checkpoi
 
     if options.method == "timestep":
         typer.echo(TIMESTEP_WARNING, err=True)
+        if params.segments >= 2048 and options.theta == 0.5:
+            typer.echo(SHORT_STEP_WARNING.format(n=params.segments), err=True)
         if options.dt_rule == "landing" and params.segments < LANDING_CHECKED_FROM:
             typer.echo(LANDING_WARNING.format(n=LANDING_CHECKED_FROM), err=True)
 
@@ -428,16 +433,19 @@ def simulate(
         help="Integration method: event (event-driven, every event located exactly) or timestep (Moreau-Jean "
         "time-stepping, first order in --dt; for large N).",
     ),
-    dt: float = typer.Option(
+    dt: float | None = typer.Option(
         _SOLVER.dt,
         "--dt",
-        help="The time step of --method timestep, in units of t_ff/N (N segments).",
+        help="The time step of --method timestep, in units of t_ff/N (N segments). Default: 0.01 below N = 1024, "
+        "0.02 from N = 1024 on.",
+        show_default=False,
     ),
-    theta: float = typer.Option(
+    theta: float | None = typer.Option(
         _SOLVER.theta,
         "--theta",
         help="The position update of --method timestep, in [0.5, 1]: the axes turn at theta w+ + (1 - theta) w, "
-        "w and w+ the rates before and after a step's impulses.",
+        "w and w+ the rates before and after a step's impulses. Default: 0.5 below N = 1024, 1 from N = 1024 on.",
+        show_default=False,
     ),
     dt_rule: str = typer.Option(
         _SOLVER.dt_rule,
@@ -850,9 +858,17 @@ def sweep(
     method: str = typer.Option(
         _SOLVER.method, "--method", help="Integration method of every run: event or timestep (as simulate)."
     ),
-    dt: float = typer.Option(_SOLVER.dt, "--dt", help="Time step of --method timestep, in units of t_ff/N."),
-    theta: float = typer.Option(
-        _SOLVER.theta, "--theta", help="Position update of --method timestep, in [0.5, 1] (as simulate)."
+    dt: float | None = typer.Option(
+        _SOLVER.dt,
+        "--dt",
+        help="Time step of --method timestep, in units of t_ff/N (default as simulate: by N).",
+        show_default=False,
+    ),
+    theta: float | None = typer.Option(
+        _SOLVER.theta,
+        "--theta",
+        help="Position update of --method timestep, in [0.5, 1] (default as simulate: by N).",
+        show_default=False,
     ),
     dt_rule: str = typer.Option(
         _SOLVER.dt_rule, "--dt-rule", help="How --method timestep sizes its steps: fixed or landing (as simulate)."

@@ -270,7 +270,7 @@ def simulate(
     holds this run's state (same parameters, start and engine), resumes from it; the
     file is left in place (``Checkpoint.discard`` it once the result is saved).
     Returns a Result in the run's units."""
-    options = options or SolverOptions()
+    options = (options or SolverOptions()).for_segments(params.segments)
     check_memory(params, options)
     wall0 = _time.perf_counter()
     setup = _setup(params, ic, options, state)

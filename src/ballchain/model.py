@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
-from .methods import DT_RULES, METHOD_NAMES  # noqa: E402  (one registry of methods)
+from .methods import DT_RULES, METHOD_NAMES, default_step  # noqa: E402  (one registry of methods)
 
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
@@ -222,12 +222,13 @@ class SolverOptions:
         every event located and resolved exactly) or ``timestep`` (Moreau-Jean
         time-stepping, first order in dt).
     dt: the time-stepping method's step, in units of t_ff / N (N segments; about half
-        the time a segment takes to land at the end of the fall is t_ff / 4N).  Not used
-        by the event-driven method.
+        the time a segment takes to land at the end of the fall is t_ff / 4N).  None (the
+        default): 0.01 below N = 1024 and 0.02 from it (``methods.default_step``; filled
+        in by ``for_segments`` when a run starts).  Not used by the event-driven method.
     theta: the time-stepping method's position update, in [1/2, 1]: each axis turns by
         h (theta w+ + (1 - theta) w), w and w+ the rates before and after the step's
-        impulses (1/2: the mean; 1: the rates after them).  Not used by the event-driven
-        method.
+        impulses (1/2: the mean; 1: the rates after them).  None (the default): 1/2
+        below N = 1024 and 1 from it.  Not used by the event-driven method.
     dt_rule: how the time-stepping method sizes its steps (``DT_RULES``): ``fixed``,
         every step dt t_ff / N; ``landing``, each step dt t_ff / N times v_ff / v, v the
         airborne chain's mean fall speed and v_ff = g t_ff the speed of free fall at
@@ -248,8 +249,8 @@ class SolverOptions:
     hold_rate: float = 1e-6
     hold_apex: float = 1e-11
     method: str = "event"
-    dt: float = 0.01
-    theta: float = 0.5
+    dt: float | None = None
+    theta: float | None = None
     dt_rule: str = "fixed"
 
     def __post_init__(self) -> None:
@@ -275,17 +276,30 @@ class SolverOptions:
             )
         if self.method not in METHOD_NAMES:
             raise ParameterError(f"method must be one of {METHOD_NAMES}, got {self.method!r}")
-        object.__setattr__(self, "dt", _finite_positive("dt", self.dt))
-        if self.dt > 4.0:
-            raise ParameterError(f"dt must be at most 4 (units of t_ff/N), got {self.dt!r}")
-        t = float(self.theta)
-        if not (0.5 <= t <= 1.0):
-            raise ParameterError(f"theta must be in [0.5, 1] (below 1/2 the step is unstable), got {self.theta!r}")
-        object.__setattr__(self, "theta", t)
+        if self.dt is not None:
+            object.__setattr__(self, "dt", _finite_positive("dt", self.dt))
+            if self.dt > 4.0:
+                raise ParameterError(f"dt must be at most 4 (units of t_ff/N), got {self.dt!r}")
+        if self.theta is not None:
+            try:
+                t = float(self.theta)
+            except (TypeError, ValueError):
+                raise ParameterError(f"theta must be a number in [0.5, 1], got {self.theta!r}") from None
+            if not (0.5 <= t <= 1.0):
+                raise ParameterError(f"theta must be in [0.5, 1] (below 1/2 the step is unstable), got {self.theta!r}")
+            object.__setattr__(self, "theta", t)
         if self.dt_rule not in DT_RULES:
             raise ParameterError(f"dt_rule must be one of {tuple(DT_RULES)}, got {self.dt_rule!r}")
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
+
+    def for_segments(self, segments: int) -> SolverOptions:
+        """These options with ``dt`` and ``theta`` filled in where they were left to their
+        default (None), for an N-segment chain (``methods.default_step``)."""
+        if self.dt is not None and self.theta is not None:
+            return self
+        dt, theta = default_step(self.method, int(segments))
+        return replace(self, dt=dt if self.dt is None else self.dt, theta=theta if self.theta is None else self.theta)
 
     def to_dict(self) -> dict:
         return asdict(self)

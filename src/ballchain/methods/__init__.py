@@ -33,6 +33,19 @@ METHOD_NAMES = tuple(METHODS)
 DT_RULES = {"fixed": 0, "landing": 1}
 LANDING_STEP_RANGE = 4.0  # dt_rule "landing": a step within this factor of dt t_ff / N, either way
 
+# The time-stepping method's step when not given (``SolverOptions.dt``, ``.theta``: None).
+SHORT_STEP = (0.01, 0.5)  # (dt in t_ff / N, theta): agrees with the exact method at N = 64-256
+LONG_STEP = (0.02, 1.0)  # ... at N = 1024, 2048 and 4096, where the short step falls early from 2048 on
+LONG_STEP_FROM = 1024  # N from which the default is the long step
+
+
+def default_step(method: str, segments: int) -> tuple[float, float]:
+    """(dt, theta) of a run that does not set them: for the time-stepping method the long
+    step (dt = 0.02, theta = 1) from N = LONG_STEP_FROM on and the short one (dt = 0.01,
+    theta = 1/2) below; the event-driven method does not use them (the short step's values
+    are recorded)."""
+    return LONG_STEP if method == "timestep" and segments >= LONG_STEP_FROM else SHORT_STEP
+
 
 def method_runner(name: str):
     """The ``run`` function of the method ``name`` (imported on first use)."""

@@ -17,6 +17,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
+from ..methods import SHORT_STEP
 from ..methods.checkpoint import DEFAULT_EVERY
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
@@ -207,18 +208,21 @@ class SweepSpec:
                                         f"N = {n}, alpha = {math.degrees(a):.6g} deg, {kind} run {k}: {exc}"
                                     ) from None
                                 checked.add(key)
-                            rid = run_id(params, ic, self.options)
+                            options = self.options.for_segments(n)
+                            rid = run_id(params, ic, options)
                             path = ck = None
                             if self.save_runs is not None:
                                 path = os.path.join(self.save_runs, rid + ".h5")
                             if self.checkpoints is not None:
                                 ck = os.path.join(self.checkpoints, rid + ".ckpt.npz")
-                            out.append(Task(rid, k, params, ic, self.options, path, ck, self.checkpoint_every))
+                            out.append(Task(rid, k, params, ic, options, path, ck, self.checkpoint_every))
         return out
 
 
 def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
-    """A run's key in the table: every input that changes the run, readable."""
+    """A run's key in the table: every input that changes the run, readable (``options``
+    with dt and theta filled in: ``SolverOptions.for_segments``; a theta of 1/2 is not
+    named, as before the option existed)."""
     until = "end" if options.until is None else f"{options.until:.12g}"
     key = "-".join(str(k) for k in ic.spawn_key) or "none"
     return (
@@ -228,6 +232,6 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         f"_fr{options.frames_per_tff:.12g}"
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
         + ("" if options.method == SolverOptions.method else f"_{options.method}_dt{options.dt:.12g}")
-        + ("" if options.method == "event" or options.theta == SolverOptions.theta else f"_theta{options.theta:.12g}")
+        + ("" if options.method == "event" or options.theta == SHORT_STEP[1] else f"_theta{options.theta:.12g}")
         + ("" if options.method == "event" or options.dt_rule == SolverOptions.dt_rule else f"_{options.dt_rule}")
     )

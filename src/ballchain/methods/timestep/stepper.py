@@ -29,7 +29,7 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
    remove is not booked: it is the method's own error (gravity's kick on anchored
    points, the turn of the axes), part of the imbalance, which shrinks with dt.
 5. **Positions**: each airborne axis turns exactly (Rodrigues) by h (theta w+ + (1 - theta) w),
-   theta = ``SolverOptions.theta`` (1/2 by default); V+ is kept.
+   theta = ``SolverOptions.theta`` (by default 1/2 below N = 1024, 1 from it); V+ is kept.
 6. **Projection** (positions only): any hinge found past its limit is put back on it,
    the anchors at their points (``dynamics.project_state``: Gauss-Newton to PROJ_TOL,
    J W J^T factored at each iteration; a projection factored once, or stopped at 1e-9,
