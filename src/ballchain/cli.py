@@ -174,6 +174,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         + (", anchor cone" if s.get("anchor_cone") else "")
         + f", units = {units}",
         f"  initial condition  {ic_text}",
+        f"  method             {_method_text(s)}",
         f"  status             {s.get('status')}" + (f" ({s['message']})" if s.get("message") else ""),
         f"  free-fall time     t_ff = {_fmt(s.get('t_ff'))} {u_t} (top end at z0 = {_fmt(s.get('z0'))} {u_l})",
         f"  t_fall / t_ff      {with_time('ratio', 't_fall')}",
@@ -218,6 +219,18 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
 
 def _print_json(obj: dict) -> None:
     typer.echo(json.dumps(obj, allow_nan=False))
+
+
+def _method_text(s: dict) -> str:
+    """The method and its accuracy setting, from a run's summary."""
+    if s.get("method") == "timestep":
+        return (
+            f"time-stepping (Moreau-Jean), dt = {_fmt(s.get('dt'))} t_ff/N, theta = {_fmt(s.get('theta'))}, "
+            f"steps {s.get('dt_rule') or 'fixed'}"
+        )
+    if s.get("method") == "event":
+        return f"event-driven, rtol {_fmt(s.get('rtol'), '.3g')}"
+    return str(s.get("method"))
 
 
 def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tuple[dict, tuple | None]:
