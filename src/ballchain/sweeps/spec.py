@@ -133,8 +133,8 @@ class SweepSpec:
     frames_per_tff: float = SolverOptions.frames_per_tff
     max_time: float = SolverOptions.max_time
     method: str = SolverOptions.method
-    dt: float = SolverOptions.dt
-    theta: float = SolverOptions.theta
+    dt: float | None = SolverOptions.dt  # None: by N (SolverOptions.for_segments)
+    theta: float | None = SolverOptions.theta
     dt_rule: str = SolverOptions.dt_rule
     save_runs: str | None = None
     checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
