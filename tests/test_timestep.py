@@ -308,6 +308,77 @@ def test_a_fully_folded_pair_on_one_anchor_creates_no_energy():
     assert r.energy["kinetic"] < 1e-6 * r.energy["initial"]  # at rest at the time cap
 
 
+def _meander_on_the_floor(n, seed):
+    """A chain of n segments lying on the floor in a meander (bends below 0.6 rad, inside
+    alpha = pi/4), every other point anchored where its exact position is (math.fsum of
+    the axes, correctly rounded): the kernels' positions, sums of up to n axes, miss the
+    anchors by their round-off alone.  Returns the stepper's bundles and that miss."""
+    from ballchain.core.dynamics import point_positions
+    from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.state import new_books, new_chain, new_model, new_work
+    from ballchain.methods.timestep.stepper import new_scratch
+
+    rng = np.random.default_rng(seed)
+    heading = np.cumsum(rng.uniform(-0.6, 0.6, n))
+    e = np.stack([np.cos(heading), np.sin(heading), np.zeros(n)], axis=1)
+    chain = new_chain(e, np.zeros((n, 3)), math.pi / 4)
+    chain.anchored[::2] = 1
+    for j in range(0, n + 1, 2):
+        chain.anchor_pos[j] = [2.0 * math.fsum(e[j:, q]) for q in range(3)]
+    model = new_model(math.pi / 4, 0, False, SolverOptions(method="timestep", dt=0.02, theta=1), 10.0, 0.0, 1)
+    ws, sc, books = new_work(n), new_scratch(n), new_books()
+    hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
+    point_positions(chain.Y[0], sc.pv)
+    miss = np.nanmax(np.abs(sc.pv - chain.anchor_pos))
+    return model, chain, ws, sc, books, miss
+
+
+def test_the_projection_leaves_the_round_off_of_a_long_pile_alone():
+    """Round-off is not drift.  A point's position is a sum of the axes below it, so on
+    a pile of N = 16384 segments the points miss their anchors by the round-off of sums
+    of thousands of terms, above an absolute 1e-12 b: projecting it (as the time-stepper
+    did) moves the state by round-off, and Gauss-Newton, unable to get under that floor,
+    ran to its 25-iteration cap at every step (an N = 16384 fall took 60 ms a step, 6.5
+    times the usual, from 0.36 t_ff on).  The tolerance is the one the event-driven
+    method uses, ``projection_tol(N)`` (PROJ_ROUNDOFF b per segment): such a state is
+    left exactly as it is and books no energy to the projection."""
+    from ballchain.core.dynamics import PROJ_TOL, projection_tol
+    from ballchain.methods.timestep.stepper import _project
+
+    n = 16384
+    model, chain, ws, sc, books, miss = _meander_on_the_floor(n, seed=3)
+    assert PROJ_TOL < miss < projection_tol(n)  # round-off above the absolute tolerance, under the scaled one
+    e0 = chain.Y[0].copy()
+    assert _project(model, chain, ws, sc, books) == 0
+    np.testing.assert_array_equal(chain.Y[0], e0)  # not moved at all (no projection ran)
+    assert books.projected[0] == 0.0
+
+
+def test_the_projection_removes_drift_above_the_round_off():
+    """The same pile with its axes turned by 1e-7 rad (drift, as a step leaves it): the
+    projection puts the anchored points back on their anchors, to within the scaled
+    tolerance, and its move is of the size of the drift."""
+    from ballchain.core.dynamics import point_positions, projection_tol
+    from ballchain.core.impacts import hinge_gaps
+    from ballchain.methods.timestep.stepper import _project
+
+    n = 16384
+    model, chain, ws, sc, books, _ = _meander_on_the_floor(n, seed=3)
+    e = chain.Y[0]
+    turn = 1e-7 * np.random.default_rng(4).standard_normal(n)
+    c, s = np.cos(turn), np.sin(turn)
+    e[:, 0], e[:, 1] = c * e[:, 0] - s * e[:, 1], s * e[:, 0] + c * e[:, 1]
+    before = e.copy()
+    point_positions(e, sc.pv)
+    hinge_gaps(e, model.cos_alpha, sc.gaps)
+    drift = np.nanmax(np.abs(sc.pv - chain.anchor_pos))
+    assert drift > 100 * projection_tol(n)
+    _project(model, chain, ws, sc, books)
+    point_positions(e, sc.pts)
+    assert np.nanmax(np.abs(sc.pts - chain.anchor_pos)) <= projection_tol(n)
+    assert 0.0 < np.abs(e - before).max() < 10 * drift
+
+
 def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
     """Each landing step's floor impulse changes the chain's momentum, whose size is at
     most sqrt(2 M T) <= sqrt(2 N E0) (units m = b = g = 1), so their sum over the N

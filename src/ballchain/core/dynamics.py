@@ -54,6 +54,8 @@ REC_VALID, REC_NDROP, REC_ON = 3, 4, 5
 ROW_HINGE, ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_LOCK = 0, 1, 2, 3
 W_V, W_W = 1.0, 3.0  # inverse mass and inverse moment of inertia, nondimensional
 DROP_RTOL = 1e-11  # relative pivot below which a constraint row is treated as redundant
+PROJ_TOL = 1e-12  # constraint drift tolerated before projection (b; at least)
+PROJ_ROUNDOFF = 1e-13  # ... and per segment: the round-off of positions summed over N segments
 
 
 # --------------------------------------------------------------------------- rows
@@ -1258,6 +1260,17 @@ def _rates_for_axes(e, de, w):
         w[i, 0] = e[i, 1] * de[i, 2] - e[i, 2] * de[i, 1]
         w[i, 1] = e[i, 2] * de[i, 0] - e[i, 0] * de[i, 2]
         w[i, 2] = e[i, 0] * de[i, 1] - e[i, 1] * de[i, 0]
+
+
+@njit(cache=True, inline="always")
+def projection_tol(n):
+    """Constraint drift (b) left as it is by the projection of either method: PROJ_TOL,
+    or the round-off of point positions summed over n segments (PROJ_ROUNDOFF n),
+    whichever is larger.  Projecting round-off only moves the state by round-off, and
+    changes its energy each time (docs/model.md, section 3, "The books"); under an
+    absolute tolerance, Gauss-Newton cannot get below the round-off floor of a long
+    chain's positions and runs to its cap at every call."""
+    return max(PROJ_TOL, PROJ_ROUNDOFF * n)
 
 
 @njit(cache=True)

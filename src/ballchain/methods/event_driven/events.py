@@ -32,7 +32,14 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.books import PROJECTED_AT_INSTANTS, fill_frame_books, log_row, mechanical_energy
-from ...core.dynamics import kinetic_energy, point_positions, project_state, reuse_factors, velocities
+from ...core.dynamics import (
+    kinetic_energy,
+    point_positions,
+    project_state,
+    projection_tol,
+    reuse_factors,
+    velocities,
+)
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
 from ...core.jit import entry, njit
 from ...core.rules import (
@@ -55,7 +62,7 @@ from ...core.rules import (
     settle_anchors,
 )
 from ...floors.dispatch import floor_contacts, top_event
-from .integrator import ADV_EVENT, advance, projection_tol
+from .integrator import ADV_EVENT, advance
 from .watch import EV_LANDING, EV_TOP, EV_UNLOCK, apex_times, arm_functions
 
 

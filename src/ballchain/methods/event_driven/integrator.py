@@ -61,6 +61,7 @@ from ...core.dynamics import (
     pile_pull,
     potential_energy,
     project_state,
+    projection_tol,
     reuse_factors,
 )
 from ...core.jit import njit
@@ -130,17 +131,6 @@ ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0,
 ADV_GO = -1  # (internal) no reason to return: take the step
 
 NSCAN = 16  # samples per step for a triggered departing function
-PROJ_TOL = 1e-12  # constraint drift tolerated before projection (b; at least)
-PROJ_ROUNDOFF = 1e-13  # ... and per segment: the round-off of positions summed over N segments
-
-
-@njit(cache=True, inline="always")
-def projection_tol(n):
-    """Constraint drift (b) left as it is by the projection after a step or an instant:
-    PROJ_TOL, or the round-off of point positions summed over n segments (PROJ_ROUNDOFF n),
-    whichever is larger.  Projecting round-off only moves the state by round-off, and
-    changes its energy each time (docs/model.md, section 3, "The books")."""
-    return max(PROJ_TOL, PROJ_ROUNDOFF * n)
 
 
 Found = namedtuple(

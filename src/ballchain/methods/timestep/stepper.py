@@ -31,7 +31,7 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
 5. **Positions**: each airborne axis turns exactly (Rodrigues) by h (theta w+ + (1 - theta) w),
    theta = ``SolverOptions.theta`` (by default 1/2 below N = 1024, 1 from it); V+ is kept.
 6. **Projection** (positions only): any hinge found past its limit is put back on it,
-   the anchors at their points (``dynamics.project_state``: Gauss-Newton to PROJ_TOL,
+   the anchors at their points (``dynamics.project_state``: Gauss-Newton to ``projection_tol``,
    J W J^T factored at each iteration; a projection factored once, or stopped at 1e-9,
    left the books' imbalance larger).
 
@@ -58,6 +58,7 @@ from ...core.dynamics import (
     point_positions,
     potential_energy,
     project_state,
+    projection_tol,
     reuse_factors,
     velocities,
 )
@@ -87,7 +88,6 @@ DT_LANDING = DT_RULES["landing"]  # the code of dt_rule landing
 MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
 ANCHOR_RATE_TOL = 1e-6  # an anchored point faster than this after the impact problem: its rows were not met
 KE_RTOL = 1e-9  # an impact problem may raise the kinetic energy by this fraction at most (round-off)
-PROJ_TOL = 1e-12  # constraint drift tolerated before projection
 PROJ_ITERS = 25  # Gauss-Newton iterations of the projection at most
 PROJ_MOVE_MAX = 0.1  # b: a projection that moves a point further is undone
 PROJ_MOVE_RATIO = 1e3  # ... or further than this many times the largest residual it removes
@@ -411,7 +411,8 @@ def _project(model, chain, ws, sc, books):
             inside = limit_in_force(anchored, k, model.cone, model.alpha)
             locked[k] = 1 if (attempt == 0 and sc.gaps[k] < 0.0 and inside) else 0
             chain.lock_cos[k] = model.cos_alpha
-        res0 = project_state(chain, ws, sc.pts, sc.vel, PROJ_TOL, np.int64(PROJ_ITERS), False)
+        tol = projection_tol(e.shape[0])
+        res0 = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
         point_positions(e, sc.pts)
         moved = 0.0
         for j in range(sc.pts.shape[0]):
@@ -429,17 +430,19 @@ def _project(model, chain, ws, sc, books):
 
 @njit(cache=True)
 def _nothing_to_project(model, chain, sc):
-    """No hinge in force past its limit (sc.gaps, by more than PROJ_TOL: a hinge put on
-    its limit by the last projection sits there to round-off, either side) and every
-    anchored point at its anchor to PROJ_TOL (sc.pv: the point positions)."""
+    """No hinge in force past its limit (sc.gaps, by more than the projection's
+    tolerance, ``projection_tol``: a hinge put on its limit by the last projection sits
+    there to round-off, either side) and every anchored point at its anchor to that
+    tolerance (sc.pv: the point positions)."""
     anchored = chain.anchored
+    tol = projection_tol(sc.gaps.shape[0] + 1)
     for k in range(sc.gaps.shape[0]):
-        if sc.gaps[k] < -PROJ_TOL and limit_in_force(anchored, k, model.cone, model.alpha):
+        if sc.gaps[k] < -tol and limit_in_force(anchored, k, model.cone, model.alpha):
             return False
     for j in range(anchored.shape[0]):
         if anchored[j] != 0:
             for q in range(3):
-                if abs(sc.pv[j, q] - chain.anchor_pos[j, q]) > PROJ_TOL:
+                if abs(sc.pv[j, q] - chain.anchor_pos[j, q]) > tol:
                     return False
     return True
 
