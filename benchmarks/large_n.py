@@ -5,7 +5,8 @@
 Reads every landed run of the tables at one alpha and floor (``--alpha-deg 45``, ``--floor
 all``) (``ballchain sweep`` output, any mix of methods and
 N; rows are grouped by N, method, dt, rtol and engine; a run found in several tables,
-the same ``run_id`` made by the same engine, counts once) and prints, per group: the runs, the
+the same ``run_id`` made by the same engine, counts once; ``--pool-engines A,B`` counts the
+rows of the engines named as one) and prints, per group: the runs, the
 mean of t_fall/t_ff with its 95% bootstrap (BCa) interval, the fraction of runs faster
 than free fall, and the medians of gamma measured (the floor's momentum record) and
 inferred (from t_fall/t_ff), and how many of its runs did not land (status ``error``:
@@ -68,7 +69,8 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "theta": float(key[3]) if key[1] == "timestep" else None,
                 "dt_rule": key[4] if key[1] == "timestep" else None,
                 "rtol": float(key[5]) if key[1] != "timestep" else None,
-                "engine": key[6],
+                "engine": "+".join(sorted(set(g["engine_made"]))) if "engine_made" in g else key[6],
+                "engine_key": key[6],  # the engine it was grouped by (the pooled engines' label)
                 "runs": len(x),
                 "mean": float(np.mean(x)),
                 "lo": float(lo),
@@ -245,6 +247,18 @@ def _fit(ns, ratio_sets, seed=20261125, n_boot=400):
     return popt, (float(lo), float(hi)), len(boot)
 
 
+def _pool_engines(df: pd.DataFrame, engines: list[str]) -> pd.DataFrame:
+    """The rows of ``engines`` grouped as one engine (a group names the engines its rows
+    were made by, "A+B"; a start run by two of them would count twice: refused)."""
+    pooled = df["engine"].isin(engines)
+    both = df[pooled].groupby("run_id")["engine"].nunique() if "run_id" in df else pd.Series(dtype=int)
+    if (both > 1).any():
+        sys.exit(f"--pool-engines: runs made by several of the pooled engines: {list(both[both > 1].index)[:3]}")
+    df = df.assign(engine_made=df["engine"])
+    df.loc[pooled, "engine"] = "+".join(engines)
+    return df
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("tables", nargs="+")
@@ -268,6 +282,12 @@ def main() -> None:
     ap.add_argument("--cost-plot", help="figure of the median wall per fall against N (log-log)")
     ap.add_argument("--alpha-deg", type=float, default=45.0, help="the alpha of the rows used (degrees)")
     ap.add_argument("--floor", default="all", help="the floor model of the rows used")
+    ap.add_argument(
+        "--pool-engines",
+        default="",
+        help="comma-separated engines whose rows count as one group where they share N, method and step "
+        "(engines that differ only in round-off-level details, said in the docs: e.g. a tolerance)",
+    )
     args = ap.parse_args()
     df = pd.concat([pd.read_parquet(t) for t in args.tables], ignore_index=True)
     if "method" not in df:
@@ -286,6 +306,8 @@ def main() -> None:
     if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
         df = df.drop_duplicates(subset=["run_id", "engine"])
     df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
+    if args.pool_engines:
+        df = _pool_engines(df, [e.strip() for e in args.pool_engines.split(",") if e.strip()])
     ok = (df["status"] == "landed") & np.isfinite(df["ratio"])
     keys = ["segments", "method", "dt", "theta", "dt_rule", "rtol", "engine"]
     bad = df[~ok].assign(rtol=df["rtol"].where(df["method"] != "timestep", math.nan))
@@ -297,7 +319,7 @@ def main() -> None:
     for g in groups:  # the runs of the group that did not land (status error: a broken run, books not closed)
         where = (
             g["segments"], g["method"], g["dt"] or -1.0, g["theta"] or -1.0, g["dt_rule"] or "", g["rtol"] or -1.0,
-            g["engine"],
+            g["engine_key"],
         )  # fmt: skip
         g["failed"] = int(failed.get(where, 0))
     # the fit: at each N one group, chosen by _fit_rank
