@@ -379,6 +379,50 @@ def test_the_projection_removes_drift_above_the_round_off():
     assert 0.0 < np.abs(e - before).max() < 10 * drift
 
 
+def test_a_frozen_block_whose_anchors_miss_does_not_move_the_chain_above_it():
+    """A pile's landed segments are frozen, and point positions are sums of the axes
+    from the bottom: no turn of the airborne segments above a landed block moves the
+    block's points.  So when a landed segment's two anchors are off its length (both its
+    ends anchored in one time step, each beside another anchored neighbour: an N = 16384
+    fall had one 1e-5 b off), the misses of the anchors above it are not drift, and a
+    projection must not chase them: it ran Gauss-Newton to its cap at every step (57 ms a
+    step instead of 9-15) and turned the hanging chain by what it could not remove.  Here:
+    24 segments lying along x, the anchors of the upper half of them 1e-5 b off, 40
+    segments hanging straight up from the block's top point, at rest with every
+    constraint of their own met.  The projection (of the core, and the time-stepper's)
+    leaves the hanging chain exactly where it is."""
+    from ballchain.core.dynamics import point_positions, project_state, projection_tol
+    from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.state import new_books, new_chain, new_model, new_work
+    from ballchain.methods.timestep.stepper import _project, new_scratch
+
+    n, top = 64, 40  # segments 40..63 landed (points 40..64 anchored), 0..39 hanging
+    e = np.zeros((n, 3))
+    e[:top, 2] = 1.0  # hanging straight up (axes point up the chain)
+    e[top:, 0] = -1.0  # lying along x on the floor, towards the pivot at the origin
+    chain = new_chain(e, np.zeros((n, 3)), math.pi / 4)
+    pts = np.zeros((n + 1, 3))
+    point_positions(e, pts)
+    chain.anchored[top:] = 1
+    chain.anchor_pos[top:] = pts[top:]
+    chain.anchor_pos[top:52] += [1e-5, -3e-6, 0.0]  # segment 51's anchors are off its length
+    assert abs(np.linalg.norm(chain.anchor_pos[51] - chain.anchor_pos[52]) - 2.0) > 5e-6
+
+    ws = new_work(n)
+    sc_pts, sc_vel = np.zeros((n + 1, 3)), np.zeros((n, 3))
+    before = chain.Y.copy()
+    project_state(chain, ws, sc_pts, sc_vel, projection_tol(n), np.int64(25), False)
+    np.testing.assert_array_equal(chain.Y, before)  # nothing it could remove, nothing moved
+
+    model = new_model(math.pi / 4, 0, False, SolverOptions(method="timestep", dt=0.02, theta=1), 10.0, 0.0, 1)
+    sc, books = new_scratch(n), new_books()
+    hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
+    point_positions(chain.Y[0], sc.pv)
+    assert _project(model, chain, ws, sc, books) == 0
+    np.testing.assert_array_equal(chain.Y, before)
+    assert books.projected[0] == 0.0
+
+
 def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
     """Each landing step's floor impulse changes the chain's momentum, whose size is at
     most sqrt(2 M T) <= sqrt(2 N E0) (units m = b = g = 1), so their sum over the N

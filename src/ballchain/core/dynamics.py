@@ -1192,14 +1192,29 @@ def normalize_state(e, w, anchored):
             w[i, 2] -= p * e[i, 2]
 
 
+@njit(cache=True, inline="always")
+def drift_removable(anchored, j):
+    """Whether a projection can move anchored point j (0..N) onto its anchor: only by
+    turning the segment below it, j, so only if that one is airborne.  Positions are sums
+    of the axes from the bottom (``point_positions``): a point whose lower segment is
+    landed (frozen) is where that segment's upper end is, and the row that holds it there
+    (ROW_ANCHOR_LOWER of the segment above) is a joint to a frozen body, met by
+    construction.  Its anchor's miss (a landed segment whose two ends were anchored in
+    one time step, each beside another anchored neighbour, has its anchors off its length
+    by the drift between them) is not drift: no turn of the airborne segments changes it."""
+    return j < anchored.shape[0] - 1 and not _is_landed(anchored, j)
+
+
 @njit(cache=True)
 def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, out):
-    """Residual of every row at the position level: anchors (point - anchor), locks
-    (e_a . e_c - lock_cos: the cosine at which the hinge locked, cos(alpha) to within the
-    event tolerance), hinges 0 (positions are built from e).  Returns max |.|."""
+    """Residual of every row at the position level: anchors (point - anchor, where
+    ``drift_removable``; else 0), locks (e_a . e_c - lock_cos: the cosine at which the
+    hinge locked, cos(alpha) to within the event tolerance), hinges 0 (positions are
+    built from e).  Returns max |.|."""
     point_positions(e, pts)
     worst = 0.0
     for j in range(nrow.shape[0]):
+        removable = drift_removable(anchored, j)
         for r in range(nrow[j]):
             k = kind[j, r]
             if k == ROW_HINGE:
@@ -1207,8 +1222,10 @@ def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pt
             elif k == ROW_LOCK:
                 a = j - 1
                 out[j, r] = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - lock_cos[a]
-            else:
+            elif removable:
                 out[j, r] = pts[j, r % 3] - anchor_pos[j, r % 3]
+            else:
+                out[j, r] = 0.0
             worst = max(worst, abs(out[j, r]))
     return worst
 

@@ -51,6 +51,7 @@ import numpy as np
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
 from ...core.dynamics import (
     W_V,
+    drift_removable,
     fits4,
     forces4,
     generalized_forces,
@@ -432,15 +433,16 @@ def _project(model, chain, ws, sc, books):
 def _nothing_to_project(model, chain, sc):
     """No hinge in force past its limit (sc.gaps, by more than the projection's
     tolerance, ``projection_tol``: a hinge put on its limit by the last projection sits
-    there to round-off, either side) and every anchored point at its anchor to that
-    tolerance (sc.pv: the point positions)."""
+    there to round-off, either side) and every anchored point whose drift a projection
+    can remove (``drift_removable``) at its anchor to that tolerance (sc.pv: the point
+    positions)."""
     anchored = chain.anchored
     tol = projection_tol(sc.gaps.shape[0] + 1)
     for k in range(sc.gaps.shape[0]):
         if sc.gaps[k] < -tol and limit_in_force(anchored, k, model.cone, model.alpha):
             return False
     for j in range(anchored.shape[0]):
-        if anchored[j] != 0:
+        if anchored[j] != 0 and drift_removable(anchored, j):
             for q in range(3):
                 if abs(sc.pv[j, q] - chain.anchor_pos[j, q]) > tol:
                     return False
