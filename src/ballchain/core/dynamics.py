@@ -1284,9 +1284,7 @@ def projection_tol(n):
     """Constraint drift (b) left as it is by the projection of either method: PROJ_TOL,
     or the round-off of point positions summed over n segments (PROJ_ROUNDOFF n),
     whichever is larger.  Projecting round-off only moves the state by round-off, and
-    changes its energy each time (docs/model.md, section 3, "The books"); under an
-    absolute tolerance, Gauss-Newton cannot get below the round-off floor of a long
-    chain's positions and runs to its cap at every call."""
+    changes its energy each time (docs/model.md, section 3, "The books")."""
     return max(PROJ_TOL, PROJ_ROUNDOFF * n)
 
 
