@@ -20,9 +20,8 @@ from ballchain.records.files import (
     check_writable,
     load_result,
     save_result,
-    unit_of,
 )
-from ballchain.records.result import EVENT_KINDS, Result
+from ballchain.records.result import EVENT_KINDS, Result, unit_of
 
 
 def make_result(

@@ -9,7 +9,7 @@ from pathlib import Path
 
 def _hdf5_layout() -> str:
     from ballchain.records import files
-    from ballchain.records.result import QUANTITY
+    from ballchain.records.result import QUANTITY, unit_of
 
     rows = [
         "# The result file (HDF5)",
@@ -29,8 +29,8 @@ def _hdf5_layout() -> str:
         for name in names:
             q = QUANTITY.get(name, "1")
             text = str(files.DESCRIPTIONS.get(name, name)).replace("|", "\\|")
-            rows.append(f"| `/{group}` | `{name}` | {q} | {files.unit_of(name, 'nondimensional')} | "
-                        f"{files.unit_of(name, 'SI')} | {text} |")  # fmt: skip
+            rows.append(f"| `/{group}` | `{name}` | {q} | {unit_of(name, 'nondimensional')} | "
+                        f"{unit_of(name, 'SI')} | {text} |")  # fmt: skip
     rows += ["", "Frame conventions (the `conventions` attribute of `/frames`):", "", "```text",
              str(files.CONVENTIONS), "```", ""]  # fmt: skip
     return "\n".join(rows)

@@ -17,7 +17,7 @@ _LAZY = {
     "ChainParams": ("ballchain.model", "ChainParams"),
     "InitialCondition": ("ballchain.model", "InitialCondition"),
     "SolverOptions": ("ballchain.model", "SolverOptions"),
-    "ParameterError": ("ballchain.model", "ParameterError"),
+    "ParameterError": ("ballchain.errors", "ParameterError"),
     "Result": ("ballchain.records.result", "Result"),
 }
 __all__ = ["__version__", *_LAZY]

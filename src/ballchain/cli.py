@@ -160,7 +160,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     imb = en.get("imbalance")
     rel = _div(imb, abs(init) if init else None)
     units = s.get("units") or "nondimensional"
-    from .records.files import unit_of
+    from .records.result import unit_of
 
     u_t, u_l, u_e, u_i = (unit_of(q, units) for q in ("t", "z0", "frame_kinetic", "floor_impulse"))
 

@@ -19,15 +19,12 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from .errors import ParameterError  # noqa: F401  (re-exported: the model's validation raises it)
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
 from .methods import DT_RULES, METHOD_NAMES, default_step  # noqa: E402  (one registry of methods)
 
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
-
-
-class ParameterError(ValueError):
-    """An invalid parameter; the message names it."""
 
 
 def _finite_positive(name: str, value: float) -> float:

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.state import FRAME_FIELDS
-from ..model import ParameterError
+from ..errors import ParameterError
 
 FORMAT = "ballchain-checkpoint/1"
 DEFAULT_EVERY = 600.0  # seconds of wall time between checkpoints

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .files import check_writable, unit_of
-from .result import Result
+from .files import check_writable
+from .result import Result, unit_of
 
 FORMATS = ("xyz", "vtk")
 

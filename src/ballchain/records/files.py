@@ -46,7 +46,7 @@ import numpy as np
 
 from .. import __version__
 from ..model import ChainParams, InitialCondition, ParameterError, SolverOptions
-from .result import EVENT_KINDS, EVENT_MEANINGS, QUANTITY, Result
+from .result import EVENT_KINDS, EVENT_MEANINGS, Result, unit_of
 
 FORMAT_NAME = "ballchain-result"
 FORMAT_VERSION = 2  # 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
@@ -64,27 +64,6 @@ CONVENTIONS = (
 # big datasets (bytes) are chunked + compressed
 _COMPRESS_MIN_BYTES = 16 * 1024
 _CHUNK_BYTES = 1 << 20
-
-_UNITS_SI = {
-    "time": "s",
-    "length": "m",
-    "force": "N",
-    "impulse": "N s",
-    "energy": "J",
-    "1/time": "1/s",
-    "1": "1",
-    "s": "s",
-}
-_UNITS_ND = {
-    "time": "sqrt(b/g)",
-    "length": "b",
-    "force": "m g",
-    "impulse": "m sqrt(g b)",
-    "energy": "m g b",
-    "1/time": "sqrt(g/b)",
-    "1": "1",
-    "s": "s",
-}
 
 GROUPS = {
     "summary": (
@@ -177,12 +156,6 @@ class ResultFileError(ValueError):
 
 
 # --------------------------------------------------------------------------- helpers
-def unit_of(name: str, units: str) -> str:
-    """Unit string of a Result field in the given units system (``SI`` or not)."""
-    table = _UNITS_SI if units == "SI" else _UNITS_ND
-    return table[QUANTITY.get(name, "1")]
-
-
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip() or type(exc).__name__
     return text.splitlines()[0].strip()

@@ -17,7 +17,7 @@ import numpy as np
 from ..core.kinds import EVENT_CODES, EVENT_KINDS, EVENT_MEANINGS  # noqa: F401  (re-exported)
 from ..model import ChainParams, InitialCondition, SolverOptions
 
-# field -> physical quantity; files.py turns these into unit strings
+# field -> physical quantity; unit_of turns these into unit strings
 QUANTITY = {
     "z0": "length",
     "t_ff": "time",
@@ -54,6 +54,34 @@ QUANTITY = {
     "n_evals": "1",
     "n_instants": "1",
 }
+
+
+_UNITS_SI = {
+    "time": "s",
+    "length": "m",
+    "force": "N",
+    "impulse": "N s",
+    "energy": "J",
+    "1/time": "1/s",
+    "1": "1",
+    "s": "s",
+}
+_UNITS_ND = {
+    "time": "sqrt(b/g)",
+    "length": "b",
+    "force": "m g",
+    "impulse": "m sqrt(g b)",
+    "energy": "m g b",
+    "1/time": "sqrt(g/b)",
+    "1": "1",
+    "s": "s",
+}
+
+
+def unit_of(name: str, units: str) -> str:
+    """Unit string of a Result field in the given units system (``SI`` or not)."""
+    table = _UNITS_SI if units == "SI" else _UNITS_ND
+    return table[QUANTITY.get(name, "1")]
 
 
 @dataclass
@@ -179,8 +207,6 @@ class Result:
         Units of every column in ``DataFrame.attrs["units"]``."""
         import pandas as pd
 
-        from .files import unit_of
-
         imp, pos = np.asarray(self.event_impulse), np.asarray(self.event_pos)
         df = pd.DataFrame({
             "t": np.asarray(self.event_t),
@@ -204,8 +230,6 @@ class Result:
         with both ends anchored), n_locked (locked hinges).  Units in ``attrs["units"]``;
         the frames' axes and rates stay arrays (``frame_e``, ``points()``)."""
         import pandas as pd
-
-        from .files import unit_of
 
         anchored = np.asarray(self.frame_anchored, dtype=bool)
         landed = anchored[:, :-1] & anchored[:, 1:] if anchored.size else np.zeros((0, 0), bool)
