@@ -304,7 +304,9 @@ def main() -> None:
     df["theta"] = df["theta"].fillna(0.5).where(df["method"] == "timestep", math.nan)
     if "dt_rule" not in df:  # (tables written before the column: every step was dt t_ff/N)
         df["dt_rule"] = None
-    df["dt_rule"] = df["dt_rule"].fillna("fixed").where(df["method"] == "timestep", "")
+    # empty (NaN, or "": a sweep that extends an older table fills its rows so) means fixed
+    rule = df["dt_rule"].where(df["dt_rule"].notna() & (df["dt_rule"] != ""), "fixed")
+    df["dt_rule"] = rule.where(df["method"] == "timestep", "")
     df["engine"] = df["engine"].fillna("unknown") if "engine" in df else "unknown"
     if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
         df = df.drop_duplicates(subset=["run_id", "engine"])
