@@ -5,12 +5,13 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 from typer.testing import CliRunner
 
 from ballchain.cli import app
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
-from ballchain.records.audit import DEPTH_TOL, ENERGY_RTOL, audit, audited
+from ballchain.records.audit import DEPTH_TOL, ENERGY_RTOL, anchor_miss, audit, audited
 
 
 def _run(**kw):
@@ -55,3 +56,31 @@ def test_a_run_that_breaks_the_model_exits_1_and_says_which_book():
     s = json.loads(res.stdout)
     assert s["status"] == "error" and "energy books do not close" in s["message"]
     assert "below the floor" in s["message"]
+
+
+def test_an_anchored_point_off_its_anchor_fails_loudly():
+    """A run keeps every anchored point that the airborne chain could move on its anchor
+    to its projection's tolerance, in every frame; a result whose anchor is moved by
+    1e-3 b (what a projection that cannot converge leaves) fails the audit.  An anchor
+    under a landed segment is not such a point: its segment is frozen where it landed."""
+    for method in ("event", "timestep"):
+        r = simulate(
+            ChainParams(segments=8, alpha=math.pi / 4), InitialCondition(eps=0.05), SolverOptions(method=method)
+        )
+        miss, _ = anchor_miss(r)
+        assert miss <= 1e-9, (method, miss)
+        anchored = np.asarray(r.frame_anchored) != 0
+        n = r.params.segments
+        # a point anchored above an airborne segment (in some frame): the chain could move it
+        _, j = next(
+            (k, j) for k in range(len(r.frame_t)) for j in range(n) if anchored[k, j] and not anchored[k, j + 1]
+        )
+        moved = np.array(r.anchor_pos, dtype=float)
+        moved[j, 0] += 1e-3 * r.params.half_length
+        bad = audited(dataclasses.replace(r, anchor_pos=moved))
+        assert bad.status == "error", method
+        assert "an anchored point was 0.001 b from its anchor" in bad.message
+        # point N - 1 lands with segment N - 1 (its lower end is the pivot): frozen from then on
+        moved = np.array(r.anchor_pos, dtype=float)
+        moved[n - 1, 0] += 1e-3 * r.params.half_length
+        assert anchored[-1, n - 1] and audit(dataclasses.replace(r, anchor_pos=moved)) == []

@@ -11,6 +11,9 @@ and a message that names the book and the amounts (its data is kept).
   tolerance (``tests/test_events.py``), so 1e-8 flags a run whose books do not close.
 * Depth: under a floor model that watches every free point, no point goes below the
   floor by more than ``DEPTH_TOL`` (units b): a deeper point is a missed landing.
+* Anchors: in every frame, every anchored point that a turn of the airborne chain can
+  move is within ``ANCHOR_TOL`` (units b) of its anchor (``anchor_miss``); a point
+  further off means the constraints were broken (a projection that could not converge).
 
 The time-stepping method is first order in its step: its imbalance and depth are its
 own error, reported as they are, shrinking with dt (docs/timestep.md), and checked
@@ -24,6 +27,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from ..floors.registry import WATCHES_EVERY_POINT
 from .result import Result
 
@@ -31,6 +36,7 @@ ENERGY_RTOL = 1e-8  # |E0 - U - T - E_lock - E_land| / E0 at most
 DEPTH_TOL = 1e-8  # deepest point below a floor that watches every point, units b
 TIMESTEP_ENERGY_RTOL = 0.1  # the same, for the time-stepping method (its first-order error)
 TIMESTEP_DEPTH_TOL = 0.1  # the same, units b
+ANCHOR_TOL = 1e-6  # b: an anchored point this far from its anchor in a frame breaks a constraint (both methods)
 
 
 def tolerances(method: str) -> tuple[float, float]:
@@ -66,6 +72,32 @@ def _measured(result: Result) -> tuple[float, float, float]:
     return abs(float(e.get("initial", math.nan))), float(e.get("imbalance", math.nan)), depth
 
 
+def anchor_miss(result: Result) -> tuple[float, float]:
+    """(the largest distance of an anchored point from its anchor over the frames, in b;
+    the time of that frame), over the points a turn of the airborne chain can move: an
+    anchored point whose lower segment has not landed (positions are sums of the axes
+    from the pivot, so a point on a landed segment is where that segment puts it).  Both
+    methods keep these on their anchors to their projection's tolerance (1e-12 b to
+    1e-13 N b); (0, NaN) without frames or anchors."""
+    e = np.asarray(result.frame_e)
+    anchored = np.asarray(result.frame_anchored) != 0
+    if e.size == 0 or not anchored.any():
+        return 0.0, math.nan
+    anchor = np.asarray(result.anchor_pos, dtype=float)
+    worst, when = 0.0, math.nan
+    for k in range(e.shape[0]):
+        a = anchored[k]
+        movable = a.copy()
+        movable[-1] = False  # the pivot's point: the origin of the sum
+        movable[:-1] &= ~(a[:-1] & a[1:])  # the segment below has landed
+        if not movable.any():
+            continue
+        miss = float(np.max(np.abs(result.points(k)[movable] - anchor[movable])))
+        if miss > worst:
+            worst, when = miss, float(result.frame_t[k])
+    return worst / result.params.half_length, when
+
+
 def audit(result: Result) -> list[str]:
     """The books of ``result`` that do not close, each as a sentence (empty: all close)."""
     failed = []
@@ -81,6 +113,12 @@ def audit(result: Result) -> list[str]:
         )
     if result.params.floor in WATCHES_EVERY_POINT and not depth <= depth_tol:
         failed.append(f"a point went {depth:.3g} b below the floor (tolerance {depth_tol:g} b): a missed landing")
+    miss, when = anchor_miss(result)
+    if not miss <= ANCHOR_TOL:
+        failed.append(
+            f"an anchored point was {miss:.3g} b from its anchor at t = {when:.6g} "
+            f"(tolerance {ANCHOR_TOL:g} b): the constraints were broken"
+        )
     return failed
 
 
