@@ -72,9 +72,7 @@ def test_an_anchored_point_off_its_anchor_fails_loudly():
         anchored = np.asarray(r.frame_anchored) != 0
         n = r.params.segments
         # a point anchored above an airborne segment (in some frame): the chain could move it
-        _, j = next(
-            (k, j) for k in range(len(r.frame_t)) for j in range(n) if anchored[k, j] and not anchored[k, j + 1]
-        )
+        j = next(j for k in range(len(r.frame_t)) for j in range(n) if anchored[k, j] and not anchored[k, j + 1])
         moved = np.array(r.anchor_pos, dtype=float)
         moved[j, 0] += 1e-3 * r.params.half_length
         bad = audited(dataclasses.replace(r, anchor_pos=moved))
