@@ -82,3 +82,38 @@ def test_an_anchored_point_off_its_anchor_fails_loudly():
         moved = np.array(r.anchor_pos, dtype=float)
         moved[n - 1, 0] += 1e-3 * r.params.half_length
         assert anchored[-1, n - 1] and audit(dataclasses.replace(r, anchor_pos=moved)) == []
+
+
+def _bend(u, angle):
+    """A unit vector at ``angle`` from the unit vector ``u``."""
+    w = np.cross(u, [0.0, 0.0, 1.0] if abs(u[2]) < 0.9 else [1.0, 0.0, 0.0])
+    w /= np.linalg.norm(w)
+    return math.cos(angle) * u + math.sin(angle) * w
+
+
+def test_a_hinge_bent_past_its_limit_fails_loudly():
+    """No frame of a sound run has a hinge whose limit is in force bent past it by more
+    than the method's tolerance (the event-driven method: round-off; the time-stepper: its
+    first-order overshoot, a few dt); a result with one hinge of the airborne chain bent
+    0.3 rad past the limit (cosine 0.24 past it) fails the audit naming the hinge.  A
+    bend past the limit where the limit is not in force (alpha = pi) is not a break."""
+    from ballchain.records.audit import hinge_excess, hinge_tolerance
+
+    alpha = math.pi / 4
+    for method in ("event", "timestep"):
+        r = simulate(ChainParams(segments=8, alpha=alpha), InitialCondition(eps=0.05), SolverOptions(method=method))
+        excess, _, _ = hinge_excess(r)
+        assert excess <= 0.5 * hinge_tolerance(r.options), (method, excess)
+        e = np.array(r.frame_e, dtype=float)
+        e[0, 3] = _bend(e[0, 2] / np.linalg.norm(e[0, 2]), alpha + 0.3)
+        bent = dataclasses.replace(r, frame_e=e)
+        excess, when, hinge = hinge_excess(bent)
+        assert hinge == 2 and when == r.frame_t[0]
+        assert math.isclose(excess, math.cos(alpha) - math.cos(alpha + 0.3), rel_tol=1e-9)
+        bad = audited(bent)
+        assert bad.status == "error", method
+        assert "hinge 2 was bent past its limit by 0.241 in the cosine" in bad.message
+    free = simulate(ChainParams(segments=8, alpha=math.pi), InitialCondition(eps=0.05), SolverOptions())
+    e = np.array(free.frame_e, dtype=float)
+    e[0, 3] = _bend(e[0, 2] / np.linalg.norm(e[0, 2]), 2.0)
+    assert audit(dataclasses.replace(free, frame_e=e)) == []

@@ -14,10 +14,15 @@ and a message that names the book and the amounts (its data is kept).
 * Anchors: in every frame, every anchored point that a turn of the airborne chain can
   move is within ``ANCHOR_TOL`` (units b) of its anchor (``anchor_miss``); a point
   further off means the constraints were broken (a projection that could not converge).
+* Hinge limits: in every frame, no hinge whose limit is in force is bent past it by
+  more than ``HINGE_TOL`` in the cosine (``hinge_excess``); the time-stepping method,
+  whose bends pass their limits within a step and are not always put back by its
+  projection, by more than ``TIMESTEP_HINGE_PER_DT`` times its --dt.
 
 The time-stepping method is first order in its step: its imbalance and depth are its
 own error, reported as they are, shrinking with dt (docs/timestep.md), and checked
-against looser bounds (``TIMESTEP_ENERGY_RTOL``, ``TIMESTEP_DEPTH_TOL``) that a
+against looser bounds (``TIMESTEP_ENERGY_RTOL``, ``TIMESTEP_DEPTH_TOL``,
+``TIMESTEP_HINGE_PER_DT``) that a
 broken run exceeds (a chain through the floor, a blown-up step) and a sound one does
 not at the default dt.
 """
@@ -37,6 +42,14 @@ DEPTH_TOL = 1e-8  # deepest point below a floor that watches every point, units 
 TIMESTEP_ENERGY_RTOL = 0.1  # the same, for the time-stepping method (its first-order error)
 TIMESTEP_DEPTH_TOL = 0.1  # the same, units b
 ANCHOR_TOL = 1e-6  # b: an anchored point this far from its anchor in a frame breaks a constraint (both methods)
+HINGE_TOL = 1e-7  # cos(alpha) - cos(bend) at most, over the hinges whose limit is in force, in every frame
+# The time-stepper's bends pass their limits within a step by up to w h sin(alpha) in the
+# cosine (w the bend's rate: near the pile w ~ 2 v / b, v ~ 2 sqrt(N) sqrt(g b), and
+# h = dt t_ff / N = 2 dt / sqrt(N) sqrt(b / g): about 6 dt); its projection puts them
+# back, but not when that would move a point further than 0.1 b (it is then undone),
+# and it can push a neighbour past.  Sound falls keep them within 3 dt (0.06 at N = 1024,
+# dt 0.02), so the bound is per unit dt:
+TIMESTEP_HINGE_PER_DT = 10.0
 
 
 def tolerances(method: str) -> tuple[float, float]:
@@ -98,6 +111,42 @@ def anchor_miss(result: Result) -> tuple[float, float]:
     return worst / result.params.half_length, when
 
 
+def hinge_tolerance(options) -> float:
+    """The most a bend may pass its limit (in the cosine) in a frame of a run with
+    ``options``: ``HINGE_TOL``, or ``TIMESTEP_HINGE_PER_DT`` dt for the time-stepper."""
+    if options.method == "timestep":
+        return TIMESTEP_HINGE_PER_DT * float(options.dt)
+    return HINGE_TOL
+
+
+def hinge_excess(result: Result) -> tuple[float, float, int]:
+    """(the largest cos(alpha) - cos(bend) over the frames and the hinges whose limit is
+    in force, 0 if none is past it; the time of that frame; the hinge, -1 if none): the
+    rule of ``core.rules.limit_in_force`` over whole frames at once (a frame has no
+    anchor being made: its marks are 0 or 1)."""
+    p = result.params
+    e = np.asarray(result.frame_e, dtype=float)
+    if e.size == 0 or p.alpha >= math.pi or e.shape[1] < 2:
+        return 0.0, math.nan, -1
+    anchored = np.asarray(result.frame_anchored) != 0
+    cos_alpha = math.cos(p.alpha)
+    worst, when, where = 0.0, math.nan, -1
+    for k in range(e.shape[0]):
+        a = anchored[k]
+        landed = a[:-1] & a[1:]
+        la, lc = landed[:-1], landed[1:]
+        in_force = (~la & ~lc & ~(a[:-2] & a[2:])) | (bool(p.anchor_cone) & (la != lc))
+        if not in_force.any():
+            continue
+        ea, ec = e[k, :-1], e[k, 1:]
+        cosine = np.einsum("ij,ij->i", ea, ec) / np.sqrt(np.einsum("ij,ij->i", ea, ea) * np.einsum("ij,ij->i", ec, ec))
+        excess = np.where(in_force, cos_alpha - cosine, -np.inf)
+        h = int(np.argmax(excess))
+        if excess[h] > worst:
+            worst, when, where = float(excess[h]), float(result.frame_t[k]), h
+    return worst, when, where
+
+
 def audit(result: Result) -> list[str]:
     """The books of ``result`` that do not close, each as a sentence (empty: all close)."""
     failed = []
@@ -118,6 +167,13 @@ def audit(result: Result) -> list[str]:
         failed.append(
             f"an anchored point was {miss:.3g} b from its anchor at t = {when:.6g} "
             f"(tolerance {ANCHOR_TOL:g} b): the constraints were broken"
+        )
+    excess, when, hinge = hinge_excess(result)
+    hinge_tol = hinge_tolerance(result.options)
+    if not excess <= hinge_tol:
+        failed.append(
+            f"hinge {hinge} was bent past its limit by {excess:.3g} in the cosine at t = {when:.6g} "
+            f"(tolerance {hinge_tol:g}): the constraints were broken"
         )
     return failed
 
@@ -145,6 +201,13 @@ def near_bounds(result: Result) -> list[str]:
         out.append(
             f"a point went {depth:.3g} b below the floor, past half the method's bound ({depth_tol:g} b): "
             f"--dt {dt / 2:g} would about halve it"
+        )
+    excess, _, _ = hinge_excess(result)
+    hinge_tol = hinge_tolerance(result.options)
+    if NEAR_BOUND * hinge_tol < excess <= hinge_tol:
+        out.append(
+            f"a hinge was bent {excess:.3g} past its limit in the cosine, past half the method's bound "
+            f"({hinge_tol:g}): --dt {dt / 2:g} would about halve it"
         )
     return out
 
