@@ -423,6 +423,49 @@ def test_a_frozen_block_whose_anchors_miss_does_not_move_the_chain_above_it():
     assert books.projected[0] == 0.0
 
 
+def test_a_loop_landed_past_its_limits_keeps_its_anchors():
+    """The time-stepper's bends pass their limits within a step, so a loop of airborne
+    chain can land with both ends anchored while bent past its limits: here 3 segments
+    arched between two anchored points in a vertical plane, both hinges bent 46 deg
+    (limit 45), the anchors 2 (1 + 2 cos 46 deg) = 4.78 b apart; with both hinges on
+    their limits the loop's ends are between 4.83 b (an arch) and 5.59 b (a zigzag)
+    apart, so no state meets the anchors and the limits together.  Gauss-Newton on both
+    then ends unconverged (an N = 16384 fall took such steps to 0.027 b anchor misses
+    and bends 0.39 past the limits); the projection keeps the anchors instead and
+    leaves the bends as they are (the steps' impulses hold them from closing further)."""
+    from ballchain.core.dynamics import point_positions, projection_tol
+    from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.state import new_books, new_chain, new_model, new_work
+    from ballchain.methods.timestep.stepper import _project, new_scratch
+
+    n, loop = 12, 3  # segments 0..2 the loop (points 0 and 3 anchored), 3..11 landed along -x
+    bend = math.radians(46.0)
+    e = np.zeros((n, 3))
+    e[loop:, 0] = -1.0
+    e[2] = [-math.cos(bend), 0.0, math.sin(bend)]
+    e[1] = [-1.0, 0.0, 0.0]
+    e[0] = [-math.cos(bend), 0.0, -math.sin(bend)]
+    chain = new_chain(e, np.zeros((n, 3)), math.pi / 4)
+    pts = np.zeros((n + 1, 3))
+    point_positions(e, pts)
+    assert abs(pts[0, 2]) < 1e-15 and pts[1, 2] > 1.0 and pts[2, 2] > 1.0  # both ends on the floor
+    assert math.isclose(np.linalg.norm(pts[0] - pts[3]), 2 * (1 + 2 * math.cos(bend)))
+    chain.anchored[loop:] = 1
+    chain.anchored[0] = 1
+    chain.anchor_pos[:] = pts
+    model = new_model(math.pi / 4, 0, False, SolverOptions(method="timestep", dt=0.02, theta=1), 10.0, 0.0, 1)
+    ws, sc, books = new_work(n), new_scratch(n), new_books()
+    hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
+    gaps = sc.gaps.copy()
+    assert gaps[0] < -0.01 and gaps[1] < -0.01  # both past the limit, by cos 45 - cos 46 = 0.0124
+    point_positions(chain.Y[0], sc.pv)
+    _project(model, chain, ws, sc, books)
+    point_positions(chain.Y[0], pts)
+    assert np.abs(pts - chain.anchor_pos).max() <= projection_tol(n)  # the anchors kept
+    hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
+    np.testing.assert_allclose(sc.gaps[:2], gaps[:2], atol=1e-12)  # the bends left as they were
+
+
 def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
     """Each landing step's floor impulse changes the chain's momentum, whose size is at
     most sqrt(2 M T) <= sqrt(2 N E0) (units m = b = g = 1), so their sum over the N

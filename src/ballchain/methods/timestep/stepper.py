@@ -57,6 +57,7 @@ from ...core.dynamics import (
     generalized_forces,
     pile_pull,
     point_positions,
+    position_residuals,
     potential_energy,
     project_state,
     projection_tol,
@@ -92,6 +93,7 @@ KE_RTOL = 1e-9  # an impact problem may raise the kinetic energy by this fractio
 PROJ_ITERS = 25  # Gauss-Newton iterations of the projection at most
 PROJ_MOVE_MAX = 0.1  # b: a projection that moves a point further is undone
 PROJ_MOVE_RATIO = 1e3  # ... or further than this many times the largest residual it removes
+PROJ_UNMET = 1e3  # ... or one with the hinges that leaves a residual above this many tolerances
 
 # run_steps codes (negative: the run cannot go on)
 TS_STOP, TS_BUFFER, TS_RETURN, TS_LANDED, TS_MAX_STEPS = 0, 2, 11, 10, 5
@@ -392,8 +394,9 @@ def _project(model, chain, ws, sc, books):
     PROJ_MOVE_MAX, or by more than PROJ_MOVE_RATIO times the largest residual it removes
     (an ill-conditioned set of rows: a fully folded pair standing on one anchor under
     alpha = pi has dependent rows, and a residual of 1e-12 moved its free end by 0.07 b
-    and, step after step, created energy), is undone and tried with the anchors alone,
-    then not at all.  The change of U + T it makes goes to
+    and, step after step, created energy), or one whose rows cannot all be met
+    (``_rows_unmet``: it would move anchored points off their anchors), is undone and
+    tried with the anchors alone, then not at all.  The change of U + T it makes goes to
     the ledger (books.projected): of U alone, since the velocity state (V, w) is kept
     (T = sum 1/2 |V_i|^2 + |w_i|^2 / 6 does not depend on the axes).  Returns the number
     of tries undone."""
@@ -414,12 +417,13 @@ def _project(model, chain, ws, sc, books):
             chain.lock_cos[k] = model.cos_alpha
         tol = projection_tol(e.shape[0])
         res0 = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
+        unmet = attempt == 0 and _rows_unmet(chain, ws, sc, PROJ_UNMET * tol)
         point_positions(e, sc.pts)
         moved = 0.0
         for j in range(sc.pts.shape[0]):
             for q in range(3):
                 moved = max(moved, abs(sc.pts[j, q] - sc.pv[j, q]))
-        if moved <= min(PROJ_MOVE_MAX, PROJ_MOVE_RATIO * res0):
+        if moved <= min(PROJ_MOVE_MAX, PROJ_MOVE_RATIO * res0) and not unmet:
             break
         _copy3(sc.e_pred, e)
         undone += 1
@@ -427,6 +431,20 @@ def _project(model, chain, ws, sc, books):
         locked[k] = sc.was[k]
     books.projected[PROJECTED_IN_STEPS] += potential_energy(e) - before
     return undone
+
+
+@njit(cache=True)
+def _rows_unmet(chain, ws, sc, tol):
+    """After a projection: does a row of its set (the anchors, the hinges put on their
+    limits) still miss by more than ``tol``?  Then no state meets them all: a loop of
+    airborne chain landed with both ends anchored while bent past its limits (bends pass
+    them within a step), its anchors closer than its limits allow.  Gauss-Newton ends
+    unconverged there, at a least-squares compromise that moves the anchored points off
+    their anchors."""
+    res = position_residuals(
+        chain.Y[0], chain.anchored, chain.locked, chain.lock_cos, chain.anchor_pos, ws.kind, ws.nrow, sc.pts, ws.rhs
+    )
+    return res > tol
 
 
 @njit(cache=True)
