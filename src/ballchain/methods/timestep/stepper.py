@@ -436,11 +436,11 @@ def _project(model, chain, ws, sc, books):
 @njit(cache=True)
 def _rows_unmet(chain, ws, sc, tol):
     """After a projection: does a row of its set (the anchors, the hinges put on their
-    limits) still miss by more than ``tol``?  Then no state meets them all: a loop of
-    airborne chain landed with both ends anchored while bent past its limits (bends pass
-    them within a step), its anchors closer than its limits allow.  Gauss-Newton ends
-    unconverged there, at a least-squares compromise that moves the anchored points off
-    their anchors."""
+    limits) still miss by more than ``tol``?  Gauss-Newton then ended unconverged, at a
+    least-squares compromise that moves anchored points off their anchors; the usual case
+    in falls is a set that no state meets: a loop of airborne chain landed with both ends
+    anchored while bent past its limits (bends pass them within a step), its anchors
+    closer than its limits allow."""
     res = position_residuals(
         chain.Y[0], chain.anchored, chain.locked, chain.lock_cos, chain.anchor_pos, ws.kind, ws.nrow, sc.pts, ws.rhs
     )
