@@ -295,7 +295,7 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
     iu = fu * tu
     e, w = chain.Y
     n = params.segments
-    T_end = kinetic_energy(e, w, np.zeros((n + 1, 3)), np.zeros((n, 3)))
+    T_end = out.kinetic if out.kinetic is not None else kinetic_energy(e, w, np.zeros((n + 1, 3)), np.zeros((n, 3)))
     U_end = potential_energy(e)
     lost_locking, lost_landing = float(books.lost_locking[0]), float(books.lost_landing[0])
     energy = {

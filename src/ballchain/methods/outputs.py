@@ -199,3 +199,7 @@ class RunOutput:
     frames: FrameBuffer
     trace: TraceBuffer
     log: LogBuffer
+    # the kinetic energy at the end, when the method keeps velocities of its own (the
+    # time-stepper's centre velocities V: T = sum 1/2 |V_i|^2 + |w_i|^2 / 6, as its frames
+    # record it); None: from the axes and rates (``dynamics.kinetic_energy``)
+    kinetic: float | None = None
