@@ -274,6 +274,15 @@ def test_the_imbalance_names_the_error_in_gravitys_work():
     assert ev.energy["work_error_in_steps"] == 0.0
 
 
+def _random_fall(n, seed, **options):
+    """A time-stepping fall of n segments from the random start (seed, run 0), alpha = pi/4."""
+    return simulate(
+        ChainParams(segments=n, alpha=math.pi / 4),
+        InitialCondition(kind="random", seed=seed, spawn_key=(0,)),
+        SolverOptions(method="timestep", **options),
+    )
+
+
 def test_projection_ledger_is_the_potential_energy_it_moves():
     """The projection after a step moves positions only; the velocity state (V, w) is
     kept, so T = sum 1/2 |V|^2 + |w|^2 / 6 does not change and the ledger entry is the
@@ -281,11 +290,7 @@ def test_projection_ledger_is_the_potential_energy_it_moves():
     drift of one step, O(h^2 |w|^2) b per point), so over a whole fall it is a small
     fraction of E0 (7e-4 here; the old ledger, U + T with T rebuilt from the axes, read
     1.5e-2 E0 in this fall and 5 E0 at N = 512)."""
-    r = simulate(
-        ChainParams(segments=64, alpha=math.pi / 4),
-        InitialCondition(kind="random", seed=1, spawn_key=(0,)),
-        SolverOptions(method="timestep", dt=0.01, frames_per_tff=1),
-    )
+    r = _random_fall(64, seed=1, dt=0.01, frames_per_tff=1)
     assert r.status == "landed", r.message
     e = r.energy
     assert e["projected_in_steps"] != 0.0  # loops of chain between anchors drift: there were projections
@@ -520,11 +525,7 @@ def test_the_books_of_a_fall_stopped_midway_close_as_its_frames_do():
     bottom), which the time-stepper's V need not equal once points are anchored: the
     end's books then read -0.001 E0 against the frame's +0.005 (0.11 E0 apart at
     N = 16384)."""
-    r = simulate(
-        ChainParams(segments=64, alpha=math.pi / 4),
-        InitialCondition(kind="random", seed=2026, spawn_key=(0,)),
-        SolverOptions(method="timestep", until=0.5, frames_per_tff=1000),
-    )
+    r = _random_fall(64, seed=2026, until=0.5, frames_per_tff=1000)
     assert r.status == "until", r.message
     e = r.energy
     e0 = e["initial"]
