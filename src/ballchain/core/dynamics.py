@@ -1295,7 +1295,9 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     then Gauss-Newton on anchor positions and locked angles
     (delta = -W J^T (J W J^T)^{-1} c), then (``with_velocities``) the rates that keep
     the axes' velocities de_i/dt through that move (``_rates_for_axes``), and the same
-    projection on velocities.  Returns the largest position residual before projection."""
+    projection on velocities.  Returns the largest position residual before projection
+    and after it (above ``tol`` only when Gauss-Newton ran ``iters`` iterations without
+    meeting every row)."""
     e, w, anchored, locked = chain.Y[0], chain.Y[1], chain.anchored, chain.locked
     lock_cos, anchor_pos = chain.lock_cos, chain.anchor_pos
     J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
@@ -1319,7 +1321,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
         it += 1
     normalize_state(e, w, anchored)
     if not with_velocities:
-        return res0
+        return res0, res
     if it > 0:
         _rates_for_axes(e, vel, w)
         normalize_state(e, w, anchored)
@@ -1341,4 +1343,4 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
             torque_jump(e, w, anchored, gf, -1.0)
         else:
             apply_impulses(e, w, anchored, J, nrow, x, gf, -1.0)
-    return res0
+    return res0, res

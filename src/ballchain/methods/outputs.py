@@ -200,6 +200,6 @@ class RunOutput:
     trace: TraceBuffer
     log: LogBuffer
     # the kinetic energy at the end, when the method keeps velocities of its own (the
-    # time-stepper's centre velocities V: T = sum 1/2 |V_i|^2 + |w_i|^2 / 6, as its frames
-    # record it); None: from the axes and rates (``dynamics.kinetic_energy``)
+    # time-stepper's centre velocities V: ``stepper.kinetic_energy_maximal``, as its
+    # frames record it); None: from the axes and rates (``dynamics.kinetic_energy``)
     kinetic: float | None = None

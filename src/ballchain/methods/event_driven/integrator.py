@@ -749,7 +749,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
     _copy_state(Y, sg.Y1)
     before = mechanical_energy(Y[0], Y[1], scr.pts, scr.vel)
     tol = projection_tol(Y.shape[1])
-    res = project_state(chain, ws, scr.pts, scr.vel, tol, np.int64(3))
+    res, _ = project_state(chain, ws, scr.pts, scr.vel, tol, np.int64(3))
     books.projected[PROJECTED_IN_STEPS] += mechanical_energy(Y[0], Y[1], scr.pts, scr.vel) - before
     if res > tol:
         _stage_rhs(Y, chain.anchored, chain.locked, ws, sg.K[0], sg.F[0])

@@ -57,7 +57,6 @@ from ...core.dynamics import (
     generalized_forces,
     pile_pull,
     point_positions,
-    position_residuals,
     potential_energy,
     project_state,
     projection_tol,
@@ -312,6 +311,17 @@ def _index_set(h, model, chain, sc):
 
 
 @njit(cache=True)
+def kinetic_energy_maximal(vmax, w):
+    """T = sum 1/2 |V_i|^2 + |w_i|^2 / 6 of the centres' velocities V (the time-stepper's
+    own, maximal coordinates) and the rates w (units m g b)."""
+    t = 0.0
+    for i in range(w.shape[0]):
+        for q in range(3):
+            t += 0.5 * vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
+    return t
+
+
+@njit(cache=True)
 def _solve(chain, ws, sc):
     """Part 4: the step's velocity-level problem: w <- w+, and the centres' velocities
     V+ = V_free + (the impulses' force) kept in maximal coordinates (sc.vmax; a loop of
@@ -320,10 +330,7 @@ def _solve(chain, ws, sc):
     dropped row could not remove).  Returns 0, or ERR_IMPACT / ERR_ENERGY (the kinetic
     energy rose: the projection was not exact)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
-    t0 = 0.0
-    for i in range(e.shape[0]):  # sc.vmax holds V_free (_free_velocity)
-        for q in range(3):
-            t0 += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
+    t0 = kinetic_energy_maximal(sc.vmax, w)  # sc.vmax holds V_free (_free_velocity)
     if velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, ws, sc.iw) < 0:
         return ERR_IMPACT
     if fits4(ws.nrow):
@@ -394,9 +401,12 @@ def _project(model, chain, ws, sc, books):
     PROJ_MOVE_MAX, or by more than PROJ_MOVE_RATIO times the largest residual it removes
     (an ill-conditioned set of rows: a fully folded pair standing on one anchor under
     alpha = pi has dependent rows, and a residual of 1e-12 moved its free end by 0.07 b
-    and, step after step, created energy), or one whose rows cannot all be met
-    (``_rows_unmet``: it would move anchored points off their anchors), is undone and
-    tried with the anchors alone, then not at all.  The change of U + T it makes goes to
+    and, step after step, created energy), or one whose rows Gauss-Newton left unmet
+    (a residual above PROJ_UNMET tolerances: it ended at a least-squares compromise that
+    moves anchored points off their anchors; the usual case in falls is a set that no
+    state meets, a loop of airborne chain landed with both ends anchored while bent past
+    its limits, its anchors closer than its limits allow), is undone and tried with the
+    anchors alone, then not at all.  The change of U + T it makes goes to
     the ledger (books.projected): of U alone, since the velocity state (V, w) is kept
     (T = sum 1/2 |V_i|^2 + |w_i|^2 / 6 does not depend on the axes).  Returns the number
     of tries undone."""
@@ -416,8 +426,8 @@ def _project(model, chain, ws, sc, books):
             locked[k] = 1 if (attempt == 0 and sc.gaps[k] < 0.0 and inside) else 0
             chain.lock_cos[k] = model.cos_alpha
         tol = projection_tol(e.shape[0])
-        res0 = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
-        unmet = attempt == 0 and _rows_unmet(chain, ws, sc, PROJ_UNMET * tol)
+        res0, res = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
+        unmet = attempt == 0 and res > PROJ_UNMET * tol
         point_positions(e, sc.pts)
         moved = 0.0
         for j in range(sc.pts.shape[0]):
@@ -431,20 +441,6 @@ def _project(model, chain, ws, sc, books):
         locked[k] = sc.was[k]
     books.projected[PROJECTED_IN_STEPS] += potential_energy(e) - before
     return undone
-
-
-@njit(cache=True)
-def _rows_unmet(chain, ws, sc, tol):
-    """After a projection: does a row of its set (the anchors, the hinges put on their
-    limits) still miss by more than ``tol``?  Gauss-Newton then ended unconverged, at a
-    least-squares compromise that moves anchored points off their anchors; the usual case
-    in falls is a set that no state meets: a loop of airborne chain landed with both ends
-    anchored while bent past its limits (bends pass them within a step), its anchors
-    closer than its limits allow."""
-    res = position_residuals(
-        chain.Y[0], chain.anchored, chain.locked, chain.lock_cos, chain.anchor_pos, ws.kind, ws.nrow, sc.pts, ws.rhs
-    )
-    return res > tol
 
 
 @njit(cache=True)
@@ -485,12 +481,11 @@ def record_frame(t, chain, sc, books, frames):
     e, w = chain.Y[0], chain.Y[1]
     n = e.shape[0]
     frames.t[k] = t
-    tk = 0.0
     for i in range(n):
         for q in range(3):
             frames.e[k, i, q] = e[i, q]
             frames.omega[k, i, q] = w[i, q]
-            tk += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
+    tk = kinetic_energy_maximal(sc.vmax, w)
     for j in range(n + 1):
         frames.anchored[k, j] = chain.anchored[j]
     for j in range(n - 1):
