@@ -251,14 +251,14 @@ def _pool_engines(df: pd.DataFrame, engines: list[str]) -> pd.DataFrame:
     """The rows of ``engines`` grouped as one engine where they share N, method and step
     and ran different starts (a group names the engines its rows were made by, "A+B");
     where some start was run by two of them, each engine keeps its own group (a start
-    would count twice)."""
+    would count twice).  A group's label names only the engines that made its rows."""
     df = df.assign(engine_made=df["engine"])
-    label = "+".join(engines)
     step = ["segments", "method", "dt", "theta", "dt_rule", "rtol"]
     for _, g in df[df["engine"].isin(engines)].groupby(step, dropna=False):
         if g["run_id"].duplicated().any():  # (the same run_id by two engines)
             continue
-        df.loc[g.index, "engine"] = label
+        made = set(g["engine"])
+        df.loc[g.index, "engine"] = "+".join(e for e in engines if e in made)
     return df
 
 
