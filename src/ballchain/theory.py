@@ -93,6 +93,10 @@ __all__ = [
 ]
 
 _QUAD_EPSREL = 1e-13  # asks quad for better than the promised 1e-12
+# An integrand that changes sign (the pivot's impulse) can integrate to nearly zero, where
+# no relative tolerance can be met (quad then warns of round-off); there it is asked for
+# this absolute one instead, in units of the integral (m sqrt(g b)), about round-off.
+_QUAD_EPSABS_SIGNED = 1e-14
 
 
 def free_fall_time(z0: float, g: float = 1.0) -> float:
@@ -131,11 +135,13 @@ def _check_theta0(theta0: float) -> None:
         raise ValueError(f"theta0 must be in [0, pi/2), got {theta0!r}")
 
 
-def _quad_u(f, theta0: float) -> float:
+def _quad_u(f, theta0: float, epsabs: float = 0.0) -> float:
+    """int_0^umax f(u) du, umax = sqrt(pi/2 - theta0), to _QUAD_EPSREL relative or
+    ``epsabs`` absolute, whichever is larger."""
     umax = math.sqrt(0.5 * math.pi - theta0)
     # a break point where the (theta0 + u^2/2) factor turns over, for small theta0
     pts = [min(math.sqrt(2.0 * theta0), 0.5 * umax)] if theta0 > 0 else None
-    val, err = integrate.quad(f, 0.0, umax, epsabs=0.0, epsrel=_QUAD_EPSREL, limit=400, points=pts)
+    val, err = integrate.quad(f, 0.0, umax, epsabs=epsabs, epsrel=_QUAD_EPSREL, limit=400, points=pts)
     return val
 
 
@@ -231,7 +237,7 @@ def pivot_rod_impulse(theta0: float, s: float, m: float = 1.0, b: float = 1.0, g
         fz = 0.25 * ((1.0 - 3.0 * c) ** 2 + 6.0 * (1.0 - c0) * c - 4.0 * s * c)
         return fz * _inv_thetadot_sub(u, theta0, s)
 
-    return m * math.sqrt(g * b) * _quad_u(f, theta0)
+    return m * math.sqrt(g * b) * _quad_u(f, theta0, _QUAD_EPSABS_SIGNED)
 
 
 # --------------------------------------------------------------- Hamm-Geminard
