@@ -73,7 +73,6 @@ the paper's formula (confirmed).
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 from scipy import integrate, special
@@ -298,10 +297,8 @@ def pivot_rod_critical_s(theta0: float) -> float:
     for ``s > s*`` the pivot pulls the rod down on balance.  Dimensionless."""
     _check_theta0(theta0)
 
-    def f(s):
-        with warnings.catch_warnings():  # (quad's round-off notes at the far end of the bracket search)
-            warnings.simplefilter("ignore", integrate.IntegrationWarning)
-            return pivot_rod_impulse(theta0, s)
+    def f(s):  # (near the root the impulse is near zero: quad meets its absolute tolerance there)
+        return pivot_rod_impulse(theta0, s)
 
     lo = 1e-12 if theta0 == 0.0 else 0.0
     hi = 1.0
