@@ -139,3 +139,53 @@ def derived_measures(result) -> dict[str, float]:
     except (ValueError, ZeroDivisionError):
         inferred = math.nan
     return {"gamma_measured": measured, "gamma_inferred": inferred}
+
+
+@dataclass(frozen=True)
+class TopInvariants:
+    """The airborne top end of a run that did not land, hung on its one anchored point,
+    at the frames after the run's last event (a piece that no event changes: a rigid
+    body when its hinges are locked, on a frictionless pivot).  Arrays (F,) over those
+    frames; run units (m g b, m b sqrt(g b), b)."""
+
+    t_from: float  # the last event's time (run units)
+    segments: int  # airborne segments of the top end (0 .. segments-1)
+    pivot: int  # the anchored point they hang on (= segments)
+    t: np.ndarray  # frame times
+    kinetic: np.ndarray  # T of the piece
+    energy: np.ndarray  # T + U of the piece (U: m g z of its centres)
+    angular_momentum_z: np.ndarray  # L_z about the vertical through the pivot
+    lowest: np.ndarray  # the height of its lowest point above the floor (the pivot excluded)
+
+
+def top_invariants(r) -> TopInvariants:
+    """The invariants of a heavy top on a frictionless ball joint, for the airborne top end
+    of a run (segments 0..k-1 airborne, point k anchored, every segment below landed) at
+    the frames after its last event: its energy T + U (constant: no hinge locks or
+    unlocks, no point lands, gravity and the pivot's force do no work) and its angular
+    momentum about the vertical through the pivot, L_z = sum_i [m (c_i - p) x v_i + I w_i]_z
+    with I = m b^2 / 3 (constant: gravity's torque about the pivot is horizontal and the
+    pivot's force has no arm).  Raises ValueError when the run has no such piece."""
+    p = r.params
+    m, b, g = p.segment_mass, p.half_length, p.gravity
+    ft = np.asarray(r.frame_t, dtype=float)
+    t_from = float(np.max(r.event_t)) if len(r.event_t) else float(ft[0])
+    sel = np.flatnonzero(ft > t_from)
+    if sel.size == 0:
+        raise ValueError("no frame after the run's last event")
+    anchored = np.asarray(r.frame_anchored)[sel]
+    k = int(np.argmax(anchored[0] != 0))  # the first anchored point from the top end
+    if not anchored[0, k] or k == 0 or np.any(anchored[:, :k]) or not np.all(anchored[:, k:]):
+        raise ValueError("the run's airborne part is not one top end hung on one anchored point")
+    e = np.asarray(r.frame_e, dtype=float)[sel][:, :k]
+    w = np.asarray(r.frame_omega, dtype=float)[sel][:, :k]
+    de = b * np.cross(w, e)  # a centre's velocity relative to its lower point
+    # from the pivot up (point k at rest): lower point of segment i = 2b sum_{i<j<k} e_j
+    lower_pos = 2.0 * b * (np.cumsum(e[:, ::-1], axis=1)[:, ::-1] - e)
+    lower_vel = 2.0 * (np.cumsum(de[:, ::-1], axis=1)[:, ::-1] - de)
+    c, v = lower_pos + b * e, lower_vel + de
+    kinetic = np.sum(0.5 * m * np.sum(v * v, axis=2) + 0.5 * (m * b * b / 3.0) * np.sum(w * w, axis=2), axis=1)
+    energy = kinetic + m * g * np.sum(c[:, :, 2], axis=1)
+    lz = np.sum(m * np.cross(c, v)[:, :, 2] + (m * b * b / 3.0) * w[:, :, 2], axis=1)
+    upper_z = lower_pos[:, :, 2] + 2.0 * b * e[:, :, 2]  # the points 0..k-1
+    return TopInvariants(t_from, k, k, ft[sel], kinetic, energy, lz, np.min(upper_z, axis=1))
