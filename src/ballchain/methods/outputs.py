@@ -158,12 +158,13 @@ REST_RATE = 1e-9  # every |w_i| below this (sqrt(g/b)): the chain is at rest
 def stop_status(options, chain: Chain | None = None) -> tuple[str, str]:
     """(status, message) of a run stopped at its stop time: ``until`` (asked for), or
     ``max_time`` (the time cap) with a message that says the chain had not landed, and,
-    if it is at rest (every |w_i| < REST_RATE), how many points stand off the floor."""
+    if it is at rest (every |w_i| < REST_RATE), how many points stand off the floor, or,
+    if its top end spins as a top (``spinning_top_note``), that it does."""
     if options.until is not None:
         return "until", ""
     message = f"the chain had not landed by t = {options.max_time} t_ff (the time cap, --max-time)"
     if chain is not None:
-        message += at_rest_note(chain)
+        message += at_rest_note(chain) or spinning_top_note(chain)
     return "max_time", message
 
 
@@ -179,6 +180,29 @@ def at_rest_note(chain: Chain) -> str:
         f"; it is at rest with {int(free.sum())} of {len(z)} points off the floor (the highest at "
         f"z = {float(z[free].max(initial=0.0)):.3g} b): an equilibrium, such as a fold standing in the "
         f"plane of a planar start, which that plane's symmetry holds"
+    )
+
+
+def spinning_top_note(chain: Chain) -> str:
+    """'; its top end, k segments locked at their limits, turns on landed point k ...' if
+    the only airborne part is the top end (points 0..k-1 free, every point from k on
+    anchored), of two segments or more, every hinge between them locked: one rigid body
+    on a frictionless pivot, a heavy top, which nothing in the model slows down (its
+    kinetic energy T = sum 1/2 |v_i|^2 + |w_i|^2 / 6, m g b, point k at rest), else ''."""
+    e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    if e.shape[0] == 0 or float(np.max(np.abs(w))) < REST_RATE:
+        return ""
+    k = int(np.argmax(anchored != 0)) if np.any(anchored != 0) else -1
+    if k < 2 or np.any(anchored[:k] != 0) or np.any(anchored[k:] == 0) or not np.all(chain.locked[: k - 1] != 0):
+        return ""
+    de = np.cross(w[:k], e[:k])  # a centre's velocity relative to its lower point
+    lower = 2.0 * (np.cumsum(de[::-1], axis=0)[::-1] - de)
+    v = lower + de
+    t = float(np.sum(0.5 * np.sum(v * v, axis=1) + np.sum(w[:k] * w[:k], axis=1) / 6.0))
+    return (
+        f"; its top end, {k} segments locked at their bend limits, turns on landed point {k} as one "
+        f"rigid body (kinetic energy {t:.4g} m g b): a heavy top on a frictionless pivot, which nothing "
+        f"in the model slows down (docs/model.md, section 4)"
     )
 
 
