@@ -411,6 +411,25 @@ def test_stats_cli_json_and_plot(tmp_path):
     assert bad.exit_code == 2 and bad.stderr.startswith("error:")
 
 
+def test_stats_names_the_runs_that_did_not_land(tmp_path):
+    import pandas as pd
+
+    path = _synthetic(tmp_path, {(45, k): 0.95 for k in range(14)})
+    df = pd.read_parquet(path)
+    stopped = df["run_index"] >= 2  # twelve runs stopped at the time cap, each saying why
+    df.loc[stopped, "status"] = "max_time"
+    df.loc[stopped, "ratio"] = math.nan
+    df.loc[stopped, "message"] = [f"time cap, run {k}" for k in df.loc[stopped, "run_index"]]
+    df.to_parquet(path, index=False)
+    res = table_stats(path)
+    assert res["status"] == {"max_time": 12, "landed": 2}
+    assert [r["message"] for r in res["not_landed"]] == [f"time cap, run {k}" for k in range(2, 14)]
+    assert res["not_landed"][0]["run_id"] == df.loc[df["run_index"] == 2, "run_id"].item()
+    text = runner.invoke(app, ["stats", path]).stdout
+    assert "runs that did not land (12):" in text and "(max_time): time cap, run 11" in text
+    assert "time cap, run 12" not in text and "... and 2 more (--json lists them all)" in text
+
+
 def test_stats_depth_only_where_the_floor_watches_every_point(tmp_path):
     """Under floor pivot the chain passes through the floor by design: its depth is not a
     missed landing and is left out of the books' deepest point (NaN when no run watches)."""

@@ -1025,6 +1025,9 @@ def stats(
     typer.echo(stats_text(res))
 
 
+NOT_LANDED_LISTED = 10  # runs that did not land named by ``ballchain stats`` (--json: all)
+
+
 def stats_text(res: dict) -> str:
     """The human-readable ``ballchain stats``."""
 
@@ -1058,6 +1061,13 @@ def stats_text(res: dict) -> str:
             f"books of the {b['runs']} landed runs ({method}): worst |imbalance| / E0 {f(b['worst_imbalance'], '.2g')}, "
             f"deepest point {f(b['deepest'], '.2g')} b below a floor that watches every point"
         )
+    bad = res.get("not_landed", [])
+    if bad:
+        lines.append(f"runs that did not land ({len(bad)}):")
+        for r in bad[:NOT_LANDED_LISTED]:
+            lines.append(f"  {r['run_id']} ({r['status']}): {r['message']}")
+        if len(bad) > NOT_LANDED_LISTED:
+            lines.append(f"  ... and {len(bad) - NOT_LANDED_LISTED} more (--json lists them all)")
     for key in ("plot", "plot_n"):
         if res.get(key):
             lines.append(f"{key.replace('_', ' ')}: {res[key]}")

@@ -171,8 +171,22 @@ def table_stats(path) -> dict:
             "points": point_stats(df) if len(df) else [],
             "optimal_alpha": optimal_alpha(df) if len(df) else [],
             "books": books_stats(df),
+            "not_landed": not_landed(df),
         }
     )
+
+
+def not_landed(df) -> list[dict]:
+    """The runs of a table that did not land, each with its status and message (what
+    stopped it: the time cap, with the state it was in, or a broken model), in table order."""
+    if not len(df) or "status" not in df:
+        return []
+    rows = df[df["status"] != "landed"]
+    msg = rows["message"] if "message" in rows else [""] * len(rows)
+    return [
+        {"run_id": str(r), "status": str(st), "message": "" if m is None else str(m)}
+        for r, st, m in zip(rows["run_id"], rows["status"], msg)
+    ]
 
 
 def books_stats(df) -> dict:
