@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.dynamics import kinetic_energy
 from ..core.state import FRAME_FIELDS, Books, Chain, new_frames, new_log, new_trace
 
 FRAME_CHUNK_BYTES = 32 << 20  # frame buffers are emptied into the result this often
@@ -195,10 +196,8 @@ def spinning_top_note(chain: Chain) -> str:
     k = int(np.argmax(anchored != 0)) if np.any(anchored != 0) else -1
     if k < 2 or np.any(anchored[:k] != 0) or np.any(anchored[k:] == 0) or not np.all(chain.locked[: k - 1] != 0):
         return ""
-    de = np.cross(w[:k], e[:k])  # a centre's velocity relative to its lower point
-    lower = 2.0 * (np.cumsum(de[::-1], axis=0)[::-1] - de)
-    v = lower + de
-    t = float(np.sum(0.5 * np.sum(v * v, axis=1) + np.sum(w[:k] * w[:k], axis=1) / 6.0))
+    n = e.shape[0]  # (the landed segments below are at rest: the chain's T is the top's)
+    t = float(kinetic_energy(e, w, np.zeros((n + 1, 3)), np.zeros((n, 3))))
     return (
         f"; its top end, {k} segments locked at their bend limits, turns on landed point {k} as one "
         f"rigid body (kinetic energy {t:.4g} m g b): a heavy top on a frictionless pivot, which nothing "
