@@ -189,7 +189,7 @@ def spinning_top_note(chain: Chain) -> str:
     the only airborne part is the top end (points 0..k-1 free, every point from k on
     anchored), of two segments or more, every hinge between them locked: one rigid body
     on a frictionless pivot, a heavy top, which nothing in the model slows down (its
-    kinetic energy T = sum 1/2 |v_i|^2 + |w_i|^2 / 6, m g b, point k at rest), else ''."""
+    kinetic energy, m g b: ``dynamics.kinetic_energy``), else ''."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if e.shape[0] == 0 or float(np.max(np.abs(w))) < REST_RATE:
         return ""
