@@ -150,12 +150,16 @@ class TopInvariants:
 
     t_from: float  # the last event's time (run units)
     segments: int  # airborne segments of the top end (0 .. segments-1)
-    pivot: int  # the anchored point they hang on (= segments)
     t: np.ndarray  # frame times
     kinetic: np.ndarray  # T of the piece
     energy: np.ndarray  # T + U of the piece (U: m g z of its centres)
     angular_momentum_z: np.ndarray  # L_z about the vertical through the pivot
     lowest: np.ndarray  # the height of its lowest point above the floor (the pivot excluded)
+
+    @property
+    def pivot(self) -> int:
+        """The anchored point the top end hangs on: the first below its segments."""
+        return self.segments
 
 
 def top_invariants(r) -> TopInvariants:
@@ -179,13 +183,12 @@ def top_invariants(r) -> TopInvariants:
         raise ValueError("the run's airborne part is not one top end hung on one anchored point")
     e = np.asarray(r.frame_e, dtype=float)[sel][:, :k]
     w = np.asarray(r.frame_omega, dtype=float)[sel][:, :k]
-    de = b * np.cross(w, e)  # a centre's velocity relative to its lower point
-    # from the pivot up (point k at rest): lower point of segment i = 2b sum_{i<j<k} e_j
+    v = segment_velocities(r)[sel][:, :k]  # (the landed segments below are at rest)
+    # from the pivot up: lower point of segment i = 2b sum_{i<j<k} e_j, centre b e_i above it
     lower_pos = 2.0 * b * (np.cumsum(e[:, ::-1], axis=1)[:, ::-1] - e)
-    lower_vel = 2.0 * (np.cumsum(de[:, ::-1], axis=1)[:, ::-1] - de)
-    c, v = lower_pos + b * e, lower_vel + de
+    c = lower_pos + b * e
     kinetic = np.sum(0.5 * m * np.sum(v * v, axis=2) + 0.5 * (m * b * b / 3.0) * np.sum(w * w, axis=2), axis=1)
     energy = kinetic + m * g * np.sum(c[:, :, 2], axis=1)
     lz = np.sum(m * np.cross(c, v)[:, :, 2] + (m * b * b / 3.0) * w[:, :, 2], axis=1)
     upper_z = lower_pos[:, :, 2] + 2.0 * b * e[:, :, 2]  # the points 0..k-1
-    return TopInvariants(t_from, k, k, ft[sel], kinetic, energy, lz, np.min(upper_z, axis=1))
+    return TopInvariants(t_from, k, ft[sel], kinetic, energy, lz, np.min(upper_z, axis=1))
