@@ -293,8 +293,9 @@ def factor_general(anchored, J, nrow, S, G, drop):
     npts = nrow.shape[0]
     n = npts - 1
     S[0, REC_E, REC_VALID] = 0.0  # S, G, drop no longer hold factor4's factors
-    E = np.zeros((MAXR, MAXR))  # E_j, kept for the next point's Schur complement
-    col = np.empty(MAXR)
+    mr = J.shape[1]  # rows per point at most (MAXR here; a method may lay out more)
+    E = np.zeros((mr, mr))  # E_j, kept for the next point's Schur complement
+    col = np.empty(mr)
     ndrop = 0
     for j in range(npts):
         nr = nrow[j]

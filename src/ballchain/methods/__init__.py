@@ -25,6 +25,12 @@ METHODS = {
         "problem per step over the constraints that may become active (first order in dt)",
         "timestep.stepper:run_steps",
     ),
+    "rattle": (
+        "rattle.driver",
+        "nonsmooth RATTLE: steps of dt t_ff/N, positions with the joints, limits and floor held "
+        "at the position level, velocities with the inelastic impact law (second order in dt)",
+        "rattle.stepper:run_steps",
+    ),
 }
 METHOD_NAMES = tuple(METHODS)
 
@@ -44,6 +50,10 @@ def default_step(method: str, segments: int) -> tuple[float, float]:
     step (dt = 0.02, theta = 1) from N = LONG_STEP_FROM on and the short one (dt = 0.01,
     theta = 1/2) below; the event-driven method does not use them (the short step's values
     are recorded)."""
+    if method == "rattle":
+        from .rattle import DEFAULT_DT
+
+        return DEFAULT_DT, 1.0
     return LONG_STEP if method == "timestep" and segments >= LONG_STEP_FROM else SHORT_STEP
 
 

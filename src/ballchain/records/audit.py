@@ -53,9 +53,14 @@ TIMESTEP_HINGE_PER_DT = 15.0
 
 
 def tolerances(method: str) -> tuple[float, float]:
-    """(energy, depth) tolerances of the books of a run by ``method``."""
+    """(energy, depth) tolerances of the books of a run by ``method`` (the RATTLE method
+    states its own: ``methods.rattle``)."""
     if method == "timestep":
         return TIMESTEP_ENERGY_RTOL, TIMESTEP_DEPTH_TOL
+    if method == "rattle":
+        from ..methods import rattle
+
+        return rattle.ENERGY_RTOL, rattle.DEPTH_TOL
     return ENERGY_RTOL, DEPTH_TOL
 
 

@@ -1,0 +1,103 @@
+"""One run of the nonsmooth RATTLE method, driven from Python: the bundles allocated, the
+compiled loop (``stepper.run_steps``) called until the fall ends, its codes turned into a
+status and a message.  The step is ``SolverOptions.dt`` in units of t_ff / N."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...core.state import new_books, new_chain, new_model
+from ...errors import ParameterError
+from ...floors.registry import FLOOR_CODES
+from ..outputs import (
+    FLUSH,
+    GO_ON,
+    LANDED,
+    STOPPED,
+    FrameBuffer,
+    LogBuffer,
+    RunOutput,
+    SimulationError,
+    TraceBuffer,
+    drive,
+)
+from .rows import new_rows
+from .stepper import (
+    ERR_ACTIVE_SET,
+    ERR_NAN,
+    ERR_NEWTON,
+    FB_SIZE,
+    RT_BUFFER,
+    RT_LANDED,
+    RT_MAX_STEPS,
+    RT_RETURN,
+    RT_STOP,
+    Motion,
+    kinetic_energy_rattle,
+    maximal_state,
+    new_motion,
+    new_scratch,
+    rates_of,
+    run_steps,
+)
+
+RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (progress)
+
+ERROR_MESSAGES = {
+    ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
+    ERR_ACTIVE_SET: "a stage's active set of limits and floor contacts did not settle",
+    ERR_NAN: "non-finite state (blow-up)",
+}
+
+
+def check(params) -> None:
+    """Refuse what the method cannot honour yet, in one line."""
+    if params.floor != "all":
+        raise ParameterError(f"--method rattle supports --floor all only, got --floor {params.floor}")
+
+
+def run(setup, progress, stop) -> RunOutput:
+    """The fall of ``setup`` (``engine.Setup``) by nonsmooth RATTLE.
+    ``progress(t, chain, log, books)`` is called on each return from compiled code;
+    ``stop.reason`` (not None) asks the run to stop there (status ``interrupted``)."""
+    p, o, n = setup.params, setup.options, setup.params.segments
+    check(p)
+    model = new_model(p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, 0.0, RETURN_EVERY, 0, setup.t_ff)
+    chain = new_chain(setup.e0, setup.w0, p.alpha)
+    c, vc, ve = (np.zeros((n, 3)) for _ in range(3))
+    maximal_state(chain.Y[0], chain.Y[1], c, vc, ve)
+    mo = Motion(c, chain.Y[0], vc, ve, chain.anchored, chain.anchor_pos, chain.anchor_t, chain.locked)
+    ws, sc, fm, fsc = new_rows(n), new_scratch(n), new_motion(n), new_scratch(n)
+    fb = np.zeros(FB_SIZE)
+    books = new_books()
+    frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
+    trace, log = TraceBuffer(setup.z0), LogBuffer()
+    h = o.dt * setup.t_ff / n
+
+    def advance(t):
+        code, t = run_steps(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames.compiled, trace.compiled, log.compiled)
+        rates_of(mo.e, mo.ve, chain.Y[1])
+        if code == RT_BUFFER:
+            return FLUSH, t
+        if code == RT_LANDED:
+            return LANDED, t
+        at = f"at t/t_ff = {t / setup.t_ff:.6f}"
+        if code in ERROR_MESSAGES:
+            raise SimulationError(f"{ERROR_MESSAGES[code]} {at}")
+        if code == RT_MAX_STEPS:
+            raise SimulationError(f"more than max_steps = {o.max_steps} steps {at}")
+        if code == RT_STOP:
+            return STOPPED, t
+        if code != RT_RETURN:  # pragma: no cover - every code is handled above
+            raise SimulationError(f"unknown code {code} from the compiled loop")
+        return GO_ON, t
+
+    out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
+    state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve}, "scratch": sc, "frame_scratch": fsc}
+    state.update({"books": books, "frame_info": fb})
+    out = drive(setup, progress, stop, advance, out, 4 * (3 * n + 8), state)
+    out.kinetic = float(kinetic_energy_rattle(vc, ve))
+    return out
+
+
+__all__ = ["run", "check"]

@@ -1,0 +1,203 @@
+"""The constraints of the RATTLE method in maximal coordinates (numba, m = b = g = 1).
+
+Coordinates per segment i: its centre c_i and its axis e_i (lower end c - e, upper end
+c + e).  For a thin uniform rod the kinetic energy is exactly
+1/2 |c'|^2 + 1/6 |e'|^2 (integrate 1/2 |c' + s e'|^2 ds/2 over s in [-1, 1]), so the
+inverse mass W = diag(1, 1, 1, 3, 3, 3) is constant: the same weights as the core's
+(v, w) rows (``dynamics.W_V``, ``W_W``), and the same block-tridiagonal factorisation of
+J W J^T (``dynamics.factor_general``).  Rows are gathered per point j, on the segment
+above it (a = j - 1, columns 0:6 = (c_a, e_a)) and the one below (c = j, columns 6:12):
+
+  kind 0-2   joint, free point:     (c_a - e_a) - (c_c + e_c) = 0          linear
+  kind 3-5   anchor, lower end of a: c_a - e_a - p_j = 0                   linear
+  kind 6-8   anchor, upper end of c: c_c + e_c - p_j = 0                   linear
+  kind 9     the axis of c:         (|e_c|^2 - 1) / 2 = 0                  quadratic
+  kind 10    bend limit of hinge a: e_a . e_c - cos(alpha) >= 0            bilinear, unilateral
+  kind 11    floor under point j:   z_j = c_c,z + e_c,z >= 0               linear, unilateral
+
+At most 8 rows a point (an anchor between two airborne segments: 6 + axis + bend).
+Which rows a point has is its *layout* (``layout``): the anchors, the bend rows and
+floor rows switched on (the active sets), the landed segments (no columns, W = 0).
+Kind codes are unique within a point, so multipliers carry over between layouts
+(``carry_over``).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ...core.jit import njit
+from ...core.rules import is_landed
+
+RMAX = 8  # rows per point at most
+K_JOINT, K_ANCHOR_LOWER, K_ANCHOR_UPPER = 0, 3, 6  # + the component 0, 1, 2
+K_AXIS, K_BEND, K_FLOOR = 9, 10, 11
+
+
+@njit(cache=True)
+def layout(anchored, bend, floor_on, kind, nrow):
+    """The rows of every point (kind, nrow): joints at free points, anchors at anchored
+    points (the ends of airborne segments), an axis row per airborne segment, a bend row
+    where ``bend[k]``, a floor row at free point j where ``floor_on[j]``."""
+    n = anchored.shape[0] - 1
+    for j in range(n + 1):
+        a, c = j - 1, j
+        a_air = a >= 0 and not is_landed(anchored, a)
+        c_air = c < n and not is_landed(anchored, c)
+        r = 0
+        if anchored[j] == 0:
+            if a_air and c_air:
+                for q in range(3):
+                    kind[j, q] = K_JOINT + q
+                r = 3
+        else:
+            if a_air:
+                for q in range(3):
+                    kind[j, r + q] = K_ANCHOR_LOWER + q
+                r += 3
+            if c_air:
+                for q in range(3):
+                    kind[j, r + q] = K_ANCHOR_UPPER + q
+                r += 3
+        if c_air:
+            kind[j, r] = K_AXIS
+            r += 1
+        if a >= 0 and c < n and bend[a] != 0:
+            kind[j, r] = K_BEND
+            r += 1
+        if anchored[j] == 0 and c < n and floor_on[j] != 0:
+            kind[j, r] = K_FLOOR
+            r += 1
+        nrow[j] = r
+
+
+@njit(cache=True)
+def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
+    """out[j, r] = the constraint function of row r of point j at (c, e); returns the
+    largest |value| over the equality rows and the negative part of the unilateral ones."""
+    worst = 0.0
+    for j in range(nrow.shape[0]):
+        a = j - 1
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if k < K_ANCHOR_LOWER:
+                q = k - K_JOINT
+                v = c[a, q] - e[a, q] - c[j, q] - e[j, q]
+            elif k < K_ANCHOR_UPPER:
+                q = k - K_ANCHOR_LOWER
+                v = c[a, q] - e[a, q] - anchor_pos[j, q]
+            elif k < K_AXIS:
+                q = k - K_ANCHOR_UPPER
+                v = c[j, q] + e[j, q] - anchor_pos[j, q]
+            elif k == K_AXIS:
+                v = 0.5 * (e[j, 0] * e[j, 0] + e[j, 1] * e[j, 1] + e[j, 2] * e[j, 2] - 1.0)
+            elif k == K_BEND:
+                v = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - cos_alpha
+            else:
+                v = c[j, 2] + e[j, 2]
+            out[j, r] = v
+            worst = max(worst, abs(v))
+    return worst
+
+
+@njit(cache=True)
+def row_gradients(e, kind, nrow, J):
+    """J[j, r] = the gradient of row r of point j at axes e, over (c_a, e_a, c_c, e_c)."""
+    for j in range(nrow.shape[0]):
+        a = j - 1
+        for r in range(nrow[j]):
+            for q in range(12):
+                J[j, r, q] = 0.0
+            k = kind[j, r]
+            if k < K_ANCHOR_LOWER:
+                q = k - K_JOINT
+                J[j, r, q] = 1.0
+                J[j, r, 3 + q] = -1.0
+                J[j, r, 6 + q] = -1.0
+                J[j, r, 9 + q] = -1.0
+            elif k < K_ANCHOR_UPPER:
+                q = k - K_ANCHOR_LOWER
+                J[j, r, q] = 1.0
+                J[j, r, 3 + q] = -1.0
+            elif k < K_AXIS:
+                q = k - K_ANCHOR_UPPER
+                J[j, r, 6 + q] = 1.0
+                J[j, r, 9 + q] = 1.0
+            elif k == K_AXIS:
+                for q in range(3):
+                    J[j, r, 9 + q] = e[j, q]
+            elif k == K_BEND:
+                for q in range(3):
+                    J[j, r, 3 + q] = e[j, q]
+                    J[j, r, 9 + q] = e[a, q]
+            else:
+                J[j, r, 8] = 1.0
+                J[j, r, 11] = 1.0
+
+
+@njit(cache=True)
+def row_rates(J, nrow, vc, ve, out):
+    """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve)."""
+    n = vc.shape[0]
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            acc = 0.0
+            if j >= 1:
+                for q in range(3):
+                    acc += J[j, r, q] * vc[j - 1, q] + J[j, r, 3 + q] * ve[j - 1, q]
+            if j < n:
+                for q in range(3):
+                    acc += J[j, r, 6 + q] * vc[j, q] + J[j, r, 9 + q] * ve[j, q]
+            out[j, r] = acc
+
+
+@njit(cache=True)
+def carry_over(kind_old, nrow_old, x_old, kind, nrow, x):
+    """x of the new layout (kind, nrow) from x_old of the old one, row by row of the same
+    kind at the same point (0 for a row that is new)."""
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            v = 0.0
+            for s in range(nrow_old[j]):
+                if kind_old[j, s] == kind[j, r]:
+                    v = x_old[j, s]
+            x[j, r] = v
+
+
+@njit(cache=True)
+def copy_layout(kind, nrow, x, kind_to, nrow_to, x_to):
+    """kind_to, nrow_to, x_to <- kind, nrow, x (the rows in use)."""
+    for j in range(nrow.shape[0]):
+        nrow_to[j] = nrow[j]
+        for r in range(nrow[j]):
+            kind_to[j, r] = kind[j, r]
+            x_to[j, r] = x[j, r]
+
+
+# The rows and the solvers' workspace: J, kind, nrow, S, G, drop, rhs, x, gf as the core's
+# ``state.Work`` (what ``dynamics.factor_general`` / ``solve_general`` take), and for stage
+# 1's Newton matrix (``newton``) the rows at q+ (J1), the block LU (D, piv, X), a column.
+Rows = namedtuple("Rows", ["J", "kind", "nrow", "S", "G", "drop", "rhs", "x", "gf", "J1", "D", "piv", "X", "col"])
+
+
+def new_rows(n: int) -> Rows:
+    """The rows of an N-segment chain, RMAX a point, and their solvers' workspace."""
+    p = n + 1
+    return Rows(
+        np.zeros((p, RMAX, 12)),
+        np.zeros((p, RMAX), np.int8),
+        np.zeros(p, np.int64),
+        np.zeros((p, RMAX + 3, RMAX)),
+        np.zeros((p, RMAX, RMAX)),
+        np.zeros((p, RMAX), np.uint8),
+        np.zeros((p, RMAX)),
+        np.zeros((p, RMAX)),
+        np.zeros((n, 6)),
+        np.zeros((p, RMAX, 12)),
+        np.zeros((p, RMAX, RMAX)),
+        np.zeros((p, RMAX), np.int64),
+        np.zeros((p, RMAX, RMAX)),
+        np.zeros(RMAX),
+    )

@@ -1,0 +1,796 @@
+"""Nonsmooth RATTLE over the compiled core (numba, nondimensional: m = b = g = 1).
+
+The scheme of Breuling, Capobianco, Eugster and Leine (Nonlinear Analysis: Hybrid
+Systems, 2024) in maximal coordinates q = (c_i, e_i), u = q' (``rows``), with the
+constant inverse mass W and gravity f = -e_z on the centres.  One step from t to t + h:
+
+1. **Stage 1** (SHAKE, position level): u_half = u + h/2 W f + W G(q)^T P1,
+   q+ = q + h u_half, with the joints, axes and anchors as equalities at q+ and the
+   bend limits and the floor as Signorini conditions at q+: g(q+) >= 0, P1 >= 0,
+   complementary.  Simplified Newton on P1 with the factors of G(q) W G(q)^T (residual
+   g(q+), step (h G W G^T)^{-1}), inside an active-set loop: a unilateral row whose P1
+   pulls is switched off, one found violated at q+ switched on (``stage1``).
+2. **Touches** (the floor model ``all``: ``rules.hold_at``): a point stopped by the
+   floor in stage 1 is anchored where it stands, for good (``land``).
+3. **Stage 2** (velocity level): u+ = u_half + h/2 W f + W G(q+)^T P2 with the
+   equalities' rates zero (a new anchor's velocity: zero, the landing) and, on every
+   hinge at its limit after stage 1, the model's inelastic law dg/dt+ >= 0, P2 >= 0,
+   complementary (``stage2``).
+4. **Settle** (``rules.settle_anchors``): new anchors made, a landed segment put on its
+   anchors and at rest, a lock whose limit is no longer in force dropped.
+
+Second order where the motion is smooth (persistent locks included); nothing passes the
+floor or a limit by more than the solver's tolerance at the end of a step.  What an
+impulse P on row r does to T is P (rate before + rate after) / 2 (exact for impulses
+applied together); the bend rows' share is booked to the hinges, the floor rows' and new
+anchors' share to the landings, the equalities' share is the method's own error
+(the imbalance, second order).  A hinge is *locked* while it takes impulse in stage 2.
+Frames come from a second step from the step's start to the frame's time, on a copy of
+the state (``frame_substep``): the fall does not depend on when frames are taken.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from ...core.books import log_row, lowest_point
+from ...core.dynamics import factor_general, generalized_forces, potential_energy, solve_general
+from ...core.jit import entry, njit
+from ...core.rules import (
+    LOG_LANDING,
+    LOG_LOCK,
+    LOG_UNLOCK,
+    all_anchored,
+    fall_ended,
+    hold_at,
+    is_landed,
+    limit_in_force,
+)
+from .newton import factor_newton, solve_newton
+from .rows import (
+    K_ANCHOR_LOWER,
+    K_ANCHOR_UPPER,
+    K_AXIS,
+    K_BEND,
+    K_FLOOR,
+    carry_over,
+    copy_layout,
+    layout,
+    row_gradients,
+    row_rates,
+    row_values,
+)
+
+NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
+NEWTON_RATE = 0.05  # a Newton iteration that cuts the residual less than this refactors A
+ROUNDS_MAX = 60  # active-set rounds of a stage at most
+POS_TOL = 1e-12  # b: stage 1 meets every row to this, plus the round-off of the heights
+POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
+RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
+
+# run_steps codes (negative: the run cannot go on)
+RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
+ERR_NEWTON, ERR_ACTIVE_SET, ERR_NAN = -1, -2, -6
+
+# The state a step advances: the centres and their velocities beside the chain's axes,
+# anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
+Motion = namedtuple(
+    "Motion",
+    [
+        "c",  # (N, 3): centres
+        "e",  # (N, 3): axes (lower end -> upper end)
+        "vc",  # (N, 3): the centres' velocities
+        "ve",  # (N, 3): the axes' velocities de/dt
+        "anchored",  # (N+1,) uint8 (2 while its landing impact is solved)
+        "anchor_pos",  # (N+1, 3)
+        "anchor_t",  # (N+1,)
+        "locked",  # (N-1,) uint8: bend rows active (stage 1), taking impulse (stage 2)
+    ],
+)
+
+# A step's scratch and what it hands to the books.
+Scratch = namedtuple(
+    "Scratch",
+    [
+        "start",  # Motion: the state at the step's start (its frames are stepped from it)
+        "ukc", "uke",  # (N, 3): the velocity after a half kick of gravity
+        "val",  # (N+1, RMAX): row values (stage 1) or rates before (stage 2)
+        "rate",  # (N+1, RMAX): rates after
+        "floor_on",  # (N+1,) uint8: floor rows active in stage 1 (none in stage 2)
+        "cand",  # (N-1,) uint8: stage 2's candidates, the hinges at their limit after stage 1
+        "kind1", "nrow1", "x1", "rb1", "ra1",  # stage 1's layout, impulses, rates before/after
+        "kind_old", "nrow_old", "x_old",  # a layout before the last switch (carry-over)
+        "new_anchor",  # (N+1,) int64: points anchored in this step
+        "pts",  # (N+1, 3): point positions
+        "acc",  # (8,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
+        #   [5] factorisations, [6] new anchors, [7] Newton iterations
+        "pull",  # (3,): the pile's impulse on the hanging chain in the step
+    ],
+)  # fmt: skip
+
+
+def new_scratch(n: int) -> Scratch:
+    from .rows import RMAX
+
+    nh = max(n - 1, 0)
+    v3 = lambda m: np.zeros((m, 3))  # noqa: E731
+    p = n + 1
+    return Scratch(
+        new_motion(n),
+        v3(n), v3(n),
+        np.zeros((p, RMAX)), np.zeros((p, RMAX)),
+        np.zeros(p, np.uint8), np.zeros(nh, np.uint8),
+        np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
+        np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
+        np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3),
+    )  # fmt: skip
+
+
+def new_motion(n: int) -> Motion:
+    """A free-standing state (a frame's copy)."""
+    p = n + 1
+    return Motion(
+        np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+        np.zeros(p, np.uint8), np.zeros((p, 3)), np.zeros(p), np.zeros(max(n - 1, 0), np.uint8),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def maximal_state(e, w, c, vc, ve):
+    """Centres c, their velocities vc and the axes' velocities ve = w x e of the chain
+    with axes e and rates w standing on point N at the origin."""
+    n = e.shape[0]
+    px, py, pz = 0.0, 0.0, 0.0  # the lower end of segment i and its velocity
+    ux, uy, uz = 0.0, 0.0, 0.0
+    for i in range(n - 1, -1, -1):
+        dx = w[i, 1] * e[i, 2] - w[i, 2] * e[i, 1]
+        dy = w[i, 2] * e[i, 0] - w[i, 0] * e[i, 2]
+        dz = w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0]
+        c[i, 0], c[i, 1], c[i, 2] = px + e[i, 0], py + e[i, 1], pz + e[i, 2]
+        ve[i, 0], ve[i, 1], ve[i, 2] = dx, dy, dz
+        vc[i, 0], vc[i, 1], vc[i, 2] = ux + dx, uy + dy, uz + dz
+        px, py, pz = px + 2.0 * e[i, 0], py + 2.0 * e[i, 1], pz + 2.0 * e[i, 2]
+        ux, uy, uz = ux + 2.0 * dx, uy + 2.0 * dy, uz + 2.0 * dz
+
+
+@njit(cache=True)
+def rates_of(e, ve, w):
+    """w_i = e_i x de_i/dt: the angular velocity of a rod (no spin) from its axis' rate."""
+    for i in range(e.shape[0]):
+        w[i, 0] = e[i, 1] * ve[i, 2] - e[i, 2] * ve[i, 1]
+        w[i, 1] = e[i, 2] * ve[i, 0] - e[i, 0] * ve[i, 2]
+        w[i, 2] = e[i, 0] * ve[i, 1] - e[i, 1] * ve[i, 0]
+
+
+@njit(cache=True)
+def kinetic_energy_rattle(vc, ve):
+    """T = sum 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
+    t = 0.0
+    for i in range(vc.shape[0]):
+        for q in range(3):
+            t += 0.5 * vc[i, q] ** 2 + ve[i, q] ** 2 / 6.0
+    return t
+
+
+@njit(cache=True)
+def position_tol(n):
+    """What stage 1 meets each row to (b): POS_TOL plus the round-off of heights up to 2N."""
+    return POS_TOL + POS_ROUNDOFF * 2.0 * n
+
+
+@njit(cache=True)
+def _copy(src, dst):
+    for i in range(src.shape[0]):
+        for q in range(src.shape[1]):
+            dst[i, q] = src[i, q]
+
+
+@njit(cache=True)
+def copy_motion(a, b):
+    """b <- a (every array of a Motion)."""
+    _copy(a.c, b.c)
+    _copy(a.e, b.e)
+    _copy(a.vc, b.vc)
+    _copy(a.ve, b.ve)
+    _copy(a.anchor_pos, b.anchor_pos)
+    for j in range(a.anchored.shape[0]):
+        b.anchored[j] = a.anchored[j]
+        b.anchor_t[j] = a.anchor_t[j]
+    for k in range(a.locked.shape[0]):
+        b.locked[k] = a.locked[k]
+
+
+@njit(cache=True)
+def half_kick(h, anchored, vc, ve, ukc, uke):
+    """u + h/2 W f: gravity's half kick on the centres of the segments not landed."""
+    for i in range(vc.shape[0]):
+        landed = is_landed(anchored, i)
+        for q in range(3):
+            ukc[i, q] = 0.0 if landed else vc[i, q]
+            uke[i, q] = 0.0 if landed else ve[i, q]
+        if not landed:
+            ukc[i, 2] -= 0.5 * h
+
+
+@njit(cache=True)
+def add_impulses(anchored, gf, ukc, uke, vc, ve):
+    """u = u_kick + W G^T P (gf = G^T P per segment): (vc, ve) <- (ukc, uke) + W gf."""
+    for i in range(vc.shape[0]):
+        landed = is_landed(anchored, i)
+        for q in range(3):
+            vc[i, q] = 0.0 if landed else ukc[i, q] + gf[i, q]
+            ve[i, q] = 0.0 if landed else uke[i, q] + 3.0 * gf[i, 3 + q]
+
+
+@njit(cache=True)
+def drift(h, anchored, c0, e0, vc, ve, c, e):
+    """q+ = q + h u_half on the segments not landed."""
+    for i in range(c0.shape[0]):
+        if is_landed(anchored, i):
+            continue
+        for q in range(3):
+            c[i, q] = c0[i, q] + h * vc[i, q]
+            e[i, q] = e0[i, q] + h * ve[i, q]
+
+
+@njit(cache=True)
+def _work(kind, nrow, x, before, after, which):
+    """sum over the rows of kind ``which`` (K_BEND, K_FLOOR; -1: anchor rows) of
+    P (rate before + rate after) / 2: what their impulses did to T."""
+    s = 0.0
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            hit = k == which if which >= 0 else (K_ANCHOR_LOWER <= k < K_AXIS)
+            if hit:
+                s += 0.5 * x[j, r] * (before[j, r] + after[j, r])
+    return s
+
+
+@njit(cache=True)
+def _new_anchor_work(anchored, kind, nrow, x, before, after):
+    """What the anchor rows of the anchors made in this step (marked 2) did to T."""
+    s = 0.0
+    for j in range(nrow.shape[0]):
+        if anchored[j] != 2:
+            continue
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if K_ANCHOR_LOWER <= k < K_AXIS:
+                s += 0.5 * x[j, r] * (before[j, r] + after[j, r])
+    return s
+
+
+@njit(cache=True)
+def _anchor_impulse(kind, nrow, x, acc):
+    """acc[2:5] += the anchors' and the floor's impulse on the chain (rows' P)."""
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if K_ANCHOR_LOWER <= k < K_AXIS:
+                acc[2 + (k - K_ANCHOR_LOWER) % 3] += x[j, r]
+            elif k == K_FLOOR:
+                acc[4] += x[j, r]
+
+
+@njit(cache=True)
+def _pile_impulse(anchored, kind, nrow, x, pull):
+    """pull += the impulse of the first anchored point from the top on the segment above
+    it (its lower-anchor rows): the pile's pull on the hanging chain."""
+    for j in range(anchored.shape[0]):
+        if anchored[j] != 0:
+            if j > 0:
+                for r in range(nrow[j]):
+                    k = kind[j, r]
+                    if K_ANCHOR_LOWER <= k < K_ANCHOR_UPPER:
+                        pull[k - K_ANCHOR_LOWER] += x[j, r]
+            return
+
+
+@njit(cache=True)
+def _switch_stage1(model, mo, ws, sc, tol):
+    """The complementarity of stage 1 at q+: a bend or floor row whose impulse pulls is
+    switched off; a hinge in force or a free point found past its limit switched on.
+    Returns whether the active set changed."""
+    anchored, locked, e, c = mo.anchored, mo.locked, mo.e, mo.c
+    changed = False
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            k = ws.kind[j, r]
+            if ws.x[j, r] < 0.0:
+                if k == K_BEND:
+                    locked[j - 1] = 0
+                    changed = True
+                elif k == K_FLOOR:
+                    sc.floor_on[j] = 0
+                    changed = True
+    for k in range(locked.shape[0]):
+        if locked[k] == 0 and limit_in_force(anchored, k, model.cone, model.alpha):
+            g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
+            if g < -tol:
+                locked[k] = 1
+                changed = True
+    n = e.shape[0]
+    for j in range(n):
+        if anchored[j] == 0 and sc.floor_on[j] == 0 and c[j, 2] + e[j, 2] < -tol:
+            sc.floor_on[j] = 1
+            changed = True
+    return changed
+
+
+@njit(cache=True)
+def _factor(mo, ws, sc, e):
+    """The rows of the current layout at axes e, and the factors of J W J^T."""
+    layout(mo.anchored, mo.locked, sc.floor_on, ws.kind, ws.nrow)
+    row_gradients(e, ws.kind, ws.nrow, ws.J)
+    factor_general(mo.anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
+    sc.acc[5] += 1.0
+
+
+@njit(cache=True)
+def stage1(h, model, mo, ws, sc):
+    """Stage 1 (module docstring): q+ and u_half in mo, the impulses P1 in ws.x, their
+    layout kept in sc (kind1, nrow1, x1) with the rows' rates before and after.  Returns
+    0, ERR_NEWTON or ERR_ACTIVE_SET."""
+    n = mo.e.shape[0]
+    tol = position_tol(n)
+    half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
+    for j in range(sc.floor_on.shape[0]):
+        sc.floor_on[j] = 0
+    for rnd in range(ROUNDS_MAX):
+        _factor(mo, ws, sc, sc.start.e)
+        if rnd == 0:  # warm start: the last step's stage-1 impulses, row by row
+            carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)
+        else:
+            carry_over(sc.kind_old, sc.nrow_old, sc.x_old, ws.kind, ws.nrow, ws.x)
+        met = False
+        exact = False  # iteration 0: the symmetric factors; then A = J(q+) W J(q)^T (``newton``)
+        last = math.inf
+        for it in range(NEWTON_MAX):
+            generalized_forces(mo.anchored, ws.J, ws.nrow, ws.x, ws.gf)
+            add_impulses(mo.anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
+            drift(h, mo.anchored, sc.start.c, sc.start.e, mo.vc, mo.ve, mo.c, mo.e)
+            res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
+            sc.acc[7] += 1.0
+            if res <= tol:
+                met = True
+                break
+            if not math.isfinite(res):
+                return ERR_NEWTON
+            for j in range(ws.nrow.shape[0]):
+                for r in range(ws.nrow[j]):
+                    ws.rhs[j, r] = -sc.val[j, r] / h
+            if it == 0:
+                solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)
+            else:
+                if not exact or res > NEWTON_RATE * last:  # (re)factor A at this q+
+                    row_gradients(mo.e, ws.kind, ws.nrow, ws.J1)
+                    factor_newton(mo.anchored, ws)
+                    sc.acc[5] += 1.0
+                    exact = True
+                solve_newton(mo.anchored, ws, ws.rhs, sc.rate)
+            last = res
+            for j in range(ws.nrow.shape[0]):
+                for r in range(ws.nrow[j]):
+                    ws.x[j, r] += sc.rate[j, r]
+        if not met:
+            return ERR_NEWTON
+        copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
+        if not _switch_stage1(model, mo, ws, sc, tol):
+            copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
+            row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.rb1)
+            row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.ra1)
+            return 0
+    return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def land(t, mo, sc):
+    """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
+    (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
+    their number (listed in sc.new_anchor)."""
+    c, e = mo.c, mo.e
+    n = e.shape[0]
+    for j in range(n):
+        for q in range(3):
+            sc.pts[j, q] = c[j, q] + e[j, q]
+    for q in range(3):
+        sc.pts[n, q] = c[n - 1, q] - e[n - 1, q]
+    na = 0
+    for j in range(n + 1):
+        if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
+            hold_at(mo, j, sc.pts)
+            mo.anchored[j] = 2
+            mo.anchor_t[j] = t
+            sc.new_anchor[na] = j
+            na += 1
+        sc.floor_on[j] = 0
+    return na
+
+
+@njit(cache=True)
+def _switch_stage2(mo, ws, sc):
+    """The inelastic law of stage 2: a hinge whose impulse pulls is released; a candidate
+    released that closes (dg/dt < -RATE_TOL) is put back.  Returns whether the set changed."""
+    e, ve, locked = mo.e, mo.ve, mo.locked
+    changed = False
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            if ws.kind[j, r] == K_BEND and ws.x[j, r] < 0.0:
+                locked[j - 1] = 0
+                changed = True
+    for k in range(locked.shape[0]):
+        if sc.cand[k] != 0 and locked[k] == 0:
+            rate = 0.0
+            for q in range(3):
+                rate += ve[k, q] * e[k + 1, q] + e[k, q] * ve[k + 1, q]
+            if rate < -RATE_TOL:
+                locked[k] = 1
+                changed = True
+    return changed
+
+
+@njit(cache=True)
+def stage2(h, model, mo, ws, sc):
+    """Stage 2 (module docstring): u+ in mo, P2 in ws.x, the rows' rates before (sc.val)
+    and after (sc.rate).  The candidates (hinges in force active in stage 1 or at their
+    limit within the position tolerance) start all locked.  Returns 0 or ERR_ACTIVE_SET."""
+    e, anchored, locked = mo.e, mo.anchored, mo.locked
+    tol = position_tol(e.shape[0])
+    half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
+    for k in range(locked.shape[0]):
+        cand = False
+        if limit_in_force(anchored, k, model.cone, model.alpha):
+            g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
+            cand = locked[k] != 0 or g <= tol
+        sc.cand[k] = 1 if cand else 0
+        locked[k] = sc.cand[k]
+    for _ in range(ROUNDS_MAX):
+        _factor(mo, ws, sc, e)  # (sc.floor_on is all 0 after ``land``: no floor rows)
+        row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.val)
+        for j in range(ws.nrow.shape[0]):
+            for r in range(ws.nrow[j]):
+                ws.rhs[j, r] = -sc.val[j, r]
+        solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
+        generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
+        add_impulses(anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
+        if not _switch_stage2(mo, ws, sc):
+            row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.rate)
+            return 0
+    return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def settle(model, mo):
+    """Step 4: the new anchors made (2 -> 1), a lock whose limit is no longer in force
+    dropped, a landed segment put on its anchors (c = (p_j + p_{j+1}) / 2,
+    e = (p_j - p_{j+1}) / 2) and at rest."""
+    anchored, locked, pos = mo.anchored, mo.locked, mo.anchor_pos
+    for j in range(anchored.shape[0]):
+        if anchored[j] == 2:
+            anchored[j] = 1
+    for k in range(locked.shape[0]):
+        if locked[k] and not limit_in_force(anchored, k, model.cone, model.alpha):
+            locked[k] = 0
+    for i in range(mo.e.shape[0]):
+        if is_landed(anchored, i):
+            for q in range(3):
+                mo.c[i, q] = 0.5 * (pos[i, q] + pos[i + 1, q])
+                mo.e[i, q] = 0.5 * (pos[i, q] - pos[i + 1, q])
+                mo.vc[i, q] = 0.0
+                mo.ve[i, q] = 0.0
+
+
+@njit(cache=True)
+def rattle_step(t, h, model, mo, ws, sc):
+    """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
+    what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
+    rates; stage 2's in ws, sc.val, sc.rate).  Returns (code, new anchors)."""
+    for q in range(sc.acc.shape[0]):
+        sc.acc[q] = 0.0
+    for q in range(3):
+        sc.pull[q] = 0.0
+    copy_motion(mo, sc.start)
+    e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
+    code = stage1(h, model, mo, ws, sc)
+    if code < 0:
+        return code, 0
+    lock_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_BEND)
+    land_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_FLOOR)
+    _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
+    _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
+    na = land(t + h, mo, sc)
+    sc.acc[6] = na
+    code = stage2(h, model, mo, ws, sc)
+    if code < 0:
+        return code, na
+    lock_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_BEND)
+    land_work -= _new_anchor_work(mo.anchored, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
+    _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
+    _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, sc.pull)
+    settle(model, mo)
+    if na > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
+        _book_impact(e_start - mechanical_energy(mo.c, mo.vc, mo.ve), lock_work, land_work, na, sc.acc)
+    return 0, na
+
+
+@njit(cache=True)
+def mechanical_energy(c, vc, ve):
+    """U + T in maximal coordinates: sum c_i,z + 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
+    u = 0.0
+    for i in range(c.shape[0]):
+        u += c[i, 2]
+    return u + kinetic_energy_rattle(vc, ve)
+
+
+@njit(cache=True)
+def _new_lock(locked0, kind1, nrow1, x1):
+    """Did a hinge not locked at the step's start take impulse in stage 1 (an impact)?"""
+    for j in range(nrow1.shape[0]):
+        for r in range(nrow1[j]):
+            if kind1[j, r] == K_BEND and locked0[j - 1] == 0 and x1[j, r] > 0.0:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _book_impact(lost, lock_work, land_work, na, acc):
+    """A step with an impact (a new lock, a landing): what it removed from U + T (``lost``)
+    is what the impact dissipated, shared between the hinges and the landings as their
+    impulses' work.  The step's impact is resolved at the step's end, not at its instant,
+    so gravity's work over the step is not the change of U: that O(h) error is the
+    impact's, and the imbalance keeps only the smooth steps' error (second order)."""
+    lw = max(lock_work, 0.0)
+    dw = max(land_work, 0.0) if na > 0 else 0.0
+    share = lw / (lw + dw) if lw + dw > 0.0 else (0.0 if na > 0 else 1.0)
+    acc[0] = share * lost
+    acc[1] = lost - acc[0]
+
+
+@njit(cache=True)
+def _hinge_impulse(k, kind1, nrow1, x1, rb1, ra1, kind2, nrow2, x2, rb2, ra2):
+    """(impulse, energy lost) at hinge k over the step: its bend rows in both stages."""
+    j = k + 1
+    p, lost = 0.0, 0.0
+    for r in range(nrow1[j]):
+        if kind1[j, r] == K_BEND:
+            p += x1[j, r]
+            lost -= 0.5 * x1[j, r] * (rb1[j, r] + ra1[j, r])
+    for r in range(nrow2[j]):
+        if kind2[j, r] == K_BEND:
+            p += x2[j, r]
+            lost -= 0.5 * x2[j, r] * (rb2[j, r] + ra2[j, r])
+    return p, lost
+
+
+@njit(cache=True)
+def n_landed(anchored):
+    m = 0
+    for i in range(anchored.shape[0] - 1):
+        if is_landed(anchored, i):
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def commit(t, h, na, mo, ws, sc, books, log):
+    """The step's books and log: energy lost at hinges and landings, the floor's impulse
+    (a step with a landing: the impacts' account, else the flow), the landed segments'
+    weight, locks (a hinge starts taking impulse in stage 2), unlocks, landings (sharing
+    the step's floor impulse and loss at landing equally), t_fall and the counts."""
+    anchored, locked = mo.anchored, mo.locked
+    books.lost_locking[0] += sc.acc[0]
+    books.lost_landing[0] += sc.acc[1]
+    account = books.floor_impulse if na > 0 else books.floor_flow
+    for q in range(3):
+        account[q] += sc.acc[2 + q]
+    books.floor_flow[2] += h * n_landed(sc.start.anchored)
+    for k in range(locked.shape[0]):
+        if locked[k] and not sc.start.locked[k]:
+            p, lost = _hinge_impulse(
+                k, sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, ws.kind, ws.nrow, ws.x, sc.val, sc.rate
+            )
+            log_row(log, t + h, LOG_LOCK, k, p, 0.0, 0.0, lost, sc.pts, k + 1)
+        elif sc.start.locked[k] and not locked[k]:
+            log_row(log, t + h, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
+    if na > 0:
+        share = 1.0 / na
+        for r in range(na):
+            j = sc.new_anchor[r]
+            log_row(
+                log, t + h, LOG_LANDING, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],
+                share * sc.acc[1], sc.pts, j,
+            )  # fmt: skip
+        if anchored[0] != 0 and sc.start.anchored[0] == 0:  # the top end landed: when, within the step
+            zs = sc.start.c[0, 2] + sc.start.e[0, 2]
+            zf = zs + h * (sc.start.vc[0, 2] + sc.start.ve[0, 2]) - 0.5 * h * h
+            s = zs / (zs - zf) if zf < 0.0 < zs else 1.0
+            fall_ended(books, t + min(max(s, 0.0), 1.0) * h, False, True)
+    books.n_steps[0] += 1
+    books.n_evals[0] += np.int64(sc.acc[5])
+    lowest_point(mo.e, books.lowest)
+
+
+# frame info (fb, FB_SIZE): [0] lost at hinges, [1] at landings, [2:5] the floor's impulse
+# so far, [5:8] the anchors' mean force over the last step, [8:11] the pile's pull, [11:16]
+# [0:5] at the last step's start, [16] that step's t, [17] its h, [18] 1 while frames inside
+# it are still to be taken (the frame buffer was full), [19] how many times the step is
+# halved (a step whose stage 1 or 2 failed is taken again in halves), [20] the next time
+# of the step grid (multiples of h: halved steps end on it)
+FB_SIZE = 21
+CUTS_MAX = 10  # a step is halved at most this many times
+TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w| small)
+
+
+@njit(cache=True)
+def _fastest_turn(ve):
+    """max_i |e_i'| = max_i |w_i| (rad per sqrt(b/g))."""
+    m = 0.0
+    for i in range(ve.shape[0]):
+        m = max(m, ve[i, 0] ** 2 + ve[i, 1] ** 2 + ve[i, 2] ** 2)
+    return math.sqrt(m)
+
+
+@njit(cache=True)
+def record_frame(t, mo, fb, frames):
+    """Frame frames.count[0] at time t of the state mo, with the books in fb."""
+    k = frames.count[0]
+    e = mo.e
+    n = e.shape[0]
+    frames.t[k] = t
+    for i in range(n):
+        frames.omega[k, i, 0] = e[i, 1] * mo.ve[i, 2] - e[i, 2] * mo.ve[i, 1]
+        frames.omega[k, i, 1] = e[i, 2] * mo.ve[i, 0] - e[i, 0] * mo.ve[i, 2]
+        frames.omega[k, i, 2] = e[i, 0] * mo.ve[i, 1] - e[i, 1] * mo.ve[i, 0]
+        for q in range(3):
+            frames.e[k, i, q] = e[i, q]
+    for j in range(n + 1):
+        frames.anchored[k, j] = mo.anchored[j]
+    for j in range(n - 1):
+        frames.locked[k, j] = mo.locked[j]
+    for q in range(3):
+        frames.floor_force[k, q] = fb[5 + q]
+        frames.pile_pull[k, q] = fb[8 + q]
+        frames.floor_impulse[k, q] = fb[2 + q]
+    frames.scale_force[k] = fb[7] + n_landed(mo.anchored)
+    frames.kinetic[k] = kinetic_energy_rattle(mo.vc, mo.ve)
+    frames.potential[k] = potential_energy(e)
+    frames.lost_locking[k] = fb[0]
+    frames.lost_landing[k] = fb[1]
+    frames.count[0] = k + 1
+    frames.fill[0] = k + 1
+    frames.next[0] += frames.dt
+
+
+@njit(cache=True)
+def _books_now(books, fb):
+    fb[0] = books.lost_locking[0]
+    fb[1] = books.lost_landing[0]
+    for q in range(3):
+        fb[2 + q] = books.floor_impulse[q] + books.floor_flow[q]
+
+
+@njit(cache=True)
+def _step_forces(h, sc, fb):
+    """fb[5:11] <- the anchors' mean force and the pile's pull over a step of size h."""
+    for q in range(3):
+        fb[5 + q] = sc.acc[2 + q] / h
+        fb[8 + q] = sc.pull[q] / h
+
+
+@njit(cache=True)
+def frame_substeps(model, sc, ws, fm, fsc, fb, frames):
+    """The frames due strictly inside the last step (fb[16], fb[17]: its t and h): each
+    from a step of its own from the step's start (state in sc) to the frame's time, on the
+    copy fm (the fall itself is not touched), with the books at the step's start
+    (fb[11:16]) plus that step's.  Returns 0, RT_BUFFER (full: fb[18] stays 1, the rest
+    are taken on the next call) or the code of a sub-step that failed."""
+    if fb[18] == 0.0:
+        return 0
+    t, h = fb[16], fb[17]
+    while frames.next[0] < t + h * (1.0 - 1e-9):
+        if frames.count[0] >= frames.t.shape[0] - 1:
+            return RT_BUFFER
+        hf = frames.next[0] - t
+        copy_motion(sc.start, fm)
+        code, _ = rattle_step(t, hf, model, fm, ws, fsc)
+        if code < 0:
+            return code
+        for q in range(5):
+            fb[q] = fb[11 + q]
+        fb[0] += fsc.acc[0]
+        fb[1] += fsc.acc[1]
+        for q in range(3):
+            fb[2 + q] += fsc.acc[2 + q]
+        _step_forces(hf, fsc, fb)
+        record_frame(frames.next[0], fm, fb, frames)
+    fb[18] = 0.0
+    _books_now_and_forces(h, sc, fb)
+    return 0
+
+
+@njit(cache=True)
+def _books_now_and_forces(h, sc, fb):
+    """fb[0:5] back to the books after the last step (fb[11:16] plus its own), fb[5:11] its forces."""
+    for q in range(5):
+        fb[q] = fb[11 + q]
+    fb[0] += sc.acc[0]
+    fb[1] += sc.acc[1]
+    for q in range(3):
+        fb[2 + q] += sc.acc[2 + q]
+    _step_forces(h, sc, fb)
+
+
+@njit(cache=True)
+def step(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log):
+    """One step from t (h at most: cut at the stop time) with its books, log and trace;
+    the frames inside it are left pending (fb[18]).  Returns (code, t + h)."""
+    if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
+        _books_now(books, fb)
+        record_frame(t, mo, fb, frames)
+    level = int(fb[19])
+    if level == 0:
+        fb[20] = t + h
+    wmax = _fastest_turn(mo.ve)  # a step turns no segment more than TURN_MAX: halve it until
+    while level < CUTS_MAX and h / 2.0**level * wmax > TURN_MAX:
+        level += 1
+    fb[19] = level
+    h = min(h / 2.0**level, fb[20] - t, model.t_stop - t)
+    code, na = rattle_step(t, h, model, mo, ws, sc)
+    if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again in halves
+        copy_motion(sc.start, mo)
+        fb[19] = level + 1
+        books.n_evals[0] += np.int64(sc.acc[5])
+        return 0, t
+    if code < 0:
+        return code, t
+    if t + h >= fb[20] * (1.0 - 1e-15):
+        fb[19] = 0.0
+    _books_now(books, fb)
+    for q in range(5):
+        fb[11 + q] = fb[q]
+    fb[16], fb[17], fb[18] = t, h, 1.0
+    commit(t, h, na, mo, ws, sc, books, log)
+    kt = trace.count[0]
+    z_end = mo.c[0, 2] + mo.e[0, 2]
+    trace.t[kt] = t + h
+    trace.z[kt] = z_end
+    trace.count[0] = kt + 1
+    if not (math.isfinite(z_end) and math.isfinite(np.sum(mo.vc)) and math.isfinite(np.sum(mo.ve))):
+        return ERR_NAN, t + h
+    return 0, t + h
+
+
+@entry
+@njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
+def run_steps(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log):
+    """Steps of size h until the fall ends, the stop time, full buffers or
+    ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""
+    n = mo.e.shape[0]
+    room = 3 * n + 8
+    taken = 0
+    while True:
+        code = frame_substeps(model, sc, ws, fm, fsc, fb, frames)  # the last step's, if pending
+        if code != 0:
+            return code, t
+        if all_anchored(mo.anchored):
+            books.t_landed[0] = t
+            fall_ended(books, t, True, True)
+            return RT_LANDED, t
+        if log.t.shape[0] - log.n[0] < room:
+            return RT_RETURN, t
+        if trace.count[0] >= trace.t.shape[0] - 2 or frames.count[0] >= frames.t.shape[0] - 1:
+            return RT_BUFFER, t
+        if t >= model.t_stop * (1.0 - 1e-14):
+            return RT_STOP, t
+        if books.n_steps[0] >= model.max_steps:
+            return RT_MAX_STEPS, t
+        code, t = step(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log)
+        if code < 0:
+            return code, t
+        taken += 1
+        if taken >= model.return_every and not all_anchored(mo.anchored):
+            return RT_RETURN, t
