@@ -233,6 +233,11 @@ class SolverOptions:
         about 2b / v to land, so each landing gets as many steps at every speed as the
         fixed step gives it at the end of a free fall.  Not used by the event-driven
         method.
+    step_energy_tol: how far one step of the RATTLE method may change U + T, in units of
+        E0, before it is taken again halved (its error control: a step whose stage 1 meets
+        a fast change of the constraint forces, a locked stretch folding, creates energy);
+        None (the default): ``methods.rattle.STEP_ENERGY_TOL``; 0: off (fixed steps, but
+        for the turn limit: the scheme's own order shows).  Not used by the other methods.
     """
 
     rtol: float = 1e-10
@@ -249,6 +254,7 @@ class SolverOptions:
     dt: float | None = None
     theta: float | None = None
     dt_rule: str = "fixed"
+    step_energy_tol: float | None = None
 
     def __post_init__(self) -> None:
         r = float(self.rtol)
@@ -287,6 +293,11 @@ class SolverOptions:
             object.__setattr__(self, "theta", t)
         if self.dt_rule not in DT_RULES:
             raise ParameterError(f"dt_rule must be one of {tuple(DT_RULES)}, got {self.dt_rule!r}")
+        if self.step_energy_tol is not None:
+            v = float(self.step_energy_tol)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ParameterError(f"step_energy_tol must be finite and >= 0, got {self.step_energy_tol!r}")
+            object.__setattr__(self, "step_energy_tol", v)
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 

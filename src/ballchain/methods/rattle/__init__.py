@@ -7,7 +7,8 @@ the bounds its runs are audited against (``records.audit``).
 
 from __future__ import annotations
 
-DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given
+DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
+STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is halved)
 # Audit bounds (records.audit): the method holds the floor and the limits at the position
 # level, to its solver's tolerance (stage 1 meets every row to about 1e-12 b), so the depth,
 # anchors and bends are held to the event-driven method's bounds; its energy error is

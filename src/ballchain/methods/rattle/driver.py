@@ -21,11 +21,13 @@ from ..outputs import (
     TraceBuffer,
     drive,
 )
+from . import STEP_ENERGY_TOL
 from .rows import new_rows
 from .stepper import (
     ERR_ACTIVE_SET,
     ERR_NAN,
     ERR_NEWTON,
+    ERR_STEP_ENERGY,
     FB_SIZE,
     RT_BUFFER,
     RT_LANDED,
@@ -35,7 +37,7 @@ from .stepper import (
     Motion,
     kinetic_energy_rattle,
     maximal_state,
-    new_motion,
+    new_frame_work,
     new_scratch,
     rates_of,
     run_steps,
@@ -45,6 +47,7 @@ RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (p
 
 ERROR_MESSAGES = {
     ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
+    ERR_STEP_ENERGY: "a step changed the energy beyond its bound, halved as far as it goes",
     ERR_ACTIVE_SET: "a stage's active set of limits and floor contacts did not settle",
     ERR_NAN: "non-finite state (blow-up)",
 }
@@ -67,15 +70,17 @@ def run(setup, progress, stop) -> RunOutput:
     c, vc, ve = (np.zeros((n, 3)) for _ in range(3))
     maximal_state(chain.Y[0], chain.Y[1], c, vc, ve)
     mo = Motion(c, chain.Y[0], vc, ve, chain.anchored, chain.anchor_pos, chain.anchor_t, chain.locked)
-    ws, sc, fm, fsc = new_rows(n), new_scratch(n), new_motion(n), new_scratch(n)
+    ws, sc, fr = new_rows(n), new_scratch(n), new_frame_work(n)
     fb = np.zeros(FB_SIZE)
+    etol = STEP_ENERGY_TOL if o.step_energy_tol is None else o.step_energy_tol
+    fb[21] = etol * abs(setup.E0)
     books = new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
     h = o.dt * setup.t_ff / n
 
     def advance(t):
-        code, t = run_steps(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames.compiled, trace.compiled, log.compiled)
+        code, t = run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames.compiled, trace.compiled, log.compiled)
         rates_of(mo.e, mo.ve, chain.Y[1])
         if code == RT_BUFFER:
             return FLUSH, t
@@ -93,7 +98,7 @@ def run(setup, progress, stop) -> RunOutput:
         return GO_ON, t
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
-    state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve}, "scratch": sc, "frame_scratch": fsc}
+    state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve}, "scratch": sc, "frame_scratch": fr.sc}
     state.update({"books": books, "frame_info": fb})
     out = drive(setup, progress, stop, advance, out, 4 * (3 * n + 8), state)
     out.kinetic = float(kinetic_energy_rattle(vc, ve))

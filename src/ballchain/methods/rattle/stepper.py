@@ -73,7 +73,7 @@ RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put 
 
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
-ERR_NEWTON, ERR_ACTIVE_SET, ERR_NAN = -1, -2, -6
+ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_NAN = -1, -2, -3, -6
 
 # The state a step advances: the centres and their velocities beside the chain's axes,
 # anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
@@ -127,6 +127,16 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3),
     )  # fmt: skip
+
+
+# What a frame inside a step is stepped with: its own state, workspace and scratch.
+FrameWork = namedtuple("FrameWork", ["motion", "ws", "sc"])
+
+
+def new_frame_work(n: int) -> FrameWork:
+    from .rows import new_rows
+
+    return FrameWork(new_motion(n), new_rows(n), new_scratch(n))
 
 
 def new_motion(n: int) -> Motion:
@@ -322,12 +332,30 @@ def _switch_stage1(model, mo, ws, sc, tol):
 
 
 @njit(cache=True)
-def _factor(mo, ws, sc, e):
-    """The rows of the current layout at axes e, and the factors of J W J^T."""
+def _factor(mo, ws, sc, e, reuse):
+    """The rows of the current layout at axes e, and the factors of J W J^T; with
+    ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its layout is this
+    one: a step's stage 1 starts where the last stage 2 ended, with its active set."""
+    layout(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old)
+    if reuse and ws.valid[0] != 0 and same_layout(sc.kind_old, sc.nrow_old, ws.kind, ws.nrow):
+        return
+    ws.valid[0] = 0
     layout(mo.anchored, mo.locked, sc.floor_on, ws.kind, ws.nrow)
     row_gradients(e, ws.kind, ws.nrow, ws.J)
     factor_general(mo.anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
     sc.acc[5] += 1.0
+
+
+@njit(cache=True)
+def same_layout(kind_a, nrow_a, kind_b, nrow_b):
+    """Are the two layouts the same rows?"""
+    for j in range(nrow_a.shape[0]):
+        if nrow_a[j] != nrow_b[j]:
+            return False
+        for r in range(nrow_a[j]):
+            if kind_a[j, r] != kind_b[j, r]:
+                return False
+    return True
 
 
 @njit(cache=True)
@@ -341,11 +369,10 @@ def stage1(h, model, mo, ws, sc):
     for j in range(sc.floor_on.shape[0]):
         sc.floor_on[j] = 0
     for rnd in range(ROUNDS_MAX):
-        _factor(mo, ws, sc, sc.start.e)
-        if rnd == 0:  # warm start: the last step's stage-1 impulses, row by row
-            carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)
-        else:
-            carry_over(sc.kind_old, sc.nrow_old, sc.x_old, ws.kind, ws.nrow, ws.x)
+        if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
+            copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
+        _factor(mo, ws, sc, sc.start.e, rnd == 0)
+        carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)  # warm start, row by row
         met = False
         exact = False  # iteration 0: the symmetric factors; then A = J(q+) W J(q)^T (``newton``)
         last = math.inf
@@ -449,7 +476,7 @@ def stage2(h, model, mo, ws, sc):
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
     for _ in range(ROUNDS_MAX):
-        _factor(mo, ws, sc, e)  # (sc.floor_on is all 0 after ``land``: no floor rows)
+        _factor(mo, ws, sc, e, False)  # (sc.floor_on is all 0 after ``land``: no floor rows)
         row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.val)
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
@@ -459,6 +486,7 @@ def stage2(h, model, mo, ws, sc):
         add_impulses(anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
         if not _switch_stage2(mo, ws, sc):
             row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.rate)
+            ws.valid[0] = 1
             return 0
     return ERR_ACTIVE_SET
 
@@ -485,10 +513,14 @@ def settle(model, mo):
 
 
 @njit(cache=True)
-def rattle_step(t, h, model, mo, ws, sc):
+def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
     what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
-    rates; stage 2's in ws, sc.val, sc.rate).  Returns (code, new anchors)."""
+    rates; stage 2's in ws, sc.val, sc.rate).  With etol > 0 a step is refused
+    (ERR_STEP_ENERGY) that changes U + T by more than etol without an impact, or raises
+    it by more than etol with one (an impact removes energy).  Without ``landings`` (a
+    frame's step, inside a step of the fall) a point stopped by the floor is not anchored:
+    the fall anchors it, at its own step's end.  Returns (code, new anchors)."""
     for q in range(sc.acc.shape[0]):
         sc.acc[q] = 0.0
     for q in range(3):
@@ -502,7 +534,13 @@ def rattle_step(t, h, model, mo, ws, sc):
     land_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_FLOOR)
     _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
-    na = land(t + h, mo, sc)
+    na, touched = 0, 0
+    if landings:
+        na = land(t + h, mo, sc)
+    else:
+        for j in range(sc.floor_on.shape[0]):
+            touched += sc.floor_on[j]
+            sc.floor_on[j] = 0
     sc.acc[6] = na
     code = stage2(h, model, mo, ws, sc)
     if code < 0:
@@ -512,8 +550,15 @@ def rattle_step(t, h, model, mo, ws, sc):
     _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
     _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, sc.pull)
     settle(model, mo)
-    if na > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
-        _book_impact(e_start - mechanical_energy(mo.c, mo.vc, mo.ve), lock_work, land_work, na, sc.acc)
+    if na > 0:  # landed segments: the columns of the factors are not the state's
+        ws.valid[0] = 0
+    lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve)
+    if na > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
+        if etol > 0.0 and lost < -etol:
+            return ERR_STEP_ENERGY, na
+        _book_impact(lost, lock_work, land_work, na + touched, sc.acc)
+    elif etol > 0.0 and abs(lost) > etol:
+        return ERR_STEP_ENERGY, na
     return 0, na
 
 
@@ -618,10 +663,12 @@ def commit(t, h, na, mo, ws, sc, books, log):
 # so far, [5:8] the anchors' mean force over the last step, [8:11] the pile's pull, [11:16]
 # [0:5] at the last step's start, [16] that step's t, [17] its h, [18] 1 while frames inside
 # it are still to be taken (the frame buffer was full), [19] how many times the step is
-# halved (a step whose stage 1 or 2 failed is taken again in halves), [20] the next time
-# of the step grid (multiples of h: halved steps end on it)
-FB_SIZE = 21
+# halved (a step whose stage 1 or 2 failed, or which changed the energy beyond its bound,
+# is taken again halved), [20] the steps taken at that size (after GROW_AFTER the step is
+# doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound)
+FB_SIZE = 22
 CUTS_MAX = 10  # a step is halved at most this many times
+GROW_AFTER = 8  # successful steps at a halved size before the next is tried doubled
 TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w| small)
 
 
@@ -682,7 +729,7 @@ def _step_forces(h, sc, fb):
 
 
 @njit(cache=True)
-def frame_substeps(model, sc, ws, fm, fsc, fb, frames):
+def frame_substeps(model, sc, fws, fm, fsc, fb, frames):
     """The frames due strictly inside the last step (fb[16], fb[17]: its t and h): each
     from a step of its own from the step's start (state in sc) to the frame's time, on the
     copy fm (the fall itself is not touched), with the books at the step's start
@@ -696,7 +743,8 @@ def frame_substeps(model, sc, ws, fm, fsc, fb, frames):
             return RT_BUFFER
         hf = frames.next[0] - t
         copy_motion(sc.start, fm)
-        code, _ = rattle_step(t, hf, model, fm, ws, fsc)
+        fws.valid[0] = 0
+        code, _ = rattle_step(t, hf, model, fm, fws, fsc, 0.0, False)
         if code < 0:
             return code
         for q in range(5):
@@ -725,30 +773,33 @@ def _books_now_and_forces(h, sc, fb):
 
 
 @njit(cache=True)
-def step(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log):
+def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     """One step from t (h at most: cut at the stop time) with its books, log and trace;
     the frames inside it are left pending (fb[18]).  Returns (code, t + h)."""
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
         _books_now(books, fb)
         record_frame(t, mo, fb, frames)
     level = int(fb[19])
-    if level == 0:
-        fb[20] = t + h
     wmax = _fastest_turn(mo.ve)  # a step turns no segment more than TURN_MAX: halve it until
     while level < CUTS_MAX and h / 2.0**level * wmax > TURN_MAX:
         level += 1
     fb[19] = level
-    h = min(h / 2.0**level, fb[20] - t, model.t_stop - t)
-    code, na = rattle_step(t, h, model, mo, ws, sc)
-    if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again in halves
+    h = min(h / 2.0**level, model.t_stop - t)
+    etol = fb[21] if level < CUTS_MAX else 0.0
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True)
+    if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, halved
         copy_motion(sc.start, mo)
+        ws.valid[0] = 0
         fb[19] = level + 1
+        fb[20] = 0.0
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     if code < 0:
         return code, t
-    if t + h >= fb[20] * (1.0 - 1e-15):
-        fb[19] = 0.0
+    fb[20] += 1.0  # steps taken at this size: after GROW_AFTER, the next is doubled
+    if level > 0 and fb[20] >= GROW_AFTER:
+        fb[19] = level - 1
+        fb[20] = 0.0
     _books_now(books, fb)
     for q in range(5):
         fb[11 + q] = fb[q]
@@ -766,14 +817,14 @@ def step(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log):
 
 @entry
 @njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
-def run_steps(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log):
+def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
     """Steps of size h until the fall ends, the stop time, full buffers or
     ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""
     n = mo.e.shape[0]
     room = 3 * n + 8
     taken = 0
     while True:
-        code = frame_substeps(model, sc, ws, fm, fsc, fb, frames)  # the last step's, if pending
+        code = frame_substeps(model, sc, fr.ws, fr.motion, fr.sc, fb, frames)  # the last step's, if pending
         if code != 0:
             return code, t
         if all_anchored(mo.anchored):
@@ -788,7 +839,7 @@ def run_steps(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log):
             return RT_STOP, t
         if books.n_steps[0] >= model.max_steps:
             return RT_MAX_STEPS, t
-        code, t = step(t, h, model, mo, ws, sc, fm, fsc, fb, books, frames, trace, log)
+        code, t = step(t, h, model, mo, ws, sc, fb, books, frames, trace, log)
         if code < 0:
             return code, t
         taken += 1
