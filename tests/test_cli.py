@@ -575,3 +575,23 @@ def test_the_compile_notice_counts_the_seconds(monkeypatch):
     monkeypatch.setattr(cli.typer, "echo", lambda msg, err=False: lines.append(msg))
     cli._compile_with_notice(lambda: None, show_progress=True)
     assert lines[0].startswith("compiling the numba kernels") and lines[1].startswith("compiled the kernels in")
+
+
+@pytest.mark.parametrize("text", ["pi/0", "1.2.3pi/4", "2pi/", "1e999pi"])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("simulate", "--alpha"),
+        ("simulate", "--phase"),
+        ("sweep", "--alpha"),
+        ("paper", "--alpha"),
+        ("paper", "--alphas"),
+        ("theory", "pivot-rod", "--theta0"),
+    ],
+)
+def test_bad_angle_is_one_line(engine, tmp_path, command, text):
+    """An angle expression that is not an angle (a division by zero, a malformed number)
+    ends in one line that names the option, not a traceback."""
+    *cmd, option = command
+    res = run(*cmd, option, text, *(["--out", str(tmp_path / "t.parquet")] if cmd == ["sweep"] else []))
+    assert_one_line_error(res, 2, "cannot parse angle", option.lstrip("-"))

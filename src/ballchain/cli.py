@@ -27,7 +27,7 @@ from . import __version__
 from .inputs import _CHAIN, _SOLVER, _START, _parse_angle, build_inputs  # noqa: F401  (build_inputs: part of the CLI)
 from .methods import SHORT_STEP
 from .methods.checkpoint import DEFAULT_EVERY
-from .model import InitialCondition, ParameterError, parse_angle
+from .model import InitialCondition, ParameterError
 from .records.files import ResultFileError, check_output_dir, check_writable, file_info, load_result, save_result
 
 try:  # typer >= 0.16 vendors click
@@ -690,11 +690,11 @@ def paper(
     try:
         kw = dict(
             segments=segments,
-            alpha=parse_angle(alpha),
+            alpha=_parse_angle("--alpha", alpha),
             floor=floor,
             ic=InitialCondition(kind=ic, eps=eps, seed=seed),
             alpha_segments=alpha_segments,
-            alphas=tuple(parse_angle(a) for a in alphas.split(",") if a.strip()),
+            alphas=tuple(_parse_angle("--alphas", a) for a in alphas.split(",") if a.strip()),
         )
         if quick:
             kw.update(QUICK)
@@ -1134,10 +1134,10 @@ def theory_pivot_rod(
     from .theory import pivot_rod_critical_s, pivot_rod_horizontal_force, pivot_rod_impulse, pivot_rod_vertical_force
 
     try:
-        th0 = parse_angle(theta0)
-        th = None if theta is None else parse_angle(theta)
-    except (ParameterError, ValueError) as e:
-        _error(f"angle: {e}")
+        th0 = _parse_angle("--theta0", theta0)
+        th = None if theta is None else _parse_angle("--theta", theta)
+    except ParameterError as e:
+        _error(str(e))
         raise typer.Exit(EXIT_USAGE)
     out = {
         "theta0": th0,
