@@ -80,3 +80,20 @@ def test_simulate_from_a_file_reruns_its_parameters(tmp_path):
     assert c["alpha"] == math.pi and c["events"]["lock"] == 0 and c["ic"] == a["ic"]
     bad = runner.invoke(app, ["simulate", "--from", str(tmp_path / "none.h5")])
     assert bad.exit_code == 2 and bad.output.count("\n") == 1
+
+
+@pytest.mark.parametrize("function, command", [("simulate", "simulate"), ("sweep", "sweep")])
+def test_help_lists_every_keyword_with_the_commands_help(function, command):
+    """help(bc.simulate) and help(bc.sweep) name every keyword the function accepts, each
+    with the help of the command-line option of the same name."""
+    import pydoc
+
+    from ballchain import api
+    from ballchain.cli import command_options
+
+    keywords = {"simulate": api.SIMULATE_KEYWORDS, "sweep": api.SWEEP_KEYWORDS}[function]
+    text = " ".join(pydoc.render_doc(getattr(bc, function), renderer=pydoc.plaintext).split())
+    options = command_options(command)
+    for name in keywords:
+        assert f"``{name}``" in text, name
+        assert " ".join(options[name][0].split()) in text, name

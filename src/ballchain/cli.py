@@ -1152,6 +1152,20 @@ def theory_pivot_rod(
     _theory_out(out, json_out)
 
 
+def command_options(*path: str) -> dict[str, tuple[str, Any]]:
+    """The options of ``ballchain PATH...`` (e.g. ``"simulate"``, ``"theory", "gamma"``) by
+    their Python name: (help, default), read from the app itself (``ballchain.api``'s
+    docstrings list its keywords from here, so they say what ``--help`` says)."""
+    cmd = typer.main.get_command(app)
+    for name in path:
+        cmd = cmd.commands[name]
+    return {
+        p.name: (p.help or "", p.default if getattr(p, "show_default", True) is not False else None)
+        for p in cmd.params
+        if isinstance(p, typer.core.TyperOption)
+    }
+
+
 def main() -> None:  # pragma: no cover - ``python -m ballchain.cli``
     app()
 
