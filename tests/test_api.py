@@ -97,3 +97,13 @@ def test_help_lists_every_keyword_with_the_commands_help(function, command):
     for name in keywords:
         assert f"``{name}``" in text, name
         assert " ".join(options[name][0].split()) in text, name
+
+
+def test_stats_of_a_missing_or_foreign_file_says_which(tmp_path):
+    with pytest.raises(bc.ParameterError, match="table: no such file"):
+        bc.stats(tmp_path / "nonexistent.parquet")
+    text = tmp_path / "notes.parquet"
+    text.write_text("not a table")
+    with pytest.raises(bc.ParameterError, match="is not a readable Parquet table") as info:
+        bc.stats(text)
+    assert "exists and" not in str(info.value) and "--out" not in str(info.value)

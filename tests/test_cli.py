@@ -595,3 +595,26 @@ def test_bad_angle_is_one_line(engine, tmp_path, command, text):
     *cmd, option = command
     res = run(*cmd, option, text, *(["--out", str(tmp_path / "t.parquet")] if cmd == ["sweep"] else []))
     assert_one_line_error(res, 2, "cannot parse angle", option.lstrip("-"))
+
+
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (("simulate", "--segments", "4", "--output"), "--output"),
+        (("view", "RUN", "--out"), "--out"),
+        (("export", "RUN", "--format", "xyz", "--out"), "--out"),
+        (("animate", "RUN", "--out"), "--out"),
+    ],
+)
+def test_a_file_in_the_way_names_the_commands_option(engine, tmp_path, args, option):
+    """A message names the option the command has and the fix the command line offers
+    (not a Python call)."""
+    run_file = tmp_path / "run.h5"
+    save_result(fake_result(ChainParams(segments=4), InitialCondition(), SolverOptions()), run_file)
+    suffix = {"view": ".html", "export": ".xyz", "animate": ".gif"}.get(args[0], ".h5")
+    target = tmp_path / f"exists{suffix}"
+    target.write_bytes(b"precious")
+    argv = [str(run_file) if a == "RUN" else a for a in args]
+    err = assert_one_line_error(run(*argv, str(target)), 2, f"{option}: file", "exists", "use --force")
+    assert "save_result" not in err and "force=True" not in err
+    assert target.read_bytes() == b"precious"

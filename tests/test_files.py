@@ -210,7 +210,7 @@ def test_no_overwrite_without_force(tmp_path):
     path = tmp_path / "run.h5"
     save_result(make_result(seed=1), path)
     before = path.read_bytes()
-    with pytest.raises(FileExistsError, match="--force"):
+    with pytest.raises(FileExistsError, match="force=True"):
         save_result(make_result(seed=2), path)
     assert path.read_bytes() == before
     with pytest.raises(FileExistsError):

@@ -540,7 +540,7 @@ def simulate(
         values["segments"] = _CHAIN.segments if segments is None else segments
         params, init, options = build_inputs(values)
         if output is not None:
-            check_writable(output, force)
+            check_writable(output, force, "--output")
         ck = None
         if checkpoint is not None:
             from .methods.checkpoint import Checkpoint
@@ -569,7 +569,7 @@ def simulate(
     save_failed = False
     if output is not None:
         try:
-            saved = str(save_result(result, output, force=force))
+            saved = str(save_result(result, output, force=force, what="--output"))
         except KeyboardInterrupt:
             _error(f"interrupted while saving (no file written to {output!r})")
             raise typer.Exit(EXIT_INTERRUPTED)
@@ -736,11 +736,9 @@ def animate(
             raise AnimationError(f"--out: expected a .mp4 or .gif file name, got {out!r}")
         check_options(fps, every, frames)
         try:
-            check_writable(out, force)
-        except FileExistsError:
-            raise AnimationError(f"--out: file {out!r} exists (use --force to overwrite)") from None
-        except ResultFileError as e:
-            raise AnimationError(str(e).replace("output:", "--out:", 1)) from None
+            check_writable(out, force, "--out")
+        except (FileExistsError, ResultFileError) as e:
+            raise AnimationError(str(e)) from None
         result = load_result(file)
         n = int(result.frame_t.shape[0])
         total = frame_indices(n, every=every, frames=frames).size
@@ -798,7 +796,7 @@ def view(
     try:
         if Path(out).suffix.lower() not in (".html", ".htm"):
             raise ParameterError(f"--out: expected a .html file name, got {out!r}")
-        check_writable(out, force)
+        check_writable(out, force, "--out")
         result = load_result(file)
         frame_indices(len(result.frame_t), every=every, frames=frames)  # checks the options against the run
     except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
@@ -832,7 +830,7 @@ def export(
         want = (".xyz", ".extxyz") if fmt == "xyz" else (".pvd",)
         if Path(out).suffix.lower() not in want:
             raise ParameterError(f"--out: expected a {' or '.join(want)} file name for --format {fmt}, got {out!r}")
-        check_writable(out, force)
+        check_writable(out, force, "--out")
         result = load_result(file)
         idx = frame_indices(len(result.frame_t), every=every, frames=frames)
     except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
@@ -945,7 +943,7 @@ def sweep(
         spec.tasks()  # every run validated before anything starts
         if Path(out).suffix.lower() != ".parquet":
             raise ParameterError(f"--out: expected a .parquet file name, got {out!r}")
-        check_writable(out, force=True)  # (an existing table is resumed, then rewritten)
+        check_writable(out, force=True, what="--out")  # (an existing table is resumed, then rewritten)
         if save_runs is not None:
             check_output_dir(save_runs, "--save-runs")
         if checkpoints is not None:
@@ -994,9 +992,9 @@ def stats(
             raise typer.Exit(EXIT_USAGE)
         if value is not None:
             try:  # a figure is replaced if it exists (a regular file only)
-                check_writable(value, force=True)
+                check_writable(value, force=True, what=name)
             except ResultFileError as e:
-                _error(f"{name}: {e}".replace(f"{name}: output: ", f"{name}: "))
+                _error(str(e))
                 raise typer.Exit(EXIT_USAGE)
     try:
         res = table_stats(table)

@@ -160,7 +160,7 @@ def table_stats(path) -> dict:
 
     from .table import read_table
 
-    df = pd.DataFrame(read_table(path))
+    df = pd.DataFrame(read_table(path, what="table"))
     return _finite(
         {
             "table": str(path),
