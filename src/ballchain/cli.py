@@ -822,7 +822,7 @@ def export(
 ) -> None:
     """Write a run's frames for OVITO or ParaView (positions in the run's length unit)."""
     from .plots.animate import AnimationError, frame_indices
-    from .records.export import FORMATS, export_frames
+    from .records.export import FORMATS, export_frames, vtk_frame_names
 
     try:
         if fmt not in FORMATS:
@@ -833,10 +833,23 @@ def export(
         check_writable(out, force, "--out")
         result = load_result(file)
         idx = frame_indices(len(result.frame_t), every=every, frames=frames)
+        if fmt == "vtk":  # the frame files beside the collection: none replaced without --force
+            for name in vtk_frame_names(out, idx.size):
+                check_writable(Path(out).parent / name, force, "--out")
     except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
-    typer.echo(str(export_frames(result, fmt, out, idx, force=force)))
+    path = export_frames(result, fmt, out, idx, force=force)
+    typer.echo(str(path))
+    if fmt == "vtk":
+        names = vtk_frame_names(path, idx.size)
+        typer.echo(
+            f"wrote {idx.size + 1} files: the collection {path.name} and its {idx.size} frames "
+            f"{names[0]} ... {names[-1]} beside it, in {str(path.parent)!r}",
+            err=True,
+        )
+    else:
+        typer.echo(f"wrote 1 file: {idx.size} frames in {path.name}", err=True)
 
 
 @app.command()
