@@ -497,3 +497,21 @@ def test_a_one_worker_sweep_never_loses_its_worker_to_late_heartbeats():
     finally:
         client.close()
         cluster.close()
+
+
+def test_no_interval_of_a_mean_from_too_few_runs(tmp_path):
+    """A point with fewer runs than MIN_INTERVAL_N has its mean and no interval; the text
+    says from how many runs an interval is drawn."""
+    from ballchain.sweeps.stats import MIN_INTERVAL_N
+
+    few, many = MIN_INTERVAL_N - 1, MIN_INTERVAL_N
+    vals = {(30, k): 0.9 + 0.01 * k for k in range(few)} | {(60, k): 1.1 + 0.01 * k for k in range(many)}
+    path = _synthetic(tmp_path, vals)
+    p30, p60 = table_stats(path)["points"]
+    assert p30["ratio"]["n"] == few and p30["ratio"]["mean"] == pytest.approx(0.9 + 0.005 * (few - 1))
+    assert p30["ratio"]["ci_low"] is None and p30["ratio"]["ci_high"] is None
+    assert p60["ratio"]["n"] == many and p60["ratio"]["ci_low"] < p60["ratio"]["mean"] < p60["ratio"]["ci_high"]
+    text = runner.invoke(app, ["stats", path]).stdout
+    assert f"none from fewer than {MIN_INTERVAL_N} runs" in text
+    (row30,) = [ln for ln in text.splitlines() if ln.split()[:2] == ["64", "30d"]]
+    assert "[-, -]" in row30

@@ -1058,6 +1058,12 @@ def stats_text(res: dict) -> str:
             f"{f(lr['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
             f"{'[' + f(fa['ci_low'], '.2f') + ', ' + f(fa['ci_high'], '.2f') + ']':>13}"
         )
+    from .sweeps.stats import MIN_INTERVAL_N
+
+    lines.append(
+        f"(95% intervals of the mean: bootstrap over the runs that fell, column fell; none from fewer than "
+        f"{MIN_INTERVAL_N} runs)"
+    )
     if any(o["n_alpha"] > 1 for o in res["optimal_alpha"]):
         lines.append("optimal alpha (smallest mean t_fall/t_ff; paired bootstrap 95% interval):")
         for o in res["optimal_alpha"]:
