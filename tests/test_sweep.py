@@ -515,3 +515,29 @@ def test_no_interval_of_a_mean_from_too_few_runs(tmp_path):
     assert f"none from fewer than {MIN_INTERVAL_N} runs" in text
     (row30,) = [ln for ln in text.splitlines() if ln.split()[:2] == ["64", "30d"]]
     assert "[-, -]" in row30
+
+
+@pytest.mark.parametrize("finished", [2, 1])
+def test_a_signal_after_the_last_run_is_not_an_interruption(tmp_path, monkeypatch, finished):
+    """Ctrl-C while the cluster closes, every run already in the table: the sweep reports
+    done (exit 0), not interrupted; a signal with a run still to do is an interruption."""
+    import io
+
+    import ballchain.sweeps.execute as execute
+
+    tasks = SweepSpec(segments=(6,), alphas=(math.pi / 3,), runs=2).tasks()
+
+    def fake_cluster(todo, scheduler, workers, writer, report, progress, log):
+        for task in todo[:finished]:
+            writer.add(execute.error_row(task, "made by the test"))
+            report.ran += 1
+        raise execute._Stop("SIGINT")
+
+    monkeypatch.setattr(execute, "_run_on_cluster", fake_cluster)
+    monkeypatch.setattr(execute, "warm_kernels", lambda method: False)
+    log = io.StringIO()
+    rep = run_tasks(tasks, tmp_path / "t.parquet", workers=1, progress=False, log=log)
+    assert rep.ran == finished and len(read_table(tmp_path / "t.parquet")) == finished
+    assert rep.interrupted == (finished < len(tasks))
+    assert ("every run is in" in log.getvalue()) == (finished == len(tasks))
+    assert ("sweep interrupted" in log.getvalue()) == (finished < len(tasks))
