@@ -789,6 +789,12 @@ def view(
         "--frames",
         help="Exactly N frames spread evenly (default: all, at most 1,000,000 chain points in a file).",
     ),
+    stretch: float = typer.Option(
+        1.0,
+        "--stretch",
+        help="Draw the horizontal lengths this many times the vertical ones (default 1: true proportions; "
+        "the title says when it is not 1).",
+    ),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
 ) -> None:
     """An orbitable 3D view of a run with a time slider, in one HTML file (plotly)."""
@@ -797,6 +803,8 @@ def view(
     try:
         if Path(out).suffix.lower() not in (".html", ".htm"):
             raise ParameterError(f"--out: expected a .html file name, got {out!r}")
+        if not (math.isfinite(stretch) and stretch > 0):
+            raise ParameterError(f"--stretch: expected a number > 0, got {stretch!r}")
         check_writable(out, force, "--out")
         result = load_result(file)
         frame_indices(len(result.frame_t), every=every, frames=frames)  # checks the options against the run
@@ -805,7 +813,7 @@ def view(
         raise typer.Exit(EXIT_USAGE)
     from .plots.view import write_view  # lazy: plotly
 
-    typer.echo(str(write_view(result, out, every=every, frames=frames)))
+    typer.echo(str(write_view(result, out, every=every, frames=frames, stretch=stretch)))
 
 
 @app.command()
