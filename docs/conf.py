@@ -30,6 +30,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "data", "figures/cache", "examples/README.md", "**/.ipynb_checkpoints"]
 myst_heading_anchors = 3
 suppress_warnings = ["myst.xref_missing", "myst.header", "config.cache"]  # (links to repository files)
+smartquotes = False  # options such as --initial stay two hyphens (not an en dash) in every page
 html_theme = "furo"
 html_title = f"ballchain {release}"
 autodoc_member_order = "bysource"

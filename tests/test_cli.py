@@ -618,3 +618,21 @@ def test_a_file_in_the_way_names_the_commands_option(engine, tmp_path, args, opt
     err = assert_one_line_error(run(*argv, str(target)), 2, f"{option}: file", "exists", "use --force")
     assert "save_result" not in err and "force=True" not in err
     assert target.read_bytes() == b"precious"
+
+
+def test_the_json_keys_page_lists_exactly_the_keys_printed(engine, tmp_path):
+    """records.json_keys (the documentation's JSON page) against the objects printed:
+    a key printed without its line there, or listed and gone, fails here."""
+    import dataclasses
+
+    from ballchain.records import json_keys
+    from ballchain.sweeps.execute import SweepReport
+
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--json", "--segments", "4", "--output", str(out))
+    assert res.exit_code == 0, res.stderr
+    assert set(json.loads(res.stdout)) == set(json_keys.RUN)
+    info = run("info", str(out), "--json")
+    cli_only = {k for k, v in json_keys.RUN.items() if v.startswith("(runs of the command line)")}
+    assert cli_only and set(json_keys.RUN) - cli_only <= set(json.loads(info.stdout)) <= set(json_keys.RUN)
+    assert {f.name for f in dataclasses.fields(SweepReport)} == set(json_keys.SWEEP)

@@ -541,3 +541,13 @@ def test_a_signal_after_the_last_run_is_not_an_interruption(tmp_path, monkeypatc
     assert rep.interrupted == (finished < len(tasks))
     assert ("every run is in" in log.getvalue()) == (finished == len(tasks))
     assert ("sweep interrupted" in log.getvalue()) == (finished < len(tasks))
+
+
+def test_the_json_keys_page_lists_the_keys_of_stats(tmp_path):
+    from ballchain.records import json_keys
+
+    path = _synthetic(tmp_path, {(a, k): 1.0 + 0.01 * k for a in (30, 60) for k in range(5)})
+    png = tmp_path / "a.png"
+    s = json.loads(runner.invoke(app, ["stats", path, "--json", "--plot", str(png), "--plot-n", str(png)]).stdout)
+    assert set(s) == set(json_keys.STATS)
+    assert {k for p in s["points"] for k in p} == set(json_keys.STATS_POINT)
