@@ -124,12 +124,32 @@ def _json_keys() -> str:
     return "\n".join(rows)
 
 
+def _provenance(srcdir: Path) -> str:
+    import json
+
+    manifest = json.loads((srcdir / "data" / "manifest.json").read_text())
+    rows = [
+        "# Provenance of the committed tables",
+        "",
+        " ".join(manifest["about"].split()),
+        "Rendered from `docs/data/manifest.json` at build time. How the numbers were reached,",
+        "what was tried and rerun, is in [the lab notes](../lab-notes.md).",
+        "",
+    ]
+    for name, t in manifest["tables"].items():
+        engines = ", ".join(f"`{e}` ({c or 'commit not recorded'})" for e, c in t["engines"].items())
+        rows += [f"## `{name}`", "", f"{t['rows']} rows; engines {engines}; added in commit {t['committed_in']}.",
+                 "", "```bash", *t["commands"], "```", "", "Feeds: " + "; ".join(t["feeds"]) + ".", ""]  # fmt: skip
+    return "\n".join(rows)
+
+
 def _write(app) -> None:
     out = Path(app.srcdir) / "generated"
     out.mkdir(exist_ok=True)
     pages = (
         ("cli.md", _cli_reference()),
         ("json-keys.md", _json_keys()),
+        ("provenance.md", _provenance(Path(app.srcdir))),
         ("hdf5-layout.md", _hdf5_layout()),
         ("sweep-columns.md", _sweep_columns()),
     )
