@@ -1,0 +1,122 @@
+"""The numbers the README, the index and the large-N results page quote, recomputed from
+the committed tables (docs/data) by the command the page gives: a number in the text
+that its data no longer give fails here.
+
+The command is read from the page itself (its code block that runs
+``benchmarks/large_n.py``), so the page's command is the one checked."""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1]
+PAGE = ROOT / "docs" / "large-n.md"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+pytestmark = pytest.mark.slow  # (about 20 s: the command's bootstrap intervals and fits)
+
+
+def _page_command() -> list[str]:
+    """The page's ``python benchmarks/large_n.py ...`` command, as arguments."""
+    text = PAGE.read_text()
+    m = re.search(r"^ {4}python benchmarks/large_n\.py (.*?)(?=\n\n)", text, re.S | re.M)
+    assert m, "the page gives no large_n.py command"
+    args = shlex.split(m.group(1).replace("\\\n", " "))
+    plot = args.index("--plot")
+    del args[plot : plot + 2]  # the figure is not redrawn here
+    return [sys.executable, str(ROOT / "benchmarks" / "large_n.py"), *args]
+
+
+def _run(args: list[str]) -> str:
+    out = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, check=True, timeout=600)
+    return out.stdout
+
+
+@pytest.fixture(scope="module")
+def computed():
+    cmd = _page_command()
+    data = json.loads(_run([*[a for a in cmd if a not in ("--events", "--paired")], "--json"]))
+    text = _run(cmd)
+    event_tables = [a for a in cmd if re.search(r"(optimal-alpha|reproduction|largeN-event\d+)\.parquet$", a)]
+    exact_only = _run([cmd[0], cmd[1], *event_tables, "--pool-engines", "3f1506e64dc4,9f716c31d3bb"])
+    return data, text, exact_only
+
+
+def _mean(g) -> str:
+    return f"{g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}]"
+
+
+def _representative(groups) -> dict:
+    """One ensemble per N, the one the fit uses (large_n._best_per_n)."""
+    from large_n import _best_per_n
+
+    return _best_per_n([g for g in groups if g["runs"] >= 2], "event")
+
+
+def test_the_results_table_is_what_its_data_give(computed):
+    data, _, _ = computed
+    rows = [ln for ln in PAGE.read_text().splitlines() if re.match(r"\| \d+ \|", ln)]
+    assert len(rows) >= 10
+    rep = _representative(data["groups"])
+    for row in rows:
+        n, method, starts, mean, fast, g_meas, g_inf = (c.strip() for c in row.strip("|").split("|"))
+        g = rep[int(n)]
+        assert method.split(",")[0] == g["method"], row
+        if g["method"] == "timestep":
+            assert f"theta {g['theta']:g}" in method and f"dt {g['dt']:g}" in method, row
+        assert (int(starts), mean, fast) == (g["runs"], _mean(g), f"{g['fast']:.2f}"), row
+        assert (g_meas, g_inf) == (f"{g['gamma_measured']:.2f}", f"{g['gamma_inferred']:.2f}"), row
+
+
+def test_every_interval_the_page_quotes_is_computed_by_its_command(computed):
+    """Each "x [lo, hi]" of the findings and of what would change them is a mean, a
+    paired difference or a fit that the command (or the exact method's fit) prints."""
+    data, text, exact_only = computed
+    page = PAGE.read_text()
+    prose = " ".join((page.split("| N | method |")[0] + page.split("## What would change the answer")[1]).split())
+    fit = data["fit"]
+    printed = text + exact_only + f" r_inf = {fit['r_inf']:.3f} [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}]"
+    quoted = re.findall(r"[+-]?\d\.\d{3,4} \[[+-]?\d\.\d{3,4}, [+-]?\d\.\d{3,4}\]", prose)
+    assert len(quoted) >= 12
+    for q in quoted:
+        assert q in printed or q.replace(" [", ", r_inf 95% [") in printed or _fit_text(q, exact_only), q
+    assert f"p = {fit['p']:.2f}" in prose
+
+
+def _fit_text(quoted: str, printed: str) -> bool:
+    """``0.925 [0.923, 0.928]`` against the fit line ``t_fall/t_ff = 0.925 + ...; r_inf 95% [0.923, 0.928]``."""
+    m = re.match(r"(\S+) \[(\S+), (\S+)\]", quoted)
+    fit = re.search(r"t_fall/t_ff = (\S+) \+ .*?r_inf 95% \[(\S+), (\S+)\]", printed)
+    return bool(m and fit and m.groups() == fit.groups())
+
+
+def test_the_readme_and_the_index_quote_what_the_data_give(computed):
+    data, _, _ = computed
+    rep = _representative(data["groups"])
+    fit = data["fit"]
+    for path in (ROOT / "README.md", ROOT / "docs" / "index.md"):
+        text = " ".join(path.read_text().split())
+        found = 0
+        for value, n in re.findall(r"(\d\.\d+) at N = (\d+)", text):
+            g = rep[int(n)]
+            assert float(value) == round(g["mean"], len(value) - 2), (path.name, value, n)
+            found += 1
+        for n, value, starts in re.findall(r"N = (\d+) \((\d\.\d+), (\d+) starts\)", text):
+            g = rep[int(n)]
+            assert (float(value), int(starts)) == (round(g["mean"], 3), g["runs"]), (path.name, n)
+            found += 1
+        for value, starts in re.findall(r"(\d\.\d+) at N = \d+ \((\d+) starts\)", text):
+            assert any(round(g["mean"], 3) == float(value) and g["runs"] == int(starts) for g in rep.values())
+        ends, of = re.search(r"(\d+) of (\d+) starts", text).groups()
+        g = rep[1024]
+        assert (int(ends), int(of)) == (g["runs"], g["runs"] + g["failed"]), path.name
+        r_inf = f"{fit['r_inf']:.3f} [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}]"
+        assert r_inf in text, path.name
+        assert found >= 3, path.name
