@@ -120,3 +120,15 @@ def test_the_readme_and_the_index_quote_what_the_data_give(computed):
         r_inf = f"{fit['r_inf']:.3f} [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}]"
         assert r_inf in text, path.name
         assert found >= 3, path.name
+
+
+def test_the_time_steppers_page_quotes_the_paired_differences_the_command_prints(computed):
+    """The time-stepper's page gives its default's change at N = 1024 from the paired
+    differences of the large-N command."""
+    _, text, _ = computed
+    page = (ROOT / "docs" / "timestep.md").read_text()
+    section = " ".join(page.split("## Why the default step changes at N = 1024")[1].split("\n## ")[0].split())
+    quoted = re.findall(r"[+-]\d\.\d{4} \[[+-]\d\.\d{4}, [+-]\d\.\d{4}\]", section)
+    assert len(quoted) == 4
+    for q in quoted:
+        assert q in text, q

@@ -308,7 +308,7 @@ TIMESTEP_WARNING = (
 SHORT_STEP_EARLY_FROM = 2048  # N from which theta = 1/2 was seen to fall early against the exact method
 SHORT_STEP_WARNING = (
     "warning: at N = {n} --theta 0.5 falls early against the exact method, where the default from "
-    f"N = {LONG_STEP_FROM} on (--dt {LONG_STEP[0]:g} --theta {LONG_STEP[1]:g}) agrees with it (how far: docs/large-n.md)"
+    f"N = {LONG_STEP_FROM} on (--dt {LONG_STEP[0]:g} --theta {LONG_STEP[1]:g}) agrees with it (how far: docs/timestep.md)"
 )
 
 
