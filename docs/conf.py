@@ -45,6 +45,7 @@ sphinx_gallery_conf = {
     "gallery_dirs": "auto_examples",
     "filename_pattern": r"/plot_",  # every plot_*.py example runs at build time (each takes seconds)
     "download_all_examples": False,
+    "within_subsection_order": "FileNameSortKey",  # the examples in their numbered order
     "remove_config_comments": True,
     "image_scrapers": (figure_scraper, "matplotlib"),  # ours first: it leaves pyplot's figures to matplotlib's
     "capture_repr": ("_repr_html_", "__repr__"),  # the view (plotly, embedded) and tables show as HTML
