@@ -86,7 +86,7 @@ def unit_of(name: str, units: str) -> str:
 
 @dataclass
 class Result:
-    """Everything one run measures (docs/model.md, section 6).
+    """Everything one run measures (docs/measures.md, section 6).
 
     Scalars: ``z0`` (top height at t = 0), ``t_ff = sqrt(2 z0 / g)``, ``t_fall`` (top end
     first reaches z = 0; NaN if not reached), ``t_landed`` (last segment landed; NaN if
