@@ -23,14 +23,15 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 pytestmark = pytest.mark.slow  # (about 20 s: the command's bootstrap intervals and fits)
 
 
-def _page_command() -> list[str]:
+def _page_command(page: Path = PAGE) -> list[str]:
     """The page's ``python benchmarks/large_n.py ...`` command, as arguments."""
-    text = PAGE.read_text()
+    text = page.read_text()
     m = re.search(r"^ {4}python benchmarks/large_n\.py (.*?)(?=\n\n)", text, re.S | re.M)
     assert m, "the page gives no large_n.py command"
     args = shlex.split(m.group(1).replace("\\\n", " "))
-    plot = args.index("--plot")
-    del args[plot : plot + 2]  # the figure is not redrawn here
+    if "--plot" in args:
+        plot = args.index("--plot")
+        del args[plot : plot + 2]  # the figure is not redrawn here
     return [sys.executable, str(ROOT / "benchmarks" / "large_n.py"), *args]
 
 
@@ -132,3 +133,27 @@ def test_the_time_steppers_page_quotes_the_paired_differences_the_command_prints
     assert len(quoted) == 4
     for q in quoted:
         assert q in text, q
+
+
+def test_the_methods_compared_page_is_what_its_command_prints():
+    """Every row of the paired table and every interval of the findings of the page that
+    sets the two methods against each other, from the page's own command."""
+    page = ROOT / "docs" / "methods-compared.md"
+    printed = _run(_page_command(page))
+    out_rows = {}
+    for line in printed.splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 8 and cells[0].isdigit() and cells[1].startswith("dt "):
+            out_rows.setdefault((int(cells[0]), cells[1], int(cells[4])), []).append(tuple(cells[5:8]))
+    text = page.read_text()
+    rows = [ln for ln in text.splitlines() if re.match(r"\| \d+ \| dt ", ln)]
+    assert len(rows) >= 8
+    for row in rows:
+        n, step, pairs, diff, ks, elock = (c.strip() for c in row.strip("|").split("|"))
+        key = (int(n), step.replace(", theta 1/2", ""), int(pairs))
+        assert (diff, ks, elock) in out_rows.get(key, []), row
+    findings = " ".join(text.split("## Findings")[1].split("| N |")[0].split())
+    quoted = re.findall(r"[+-]\d\.\d{4} \[[+-]\d\.\d{4}, [+-]\d\.\d{4}\]", findings)
+    assert len(quoted) >= 8
+    for q in quoted:
+        assert q in printed, q
