@@ -61,6 +61,31 @@ def _representative(groups) -> dict:
     return _best_per_n([g for g in groups if g["runs"] >= 2], "event")
 
 
+def _check_row(g, method, starts, mean, g_meas, g_inf, row):
+    assert method.split(",")[0] == g["method"], row
+    if g["method"] == "timestep":
+        assert f"theta {g['theta']:g}" in method and f"dt {g['dt']:g}" in method, row
+    assert (int(starts), mean) == (g["runs"], _mean(g)), row
+    assert (g_meas, g_inf) == (f"{g['gamma_measured']:.2f}", f"{g['gamma_inferred']:.2f}"), row
+
+
+def test_the_gamma_page_is_what_its_data_give(computed):
+    """The gamma page's table (and so its findings, which quote it) from the same command."""
+    data, _, _ = computed
+    page = ROOT / "docs" / "gamma.md"
+    assert _page_command(page) == [a for a in _page_command() if a not in ("--events", "--paired")]
+    rep = _representative(data["groups"])
+    rows = [ln for ln in page.read_text().splitlines() if re.match(r"\| \d+ \|", ln)]
+    assert len(rows) >= 8
+    for row in rows:
+        n, method, starts, g_meas, g_inf, mean = (c.strip() for c in row.strip("|").split("|"))
+        _check_row(rep[int(n)], method, starts, mean, g_meas, g_inf, row)
+    findings = " ".join(page.read_text().split("## Findings")[1].split("| N |")[0].split())
+    table = " ".join(rows)
+    for value in re.findall(r"\b\d\.\d\d\b", findings):
+        assert f"| {value} |" in table, value
+
+
 def test_the_results_table_is_what_its_data_give(computed):
     data, _, _ = computed
     rows = [ln for ln in PAGE.read_text().splitlines() if re.match(r"\| \d+ \|", ln)]
@@ -69,11 +94,8 @@ def test_the_results_table_is_what_its_data_give(computed):
     for row in rows:
         n, method, starts, mean, fast, g_meas, g_inf = (c.strip() for c in row.strip("|").split("|"))
         g = rep[int(n)]
-        assert method.split(",")[0] == g["method"], row
-        if g["method"] == "timestep":
-            assert f"theta {g['theta']:g}" in method and f"dt {g['dt']:g}" in method, row
-        assert (int(starts), mean, fast) == (g["runs"], _mean(g), f"{g['fast']:.2f}"), row
-        assert (g_meas, g_inf) == (f"{g['gamma_measured']:.2f}", f"{g['gamma_inferred']:.2f}"), row
+        _check_row(g, method, starts, mean, g_meas, g_inf, row)
+        assert fast == f"{g['fast']:.2f}", row
 
 
 def test_every_interval_the_page_quotes_is_computed_by_its_command(computed):
