@@ -179,3 +179,57 @@ def test_the_methods_compared_page_is_what_its_command_prints():
     assert len(quoted) >= 8
     for q in quoted:
         assert q in printed, q
+
+
+def _page_commands(page: Path) -> str:
+    """The output of every ``python benchmarks/...`` and ``ballchain stats`` command of a
+    page's code blocks (figures they would write left out)."""
+    text = page.read_text()
+    blocks = re.findall(
+        r"^ {4}((?:python benchmarks/\S+\.py|ballchain stats) .*?)(?=\n(?! {8}\S)|\n\n)", text, re.M | re.S
+    )
+    out = []
+    for block in blocks:
+        args = shlex.split(block.split("#")[0].replace("\\\n", " "))
+        for option in ("--plot", "--plot-n"):
+            while option in args:
+                del args[args.index(option) : args.index(option) + 2]
+        if args[0] == "python":
+            args = [sys.executable, *args[1:]]
+        else:
+            args = [sys.executable, "-m", "ballchain.cli", *args[1:]]
+        out.append(_run(args))
+    assert out, page.name
+    return "\n".join(out)
+
+
+def _intervals(text: str) -> set[str]:
+    return set(re.findall(r"\d\.\d{2,4} \[\d\.\d{2,4}, \d\.\d{2,4}\]", " ".join(text.split())))
+
+
+def test_the_optimal_alpha_page_quotes_what_its_commands_print():
+    page = ROOT / "docs" / "optimal-alpha.md"
+    printed = _page_commands(page)
+    quoted = _intervals(page.read_text())
+    assert len(quoted) >= 20
+    assert sorted(q for q in quoted if q not in printed) == []
+
+
+def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
+    """The reproduction page's intervals: from its commands, and the two means it gives
+    without the falls slower than 1.2 t_ff, recomputed here from its table."""
+    import pandas as pd
+
+    from ballchain.sweeps.stats import mean_interval
+
+    page = ROOT / "docs" / "reproduction.md"
+    printed = _page_commands(page)
+    df = pd.read_parquet(ROOT / "docs" / "data" / "reproduction.parquet")
+    for n in (128, 256):
+        x = df[(df.segments == n) & (df.rtol == 1e-10) & (df.status == "landed")]["ratio"].to_numpy()
+        x = x[x <= 1.2]
+        lo, hi = mean_interval(x)
+        printed += f"\n{x.mean():.3f} [{lo:.3f}, {hi:.3f}]"
+    quoted = _intervals(page.read_text())
+    assert len(quoted) >= 10
+    assert sorted(q for q in quoted if q not in printed) == []
