@@ -141,7 +141,7 @@ DESCRIPTIONS = {
     "frame_lost_locking": "cumulative kinetic energy lost in hinge locking",
     "frame_lost_landing": "cumulative kinetic energy lost in landings",
     "event_t": "event times, one row per constraint that acted",
-    "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/model.md)",
+    "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/measures.md, 'The event log')",
     "event_index": "hinge k (0..N-2) or point j (0..N, from the top) of the event",
     "event_impulse": "lock, impulse, hold: (Lambda, 0, 0); landing, anchor: impulse of the floor on the chain",
     "event_pos": "position of the hinge (point k+1) or point j of the row at the event (E, 3)",
