@@ -34,7 +34,7 @@ With ``--paired``, also the same starts on both floors: the mean difference of t
 
 Prints, per (N, alpha, floor), the mean and the range of each measure over the runs, as
 a Markdown table (or one JSON object).  Reads the files' datasets directly (their layout
-is documented in docs/model.md, section 6).
+is documented in docs/measures.md, section 6).
 """
 
 from __future__ import annotations

@@ -30,6 +30,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "data", "figures/cache", "examples/README.md", "**/.ipynb_checkpoints"]
 myst_heading_anchors = 3
 suppress_warnings = ["myst.xref_missing", "myst.header", "config.cache"]  # (links to repository files)
+smartquotes = False  # options such as --initial stay two hyphens (not an en dash) in every page
 html_theme = "furo"
 html_title = f"ballchain {release}"
 autodoc_member_order = "bysource"
@@ -44,8 +45,9 @@ sphinx_gallery_conf = {
     "gallery_dirs": "auto_examples",
     "filename_pattern": r"/plot_",  # every plot_*.py example runs at build time (each takes seconds)
     "download_all_examples": False,
+    "within_subsection_order": "FileNameSortKey",  # the examples in their numbered order
     "remove_config_comments": True,
-    "image_scrapers": ("matplotlib", figure_scraper),
+    "image_scrapers": (figure_scraper, "matplotlib"),  # ours first: it leaves pyplot's figures to matplotlib's
     "capture_repr": ("_repr_html_", "__repr__"),  # the view (plotly, embedded) and tables show as HTML
 }
 

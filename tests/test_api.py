@@ -80,3 +80,30 @@ def test_simulate_from_a_file_reruns_its_parameters(tmp_path):
     assert c["alpha"] == math.pi and c["events"]["lock"] == 0 and c["ic"] == a["ic"]
     bad = runner.invoke(app, ["simulate", "--from", str(tmp_path / "none.h5")])
     assert bad.exit_code == 2 and bad.output.count("\n") == 1
+
+
+@pytest.mark.parametrize("function, command", [("simulate", "simulate"), ("sweep", "sweep")])
+def test_help_lists_every_keyword_with_the_commands_help(function, command):
+    """help(bc.simulate) and help(bc.sweep) name every keyword the function accepts, each
+    with the help of the command-line option of the same name."""
+    import pydoc
+
+    from ballchain import api
+    from ballchain.cli import command_options
+
+    keywords = {"simulate": api.SIMULATE_KEYWORDS, "sweep": api.SWEEP_KEYWORDS}[function]
+    text = " ".join(pydoc.render_doc(getattr(bc, function), renderer=pydoc.plaintext).split())
+    options = command_options(command)
+    for name in keywords:
+        assert f"``{name}``" in text, name
+        assert " ".join(options[name][0].split()) in text, name
+
+
+def test_stats_of_a_missing_or_foreign_file_says_which(tmp_path):
+    with pytest.raises(bc.ParameterError, match="table: no such file"):
+        bc.stats(tmp_path / "nonexistent.parquet")
+    text = tmp_path / "notes.parquet"
+    text.write_text("not a table")
+    with pytest.raises(bc.ParameterError, match="is not a readable Parquet table") as info:
+        bc.stats(text)
+    assert "exists and" not in str(info.value) and "--out" not in str(info.value)

@@ -575,3 +575,64 @@ def test_the_compile_notice_counts_the_seconds(monkeypatch):
     monkeypatch.setattr(cli.typer, "echo", lambda msg, err=False: lines.append(msg))
     cli._compile_with_notice(lambda: None, show_progress=True)
     assert lines[0].startswith("compiling the numba kernels") and lines[1].startswith("compiled the kernels in")
+
+
+@pytest.mark.parametrize("text", ["pi/0", "1.2.3pi/4", "2pi/", "1e999pi"])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("simulate", "--alpha"),
+        ("simulate", "--phase"),
+        ("sweep", "--alpha"),
+        ("paper", "--alpha"),
+        ("paper", "--alphas"),
+        ("theory", "pivot-rod", "--theta0"),
+    ],
+)
+def test_bad_angle_is_one_line(engine, tmp_path, command, text):
+    """An angle expression that is not an angle (a division by zero, a malformed number)
+    ends in one line that names the option, not a traceback."""
+    *cmd, option = command
+    res = run(*cmd, option, text, *(["--out", str(tmp_path / "t.parquet")] if cmd == ["sweep"] else []))
+    assert_one_line_error(res, 2, "cannot parse angle", option.lstrip("-"))
+
+
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (("simulate", "--segments", "4", "--output"), "--output"),
+        (("view", "RUN", "--out"), "--out"),
+        (("export", "RUN", "--format", "xyz", "--out"), "--out"),
+        (("animate", "RUN", "--out"), "--out"),
+    ],
+)
+def test_a_file_in_the_way_names_the_commands_option(engine, tmp_path, args, option):
+    """A message names the option the command has and the fix the command line offers
+    (not a Python call)."""
+    run_file = tmp_path / "run.h5"
+    save_result(fake_result(ChainParams(segments=4), InitialCondition(), SolverOptions()), run_file)
+    suffix = {"view": ".html", "export": ".xyz", "animate": ".gif"}.get(args[0], ".h5")
+    target = tmp_path / f"exists{suffix}"
+    target.write_bytes(b"precious")
+    argv = [str(run_file) if a == "RUN" else a for a in args]
+    err = assert_one_line_error(run(*argv, str(target)), 2, f"{option}: file", "exists", "use --force")
+    assert "save_result" not in err and "force=True" not in err
+    assert target.read_bytes() == b"precious"
+
+
+def test_the_json_keys_page_lists_exactly_the_keys_printed(engine, tmp_path):
+    """records.json_keys (the documentation's JSON page) against the objects printed:
+    a key printed without its line there, or listed and gone, fails here."""
+    import dataclasses
+
+    from ballchain.records import json_keys
+    from ballchain.sweeps.execute import SweepReport
+
+    out = tmp_path / "run.h5"
+    res = run("simulate", "--json", "--segments", "4", "--output", str(out))
+    assert res.exit_code == 0, res.stderr
+    assert set(json.loads(res.stdout)) == set(json_keys.RUN)
+    info = run("info", str(out), "--json")
+    cli_only = {k for k, v in json_keys.RUN.items() if v.startswith("(runs of the command line)")}
+    assert cli_only and set(json_keys.RUN) - cli_only <= set(json.loads(info.stdout)) <= set(json_keys.RUN)
+    assert {f.name for f in dataclasses.fields(SweepReport)} == set(json_keys.SWEEP)

@@ -104,7 +104,7 @@ def test_units_scaling_m_b_g():
 
 def test_rotation_about_z():
     """Changing phi0 of the helix rotates the chain rigidly about z: the smooth phase and
-    the first events are the same, rotated (later events are chaotic, docs/model.md, section 7)."""
+    the first events are the same, rotated (later events are chaotic, docs/measures.md, section 7)."""
     n, phi = 16, 0.7
     a = _fall(n, ic=InitialCondition(phase=0.0), rtol=1e-11, until=0.5, frames_per_tff=50)
     b = _fall(n, ic=InitialCondition(phase=phi), rtol=1e-11, until=0.5, frames_per_tff=50)

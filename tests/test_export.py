@@ -87,3 +87,24 @@ def test_bad_export_requests_fail_in_one_line(run_file, tmp_path):
                  ["--format", "xyz", "--out", str(tmp_path / "a.xyz"), "--every", "0"]):  # fmt: skip
         res = CliRunner().invoke(app, ["export", str(path), *args])
         assert res.exit_code == 2 and res.output.count("\n") == 1, (args, res.output)
+
+
+@pytest.mark.parametrize("fmt, suffix, files", [("vtk", ".pvd", 6), ("xyz", ".xyz", 1)])
+def test_export_says_how_many_files_it_wrote(run_file, tmp_path, fmt, suffix, files):
+    _, path = run_file
+    out = tmp_path / f"fall{suffix}"
+    res = CliRunner().invoke(app, ["export", str(path), "--format", fmt, "--out", str(out), "--frames", "5"])
+    assert res.exit_code == 0, res.output
+    assert res.stdout.strip() == str(out)
+    assert f"wrote {files} file" in res.stderr and "5 frames" in res.stderr
+    assert len(list(tmp_path.iterdir())) == files
+
+
+def test_vtk_frame_files_in_the_way_need_force(run_file, tmp_path):
+    _, path = run_file
+    (tmp_path / "fall_0001.vtk").write_text("precious")
+    args = ["export", str(path), "--format", "vtk", "--out", str(tmp_path / "fall.pvd"), "--frames", "3"]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2 and "fall_0001.vtk" in res.stderr and "--force" in res.stderr
+    assert (tmp_path / "fall_0001.vtk").read_text() == "precious" and not (tmp_path / "fall.pvd").exists()
+    assert CliRunner().invoke(app, [*args, "--force"]).exit_code == 0

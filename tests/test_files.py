@@ -210,7 +210,7 @@ def test_no_overwrite_without_force(tmp_path):
     path = tmp_path / "run.h5"
     save_result(make_result(seed=1), path)
     before = path.read_bytes()
-    with pytest.raises(FileExistsError, match="--force"):
+    with pytest.raises(FileExistsError, match="force=True"):
         save_result(make_result(seed=2), path)
     assert path.read_bytes() == before
     with pytest.raises(FileExistsError):
@@ -394,3 +394,15 @@ def test_outputs_are_checked_before_any_work(tmp_path):
         assert words in res.output and res.output.count("\n") == 1, (args, res.output)
     assert afile.read_bytes() == b"keep me" and link.is_symlink() and stat.S_ISFIFO(fifo.lstat().st_mode)
     assert not (tmp_path / "t.parquet").exists()
+
+
+@pytest.mark.parametrize("ic", [True, False])
+def test_repr_is_one_short_line_whatever_the_size_of_the_run(ic):
+    """repr(Result) names the run and the size of its records, never the arrays."""
+    small, large = make_result(n=5, frames=7, ic=ic), make_result(n=200, frames=500, events=2000, steps=5000, ic=ic)
+    for r in (small, large):
+        text = repr(r)
+        assert "\n" not in text and len(text) < 300, text
+        assert f"N={r.params.segments}" in text and f"frames={len(r.frame_t)}" in text
+        assert f"status={r.status}" in text and ("explicit state" in text) == (not ic)
+    assert abs(len(repr(large)) - len(repr(small))) < 20

@@ -497,3 +497,57 @@ def test_a_one_worker_sweep_never_loses_its_worker_to_late_heartbeats():
     finally:
         client.close()
         cluster.close()
+
+
+def test_no_interval_of_a_mean_from_too_few_runs(tmp_path):
+    """A point with fewer runs than MIN_INTERVAL_N has its mean and no interval; the text
+    says from how many runs an interval is drawn."""
+    from ballchain.sweeps.stats import MIN_INTERVAL_N
+
+    few, many = MIN_INTERVAL_N - 1, MIN_INTERVAL_N
+    vals = {(30, k): 0.9 + 0.01 * k for k in range(few)} | {(60, k): 1.1 + 0.01 * k for k in range(many)}
+    path = _synthetic(tmp_path, vals)
+    p30, p60 = table_stats(path)["points"]
+    assert p30["ratio"]["n"] == few and p30["ratio"]["mean"] == pytest.approx(0.9 + 0.005 * (few - 1))
+    assert p30["ratio"]["ci_low"] is None and p30["ratio"]["ci_high"] is None
+    assert p60["ratio"]["n"] == many and p60["ratio"]["ci_low"] < p60["ratio"]["mean"] < p60["ratio"]["ci_high"]
+    text = runner.invoke(app, ["stats", path]).stdout
+    assert f"none from fewer than {MIN_INTERVAL_N} runs" in text
+    (row30,) = [ln for ln in text.splitlines() if ln.split()[:2] == ["64", "30d"]]
+    assert "[-, -]" in row30
+
+
+@pytest.mark.parametrize("finished", [2, 1])
+def test_a_signal_after_the_last_run_is_not_an_interruption(tmp_path, monkeypatch, finished):
+    """Ctrl-C while the cluster closes, every run already in the table: the sweep reports
+    done (exit 0), not interrupted; a signal with a run still to do is an interruption."""
+    import io
+
+    import ballchain.sweeps.execute as execute
+
+    tasks = SweepSpec(segments=(6,), alphas=(math.pi / 3,), runs=2).tasks()
+
+    def fake_cluster(todo, scheduler, workers, writer, report, progress, log):
+        for task in todo[:finished]:
+            writer.add(execute.error_row(task, "made by the test"))
+            report.ran += 1
+        raise execute._Stop("SIGINT")
+
+    monkeypatch.setattr(execute, "_run_on_cluster", fake_cluster)
+    monkeypatch.setattr(execute, "warm_kernels", lambda method: False)
+    log = io.StringIO()
+    rep = run_tasks(tasks, tmp_path / "t.parquet", workers=1, progress=False, log=log)
+    assert rep.ran == finished and len(read_table(tmp_path / "t.parquet")) == finished
+    assert rep.interrupted == (finished < len(tasks))
+    assert ("every run is in" in log.getvalue()) == (finished == len(tasks))
+    assert ("sweep interrupted" in log.getvalue()) == (finished < len(tasks))
+
+
+def test_the_json_keys_page_lists_the_keys_of_stats(tmp_path):
+    from ballchain.records import json_keys
+
+    path = _synthetic(tmp_path, {(a, k): 1.0 + 0.01 * k for a in (30, 60) for k in range(5)})
+    png = tmp_path / "a.png"
+    s = json.loads(runner.invoke(app, ["stats", path, "--json", "--plot", str(png), "--plot-n", str(png)]).stdout)
+    assert set(s) == set(json_keys.STATS)
+    assert {k for p in s["points"] for k in p} == set(json_keys.STATS_POINT)

@@ -532,3 +532,16 @@ def test_the_books_of_a_fall_stopped_midway_close_as_its_frames_do():
     frame = e0 - r.frame_kinetic[-1] - r.frame_potential[-1] - r.frame_lost_locking[-1] - r.frame_lost_landing[-1]
     assert r.frame_t[-1] > 0.498 * r.t_ff and np.asarray(r.frame_anchored)[-1].sum() > 1  # a pile below
     assert abs(e["imbalance"] - frame) < 1e-3 * e0, (e["imbalance"] / e0, frame / e0)
+
+
+def test_the_warnings_point_to_the_pages_and_quote_no_study():
+    """The time-stepper's warnings name the defaults and the page with the numbers; no
+    measured difference (a number of t_ff) or count of falls is quoted in them."""
+    import re
+
+    from ballchain import cli
+
+    for text in (cli.TIMESTEP_WARNING, cli.SHORT_STEP_WARNING.format(n=4096), cli.LANDING_WARNING.format(n=256)):
+        assert re.search(r"docs/[a-z-]+\.md", text), text
+        assert not re.search(r"\d\s*t_ff\b", text), text
+        assert not re.search(r"\b\d+ of \d+\b", text), text

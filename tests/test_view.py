@@ -89,3 +89,28 @@ def test_frames_states_and_the_size_rule(run, tmp_path):
     for bad in (["--out", str(tmp_path / "v.png")], ["--out", str(tmp_path / "v.html"), "--every", "0"]):
         res = CliRunner().invoke(app, ["view", str(path), *bad])
         assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+
+
+@pytest.mark.parametrize("stretch", [1.0, 4.0])
+def test_the_scene_is_in_true_proportions_unless_stretched_and_says_so(run, stretch):
+    """The box's sides are in proportion to the lengths they span (x and y times the
+    stretch asked for), the title says which, and the slider's time is clear of the buttons."""
+    r, _ = run
+    fig = view_figure(r, stretch=stretch)
+    scene = fig.layout.scene
+    spans = [scene[a].range[1] - scene[a].range[0] for a in ("xaxis", "yaxis", "zaxis")]
+    ratio = scene.aspectratio
+    assert scene.aspectmode == "manual"
+    assert ratio.x / ratio.z == pytest.approx(stretch * spans[0] / spans[2], rel=1e-12)
+    assert ratio.y / ratio.z == pytest.approx(stretch * spans[1] / spans[2], rel=1e-12)
+    assert ("true proportions" in fig.layout.title.text) == (stretch == 1.0)
+    assert ("drawn 4x" in fig.layout.title.text) == (stretch == 4.0)
+    assert scene.zaxis.range[0] < 0.0  # the floor and what lies on it inside the box
+    (buttons,), (slider,) = fig.layout.updatemenus, fig.layout.sliders
+    assert slider.x >= 0.15 and buttons.x < slider.x  # the time above the slider, not under the buttons
+
+
+def test_a_bad_stretch_is_one_line(run, tmp_path):
+    _, path = run
+    res = CliRunner().invoke(app, ["view", str(path), "--out", str(tmp_path / "v.html"), "--stretch", "0"])
+    assert res.exit_code == 2 and res.stderr.startswith("error: --stretch") and res.stderr.count("\n") == 1

@@ -1,5 +1,6 @@
-"""Tables generated from the code at build time: the result file's HDF5 layout (from
-``ballchain.records.files``) and the sweep table's columns (from
+"""Pages generated from the code at build time: the command-line reference (from the
+typer app itself: every command and option with the help ``--help`` prints), the result
+file's HDF5 layout (from ``ballchain.records.files``) and the sweep table's columns (from
 ``ballchain.sweeps.table.COLUMNS``), written as markdown pages the site includes."""
 
 from __future__ import annotations
@@ -55,10 +56,104 @@ def _sweep_columns() -> str:
     return "\n".join(rows) + "\n"
 
 
+def _cell(text: str) -> str:
+    """Plain text in a markdown table cell: one line, its markup characters escaped."""
+    text = " ".join(str(text).split())
+    for ch in ("\\", "|", "*", "<", ">", "`"):
+        text = text.replace(ch, "\\" + ch)
+    return text
+
+
+def _command_sections(cmd, ctx, path: list[str]) -> list[str]:
+    """The section of one command (its usage, help and options, as ``--help`` gives them)
+    and those of its subcommands, in the order the app declares them."""
+    import typer
+
+    rows = [f"{'#' * min(len(path) + 1, 4)} `{' '.join(path)}`", ""]
+    if cmd.help:
+        rows += [" ".join(cmd.help.split()), ""]
+    rows += ["```text", cmd.get_usage(ctx).removeprefix("Usage: "), "```", ""]
+    records = [r for p in cmd.params if not getattr(p, "hidden", False) and (r := p.get_help_record(ctx))]
+    if records:
+        rows += ["| option or argument | what it does |", "|---|---|"]
+        rows += [f"| `{names}` | {_cell(text)} |" for names, text in records]
+        rows.append("")
+    for name, sub in getattr(cmd, "commands", {}).items():
+        if not getattr(sub, "hidden", False):
+            rows += _command_sections(sub, typer.Context(sub, info_name=name, parent=ctx), [*path, name])
+    return rows
+
+
+def _cli_reference() -> str:
+    import typer
+
+    from ballchain.cli import app
+
+    root = typer.main.get_command(app)
+    ctx = typer.Context(root, info_name="ballchain")
+    rows = [
+        "# Command-line reference",
+        "",
+        "Every command of `ballchain` and every option, with the help `ballchain COMMAND --help` prints:",
+        "generated from the command-line program itself when this site is built, so it cannot drift from it.",
+        "Errors in the input end in one line `error: ...` on stderr with exit code 2; `--json` prints one",
+        "JSON object on stdout (its keys: [the JSON keys](json-keys.md)).",
+        "",
+    ]
+    sections = _command_sections(root, ctx, ["ballchain"])
+    rows += ["## `ballchain`", "", *sections[2:]]
+    return "\n".join(rows)
+
+
+def _json_keys() -> str:
+    from ballchain.records.json_keys import PAGES
+
+    rows = [
+        "# The JSON keys",
+        "",
+        "The keys of the objects `--json` prints (one object on stdout), each with what it holds: a",
+        "contract, extended and never renamed. Generated from `ballchain.records.json_keys` at build time;",
+        "a test checks those lists against the objects the commands print. `ballchain theory ... --json`",
+        "prints its inputs and results under the names of its options.",
+        "",
+    ]
+    for title, keys in PAGES:
+        rows += [f"## `{title}`", "", "| key | what it holds |", "|---|---|"]
+        rows += [f"| `{k}` | {_cell(v)} |" for k, v in keys.items()]
+        rows.append("")
+    return "\n".join(rows)
+
+
+def _provenance(srcdir: Path) -> str:
+    import json
+
+    manifest = json.loads((srcdir / "data" / "manifest.json").read_text())
+    rows = [
+        "# Provenance of the committed tables",
+        "",
+        " ".join(manifest["about"].split()),
+        "Rendered from `docs/data/manifest.json` at build time. How the numbers were reached,",
+        "what was tried and rerun, is in [the lab notes](../lab-notes.md).",
+        "",
+    ]
+    for name, t in manifest["tables"].items():
+        engines = ", ".join(f"`{e}` ({c or 'commit not recorded'})" for e, c in t["engines"].items())
+        rows += [f"## `{name}`", "", f"{t['rows']} rows; engines {engines}; added in commit {t['committed_in']}.",
+                 "", "```bash", *t["commands"], "```", "", "Feeds: " + "; ".join(t["feeds"]) + ".", ""]  # fmt: skip
+    return "\n".join(rows)
+
+
 def _write(app) -> None:
     out = Path(app.srcdir) / "generated"
     out.mkdir(exist_ok=True)
-    for name, text in (("hdf5-layout.md", _hdf5_layout()), ("sweep-columns.md", _sweep_columns())):
+    pages = (
+        ("cli.md", _cli_reference()),
+        ("json-keys.md", _json_keys()),
+        ("provenance.md", _provenance(Path(app.srcdir))),
+        ("hdf5-layout.md", _hdf5_layout()),
+        ("sweep-columns.md", _sweep_columns()),
+    )
+    for name, text in pages:
         path = out / name
         if not path.exists() or path.read_text() != text:
             path.write_text(text)

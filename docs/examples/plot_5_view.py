@@ -3,7 +3,9 @@ The interactive view
 ====================
 
 ``ballchain view run.h5 --out fall.html`` writes this view to one HTML file that opens
-offline; here it is embedded: drag to orbit, use the slider or play.
+offline; here it is embedded: drag to orbit, use the slider or play.  The chain is drawn
+in true proportions; ``--stretch K`` (``view_figure(r, stretch=K)``) draws horizontal
+lengths K times longer, and the title says so.
 """
 
 import ballchain as bc

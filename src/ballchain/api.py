@@ -14,6 +14,7 @@ well (``params=``, ``ic=``, ``options=``).  Defaults are the dataclasses' own.
 from __future__ import annotations
 
 import tempfile
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,25 @@ SIMULATE_KEYWORDS = (
     "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "theta", "dt_rule",
     "length", "mass", "gravity", "initial",
 )  # fmt: skip
+
+
+def _keywords_doc(command: str, names, defaults: dict | None = None) -> str:
+    """The keywords ``names`` with the help of ``ballchain COMMAND``'s options of the same
+    name (one source: the command line's help), appended to a docstring."""
+    from .cli import command_options
+
+    options = command_options(command)
+    lines = [
+        "",
+        "",
+        f"    Keywords (the options of ``ballchain {command}``; their help, read from the command line):",
+        "",
+    ]
+    for name in names:
+        text, default = options[name]
+        default = (defaults or {}).get(name, default) if "default" not in text.lower() else None
+        lines += [f"    ``{name}``", f"        {text}" + ("" if default is None else f" Default: ``{default!r}``."), ""]
+    return "\n".join(lines)
 
 
 def _spawn_text(key) -> str:
@@ -83,6 +103,12 @@ def simulate(
     )
 
 
+_DEFAULTS = {
+    f.name: getattr(d, f.name) for d in (ChainParams(), InitialCondition(), SolverOptions()) for f in fields(d)
+}
+simulate.__doc__ += _keywords_doc("simulate", SIMULATE_KEYWORDS, {**_DEFAULTS, "ic": InitialCondition().kind})
+
+
 def _initial_state(initial):
     import numpy as np
 
@@ -135,9 +161,7 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
     """A grid of falls (every N x alpha x floor x start family, ``runs`` starts each) on a
     local Dask cluster, as ``ballchain sweep`` runs it; returns the table as a pandas
     DataFrame (one row per run; columns as ``ballchain sweep`` writes them).  ``grid``:
-    ``SWEEP_KEYWORDS`` (``segments``, ``alpha``, ``floor``, ``ic``: one value or a list;
-    ``runs``, ``seed``, ``eps``, ``rtol``, ``until``, ``frames_per_tff``, ``max_time``,
-    ``method``, ``dt``).
+    the keywords below (``segments``, ``alpha``, ``floor``, ``ic``: one value or a list).
     ``out``: the Parquet file to keep (and resume); default a temporary one.  ``workers``
     > 1 starts worker processes: in a script, call it under ``if __name__ == "__main__":``."""
     import pandas as pd
@@ -183,6 +207,9 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
         path = Path(out) if out is not None else Path(tmp) / "sweep.parquet"
         run_sweep(spec, path, workers=workers, progress=progress)
         return pd.DataFrame(read_table(path))
+
+
+sweep.__doc__ += _keywords_doc("sweep", SWEEP_KEYWORDS, SWEEP_KEYWORDS)
 
 
 def stats(table) -> dict:

@@ -25,9 +25,9 @@ from typer.core import TyperGroup
 
 from . import __version__
 from .inputs import _CHAIN, _SOLVER, _START, _parse_angle, build_inputs  # noqa: F401  (build_inputs: part of the CLI)
-from .methods import SHORT_STEP
+from .methods import LONG_STEP, LONG_STEP_FROM, SHORT_STEP
 from .methods.checkpoint import DEFAULT_EVERY
-from .model import InitialCondition, ParameterError, parse_angle
+from .model import InitialCondition, ParameterError
 from .records.files import ResultFileError, check_output_dir, check_writable, file_info, load_result, save_result
 
 try:  # typer >= 0.16 vendors click
@@ -298,23 +298,24 @@ def _compile_with_notice(load_kernels, show_progress: bool) -> None:
     typer.echo(f"compiled the kernels in {time.perf_counter() - t0:.0f} s", err=True)
 
 
+# The time-stepper's warnings say what is checked and where the numbers are (the pages, which
+# a test keeps in step with their data); they quote no study's numbers themselves.
 TIMESTEP_WARNING = (
-    "warning: --method timestep is experimental: first order in --dt; its ensembles of t_fall come "
-    "within about 0.1 t_ff of the event-driven method's at N = 64-256 (its default step there: --dt 0.01 "
-    "--theta 0.5) and within 0.005 t_ff at N = 1024-4096 (its default step from N = 1024 on: --dt 0.02 "
-    "--theta 1); single falls do not (docs/timestep.md, docs/large-n.md)"
+    "warning: --method timestep is experimental: first order in --dt; its ensembles of t_fall were checked "
+    f"against the event-driven method's, its single falls were not (default step: --dt {SHORT_STEP[0]:g} --theta {SHORT_STEP[1]:g} "
+    f"below N = {LONG_STEP_FROM}, --dt {LONG_STEP[0]:g} --theta {LONG_STEP[1]:g} from N = {LONG_STEP_FROM} on); the checks and their numbers: docs/timestep.md"
 )
 SHORT_STEP_EARLY_FROM = 2048  # N from which theta = 1/2 was seen to fall early against the exact method
 SHORT_STEP_WARNING = (
-    "warning: at N = {n} --theta 0.5 falls early: about 0.008 t_ff at N = 2048 and 0.013 at 4096 against the "
-    "exact method, where the default from N = 1024 on (--dt 0.02 --theta 1) agrees with it (docs/large-n.md)"
+    "warning: at N = {n} --theta 0.5 falls early against the exact method, where the default from "
+    f"N = {LONG_STEP_FROM} on (--dt {LONG_STEP[0]:g} --theta {LONG_STEP[1]:g}) agrees with it (how far: docs/timestep.md)"
 )
 
 
 LANDING_CHECKED_FROM = 256  # --dt-rule landing was checked against the fixed step from this N on
 LANDING_WARNING = (
-    "warning: --dt-rule landing was checked from N = {n} on; below it (N = 48-128) two of nine of its falls "
-    "at --dt 0.02 did not close their books: their slow ends take its longest steps (docs/timestep.md)"
+    "warning: --dt-rule landing was checked from N = {n} on; below it some of its falls did not close their "
+    "books (their slow ends take its longest steps; docs/timestep.md)"
 )
 
 
@@ -540,7 +541,7 @@ def simulate(
         values["segments"] = _CHAIN.segments if segments is None else segments
         params, init, options = build_inputs(values)
         if output is not None:
-            check_writable(output, force)
+            check_writable(output, force, "--output")
         ck = None
         if checkpoint is not None:
             from .methods.checkpoint import Checkpoint
@@ -569,7 +570,7 @@ def simulate(
     save_failed = False
     if output is not None:
         try:
-            saved = str(save_result(result, output, force=force))
+            saved = str(save_result(result, output, force=force, what="--output"))
         except KeyboardInterrupt:
             _error(f"interrupted while saving (no file written to {output!r})")
             raise typer.Exit(EXIT_INTERRUPTED)
@@ -690,11 +691,11 @@ def paper(
     try:
         kw = dict(
             segments=segments,
-            alpha=parse_angle(alpha),
+            alpha=_parse_angle("--alpha", alpha),
             floor=floor,
             ic=InitialCondition(kind=ic, eps=eps, seed=seed),
             alpha_segments=alpha_segments,
-            alphas=tuple(parse_angle(a) for a in alphas.split(",") if a.strip()),
+            alphas=tuple(_parse_angle("--alphas", a) for a in alphas.split(",") if a.strip()),
         )
         if quick:
             kw.update(QUICK)
@@ -736,11 +737,9 @@ def animate(
             raise AnimationError(f"--out: expected a .mp4 or .gif file name, got {out!r}")
         check_options(fps, every, frames)
         try:
-            check_writable(out, force)
-        except FileExistsError:
-            raise AnimationError(f"--out: file {out!r} exists (use --force to overwrite)") from None
-        except ResultFileError as e:
-            raise AnimationError(str(e).replace("output:", "--out:", 1)) from None
+            check_writable(out, force, "--out")
+        except (FileExistsError, ResultFileError) as e:
+            raise AnimationError(str(e)) from None
         result = load_result(file)
         n = int(result.frame_t.shape[0])
         total = frame_indices(n, every=every, frames=frames).size
@@ -790,6 +789,12 @@ def view(
         "--frames",
         help="Exactly N frames spread evenly (default: all, at most 1,000,000 chain points in a file).",
     ),
+    stretch: float = typer.Option(
+        1.0,
+        "--stretch",
+        help="Draw the horizontal lengths this many times the vertical ones (default 1: true proportions; "
+        "the title says when it is not 1).",
+    ),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
 ) -> None:
     """An orbitable 3D view of a run with a time slider, in one HTML file (plotly)."""
@@ -798,7 +803,9 @@ def view(
     try:
         if Path(out).suffix.lower() not in (".html", ".htm"):
             raise ParameterError(f"--out: expected a .html file name, got {out!r}")
-        check_writable(out, force)
+        if not (math.isfinite(stretch) and stretch > 0):
+            raise ParameterError(f"--stretch: expected a number > 0, got {stretch!r}")
+        check_writable(out, force, "--out")
         result = load_result(file)
         frame_indices(len(result.frame_t), every=every, frames=frames)  # checks the options against the run
     except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
@@ -806,7 +813,7 @@ def view(
         raise typer.Exit(EXIT_USAGE)
     from .plots.view import write_view  # lazy: plotly
 
-    typer.echo(str(write_view(result, out, every=every, frames=frames)))
+    typer.echo(str(write_view(result, out, every=every, frames=frames, stretch=stretch)))
 
 
 @app.command()
@@ -824,7 +831,7 @@ def export(
 ) -> None:
     """Write a run's frames for OVITO or ParaView (positions in the run's length unit)."""
     from .plots.animate import AnimationError, frame_indices
-    from .records.export import FORMATS, export_frames
+    from .records.export import FORMATS, export_frames, vtk_frame_names
 
     try:
         if fmt not in FORMATS:
@@ -832,13 +839,26 @@ def export(
         want = (".xyz", ".extxyz") if fmt == "xyz" else (".pvd",)
         if Path(out).suffix.lower() not in want:
             raise ParameterError(f"--out: expected a {' or '.join(want)} file name for --format {fmt}, got {out!r}")
-        check_writable(out, force)
+        check_writable(out, force, "--out")
         result = load_result(file)
         idx = frame_indices(len(result.frame_t), every=every, frames=frames)
+        if fmt == "vtk":  # the frame files beside the collection: none replaced without --force
+            for name in vtk_frame_names(out, idx.size):
+                check_writable(Path(out).parent / name, force, "--out")
     except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
-    typer.echo(str(export_frames(result, fmt, out, idx, force=force)))
+    path = export_frames(result, fmt, out, idx, force=force)
+    typer.echo(str(path))
+    if fmt == "vtk":
+        names = vtk_frame_names(path, idx.size)
+        typer.echo(
+            f"wrote {idx.size + 1} files: the collection {path.name} and its {idx.size} frames "
+            f"{names[0]} ... {names[-1]} beside it, in {str(path.parent)!r}",
+            err=True,
+        )
+    else:
+        typer.echo(f"wrote 1 file: {idx.size} frames in {path.name}", err=True)
 
 
 @app.command()
@@ -945,7 +965,7 @@ def sweep(
         spec.tasks()  # every run validated before anything starts
         if Path(out).suffix.lower() != ".parquet":
             raise ParameterError(f"--out: expected a .parquet file name, got {out!r}")
-        check_writable(out, force=True)  # (an existing table is resumed, then rewritten)
+        check_writable(out, force=True, what="--out")  # (an existing table is resumed, then rewritten)
         if save_runs is not None:
             check_output_dir(save_runs, "--save-runs")
         if checkpoints is not None:
@@ -994,9 +1014,9 @@ def stats(
             raise typer.Exit(EXIT_USAGE)
         if value is not None:
             try:  # a figure is replaced if it exists (a regular file only)
-                check_writable(value, force=True)
+                check_writable(value, force=True, what=name)
             except ResultFileError as e:
-                _error(f"{name}: {e}".replace(f"{name}: output: ", f"{name}: "))
+                _error(str(e))
                 raise typer.Exit(EXIT_USAGE)
     try:
         res = table_stats(table)
@@ -1047,6 +1067,12 @@ def stats_text(res: dict) -> str:
             f"{f(lr['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
             f"{'[' + f(fa['ci_low'], '.2f') + ', ' + f(fa['ci_high'], '.2f') + ']':>13}"
         )
+    from .sweeps.stats import MIN_INTERVAL_N
+
+    lines.append(
+        f"(95% intervals of the mean: bootstrap over the runs that fell, column fell; none from fewer than "
+        f"{MIN_INTERVAL_N} runs)"
+    )
     if any(o["n_alpha"] > 1 for o in res["optimal_alpha"]):
         lines.append("optimal alpha (smallest mean t_fall/t_ff; paired bootstrap 95% interval):")
         for o in res["optimal_alpha"]:
@@ -1134,10 +1160,10 @@ def theory_pivot_rod(
     from .theory import pivot_rod_critical_s, pivot_rod_horizontal_force, pivot_rod_impulse, pivot_rod_vertical_force
 
     try:
-        th0 = parse_angle(theta0)
-        th = None if theta is None else parse_angle(theta)
-    except (ParameterError, ValueError) as e:
-        _error(f"angle: {e}")
+        th0 = _parse_angle("--theta0", theta0)
+        th = None if theta is None else _parse_angle("--theta", theta)
+    except ParameterError as e:
+        _error(str(e))
         raise typer.Exit(EXIT_USAGE)
     out = {
         "theta0": th0,
@@ -1150,6 +1176,20 @@ def theory_pivot_rod(
         out["force_z"] = float(pivot_rod_vertical_force(th, th0, s))
         out["force_x"] = float(pivot_rod_horizontal_force(th, th0, s))
     _theory_out(out, json_out)
+
+
+def command_options(*path: str) -> dict[str, tuple[str, Any]]:
+    """The options of ``ballchain PATH...`` (e.g. ``"simulate"``, ``"theory", "gamma"``) by
+    their Python name: (help, default), read from the app itself (``ballchain.api``'s
+    docstrings list its keywords from here, so they say what ``--help`` says)."""
+    cmd = typer.main.get_command(app)
+    for name in path:
+        cmd = cmd.commands[name]
+    return {
+        p.name: (p.help or "", p.default if getattr(p, "show_default", True) is not False else None)
+        for p in cmd.params
+        if isinstance(p, typer.core.TyperOption)
+    }
 
 
 def main() -> None:  # pragma: no cover - ``python -m ballchain.cli``

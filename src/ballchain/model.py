@@ -38,23 +38,24 @@ def _finite_positive(name: str, value: float) -> float:
 
 
 def parse_angle(text: str | float) -> float:
-    """Parse an angle: radians (``0.785``), degrees (``45deg``), or ``pi/4``, ``3pi/4``, ``pi``."""
+    """Parse an angle: radians (``0.785``), degrees (``45deg``), or ``pi/4``, ``3pi/4``, ``pi``.
+    Anything else (``pi/0``, ``1.2.3pi``) raises ParameterError."""
     if isinstance(text, (int, float)):
         return float(text)
     s = str(text).strip().lower().replace(" ", "")
-    m = re.fullmatch(r"([-+]?[0-9.eE+-]+)(deg|°)", s)
-    if m:
-        return math.radians(float(m.group(1)))
-    m = re.fullmatch(r"([-+]?[0-9.]*)\*?pi(?:/([0-9.]+))?", s)
-    if m:
-        num = m.group(1)
-        coef = 1.0 if num in ("", "+") else (-1.0 if num == "-" else float(num))
-        den = float(m.group(2)) if m.group(2) else 1.0
-        return coef * math.pi / den
     try:
+        m = re.fullmatch(r"([-+]?[0-9.eE+-]+)(deg|°)", s)
+        if m:
+            return math.radians(float(m.group(1)))
+        m = re.fullmatch(r"([-+]?[0-9.]*)\*?pi(?:/([0-9.]+))?", s)
+        if m:
+            num = m.group(1)
+            coef = 1.0 if num in ("", "+") else (-1.0 if num == "-" else float(num))
+            den = float(m.group(2)) if m.group(2) else 1.0
+            return coef * math.pi / den
         return float(s)
-    except ValueError:
-        raise ParameterError(f"alpha: cannot parse angle {text!r} (use e.g. 45deg, pi/4 or 0.785)") from None
+    except (ValueError, ZeroDivisionError, OverflowError):
+        raise ParameterError(f"cannot parse angle {text!r} (use e.g. 45deg, pi/4 or 0.785)") from None
 
 
 @dataclass(frozen=True)

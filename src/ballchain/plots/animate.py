@@ -1,6 +1,6 @@
 """An animation of one run: the chain falling and piling up (``ballchain animate``).
 
-Each frame shows, from the Result alone (docs/model.md, section 6, conventions): a 3D
+Each frame shows, from the Result alone (docs/measures.md, section 6, conventions): a 3D
 view with the floor plane z = 0, a side view (x-z) and a top view (x-y).  In every view
 the chain is the polyline of its points ``Result.points()`` in units of b (point 0, the
 top end, first), the pile is the landed segments (both ends anchored at that frame),

@@ -1,4 +1,4 @@
-"""The figures of one run, read from its Result (docs/model.md, section 6).
+"""The figures of one run, read from its Result (docs/measures.md, section 6).
 
 Times are in units of t_ff, heights in units of z0, forces in units of the chain's
 weight M g (pull: of one segment's weight m g), energies in units of the initial energy:

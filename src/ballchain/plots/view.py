@@ -54,10 +54,13 @@ def _chain_traces(pts: np.ndarray, state: np.ndarray, go, visible: bool = True) 
     return traces
 
 
-def view_figure(result: Result, *, every: int | None = None, frames: int | None = None):
+def view_figure(result: Result, *, every: int | None = None, frames: int | None = None, stretch: float = 1.0):
     """The interactive figure (a ``plotly.graph_objects.Figure``) of the frames chosen as
     ``ballchain animate`` chooses them (``every`` K-th, or ``frames`` spread evenly;
-    default: ``default_frames``)."""
+    default: ``default_frames``).  The scene is in true proportions; ``stretch`` > 1 draws
+    the horizontal lengths that many times longer than the vertical ones (the title says so)."""
+    if not (np.isfinite(stretch) and stretch > 0):
+        raise ValueError(f"--stretch: expected a number > 0, got {stretch!r}")
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
@@ -104,27 +107,45 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
                   args=[[str(k)], dict(mode="immediate", frame=dict(duration=0, redraw=True), transition=dict(duration=0))])
              for k in range(len(idx))]  # fmt: skip
     zmax = float(max(hi[2], z0)) * 1.02
+    zmin = min(float(lo[2]), 0.0) - 0.5
+    # the box's sides in proportion to the lengths they span (times ``stretch`` across)
+    sides = np.array([2 * h * stretch, 2 * h * stretch, zmax - zmin])
+    sides = sides / sides.max()
+    shape = "true proportions" if stretch == 1 else f"horizontal lengths drawn {stretch:.3g}x the vertical"
     fig.update_layout(
         title=f"ballchain: N = {result.params.segments}, alpha = {np.degrees(result.params.alpha):.4g} deg, "
-        f"floor {result.params.floor} (lengths in b, time in t_ff)",
+        f"floor {result.params.floor} (lengths in b, time in t_ff; the chain in {shape})",
         scene=dict(
             xaxis=dict(range=[cx - h, cx + h], title="x"),
             yaxis=dict(range=[cy - h, cy + h], title="y"),
-            zaxis=dict(range=[min(lo[2], 0.0) - 0.5, zmax], title="z"),
+            zaxis=dict(range=[zmin, zmax], title="z"),
             aspectmode="manual",
-            aspectratio=dict(x=1, y=1, z=max(0.6, min(2.0, zmax / (2 * h)))),
-            camera=dict(eye=dict(x=1.7, y=1.7, z=0.8)),
+            aspectratio=dict(x=sides[0], y=sides[1], z=sides[2]),
+            camera=dict(eye=dict(x=1.25, y=1.25, z=0.3)),
         ),  # fmt: skip
         xaxis=dict(title="t / t_ff"),
         yaxis=dict(title="z_top / b", range=[min(0.0, float(np.nanmin(pts_all[:, 0, 2]))) - 0.5, zmax]),
-        sliders=[dict(active=0, steps=steps, currentvalue=dict(prefix="t / t_ff = "), pad=dict(t=40))],
+        # the slider right of the play/pause buttons, its time above it, clear of them
+        sliders=[
+            dict(
+                active=0,
+                steps=steps,
+                x=0.16,
+                len=0.84,
+                y=-0.02,
+                yanchor="top",
+                currentvalue=dict(prefix="t / t_ff = ", xanchor="left"),
+                pad=dict(t=10),
+            )
+        ],  # fmt: skip
         updatemenus=[
             dict(
                 type="buttons",
                 direction="left",
                 x=0.0,
-                y=-0.05,
+                y=-0.06,
                 xanchor="left",
+                yanchor="top",
                 buttons=[
                     dict(
                         label="play",
@@ -146,16 +167,18 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
             )
         ],  # fmt: skip
         legend=dict(x=0.0, y=1.0),
-        margin=dict(l=10, r=10, t=60, b=10),
+        margin=dict(l=10, r=10, t=60, b=40),
     )
     return fig
 
 
-def write_view(result: Result, path, *, every: int | None = None, frames: int | None = None) -> Path:
+def write_view(
+    result: Result, path, *, every: int | None = None, frames: int | None = None, stretch: float = 1.0
+) -> Path:
     """Write the view to one self-contained HTML file (plotly.js embedded); returns the path."""
     p = Path(path)
     tmp = p.with_name(f".{p.name}.tmp")
-    view_figure(result, every=every, frames=frames).write_html(tmp, include_plotlyjs=True, full_html=True,
+    view_figure(result, every=every, frames=frames, stretch=stretch).write_html(tmp, include_plotlyjs=True, full_html=True,
                                                               auto_play=False)  # fmt: skip
     tmp.replace(p)
     return p

@@ -40,6 +40,14 @@ def write_xyz(result: Result, path, frames: np.ndarray, *, force: bool = False) 
     return p
 
 
+def vtk_frame_names(collection, count: int) -> list[str]:
+    """The names of the ``count`` frame files ``write_vtk`` writes beside ``collection``
+    (``<stem>_<k>.vtk``, k from 0)."""
+    stem = Path(collection).stem
+    width = max(4, len(str(count)))
+    return [f"{stem}_{k:0{width}d}.vtk" for k in range(count)]
+
+
 def write_vtk(result: Result, path, frames: np.ndarray, *, force: bool = False) -> Path:
     """VTK: one legacy ASCII POLYDATA file per frame (``<stem>_<k>.vtk``: the chain as one
     polyline through its N+1 points, point data ``anchored``) and a ParaView collection
@@ -47,12 +55,14 @@ def write_vtk(result: Result, path, frames: np.ndarray, *, force: bool = False) 
     p = check_writable(path, force)
     if p.suffix.lower() != ".pvd":
         raise ValueError(f"--out: the VTK collection is a .pvd file, got {str(path)!r}")
-    width = max(4, len(str(len(frames))))
+    names = vtk_frame_names(p, len(frames))
+    for name in names:  # the frame files beside the collection: none replaced without force
+        check_writable(p.parent / name, force)
     entries = []
     for k, i in enumerate(frames):
         pts = result.points(slice(int(i), int(i) + 1))[0]
         anch = _landed_points(np.asarray(result.frame_anchored[i]))
-        name = f"{p.stem}_{k:0{width}d}.vtk"
+        name = names[k]
         n = pts.shape[0]
         lines = [
             "# vtk DataFile Version 3.0",

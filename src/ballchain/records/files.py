@@ -141,7 +141,7 @@ DESCRIPTIONS = {
     "frame_lost_locking": "cumulative kinetic energy lost in hinge locking",
     "frame_lost_landing": "cumulative kinetic energy lost in landings",
     "event_t": "event times, one row per constraint that acted",
-    "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/model.md)",
+    "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/measures.md, 'The event log')",
     "event_index": "hinge k (0..N-2) or point j (0..N, from the top) of the event",
     "event_impulse": "lock, impulse, hold: (Lambda, 0, 0); landing, anchor: impulse of the floor on the chain",
     "event_pos": "position of the hinge (point k+1) or point j of the row at the event (E, 3)",
@@ -206,31 +206,37 @@ def _writable_dir(directory: Path) -> str | None:
     return None
 
 
-def check_writable(path, force: bool = False) -> Path:
+def _exists_message(p: Path, what: str) -> str:
+    """A file is in the way: how to replace it, in the caller's terms (an option of the
+    command line, ``--output``, or a keyword of Python, ``path``)."""
+    how = "use --force to overwrite" if what.startswith("--") else "pass force=True to overwrite"
+    return f"{what}: file {str(p)!r} exists ({how})"
+
+
+def check_writable(path, force: bool = False, what: str = "path") -> Path:
     """Fail early (before any simulation work) if ``path`` cannot be written.
 
     Raises FileExistsError if the file exists and ``force`` is false, ResultFileError
     if the path is a directory, a symbolic link (refused: name the file it points to), a
     device, FIFO or socket (``force`` replaces only a regular file), or its directory is
-    missing or not writable.  Returns the path as a ``Path``.
+    missing or not writable.  Returns the path as a ``Path``.  ``what`` names the path
+    in the messages: the command-line option (``--output``) or the Python argument.
     """
     p = Path(path)
     if str(path) == "" or p.name == "":
-        raise ResultFileError(f"output: {str(path)!r} is not a file name")
+        raise ResultFileError(f"{what}: {str(path)!r} is not a file name")
     if p.is_symlink():
-        raise ResultFileError(f"output: {str(p)!r} is a symbolic link (refused: give the file it points to)")
+        raise ResultFileError(f"{what}: {str(p)!r} is a symbolic link (refused: give the file it points to)")
     if p.is_dir():
-        raise ResultFileError(f"output: {str(p)!r} is a directory")
+        raise ResultFileError(f"{what}: {str(p)!r} is a directory")
     if p.exists():
         if not stat.S_ISREG(p.stat().st_mode):
-            raise ResultFileError(f"output: {str(p)!r} is not a regular file (a device, FIFO or socket): refused")
+            raise ResultFileError(f"{what}: {str(p)!r} is not a regular file (a device, FIFO or socket): refused")
         if not force:
-            raise FileExistsError(
-                f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
-            )
+            raise FileExistsError(_exists_message(p, what))
     reason = _writable_dir(p.parent if str(p.parent) else Path("."))
     if reason is not None:
-        raise ResultFileError(f"output: cannot write {str(p)!r}: {reason}")
+        raise ResultFileError(f"{what}: cannot write {str(p)!r}: {reason}")
     return p
 
 
@@ -316,21 +322,22 @@ def _write(f, result: Result) -> None:
         g.attrs[str(k)] = _attr_value(v)
 
 
-def save_result(result: Result, path, *, force: bool = False) -> Path:
+def save_result(result: Result, path, *, force: bool = False, what: str = "path") -> Path:
     """Write ``result`` to the HDF5 file ``path`` atomically; return the path.
 
     An existing file is replaced only with ``force=True`` (else FileExistsError).
+    ``what`` names the path in the messages (``--output`` from the command line).
     """
     import h5py
 
     p = Path(path)
-    check_writable(p, force)
+    check_writable(p, force, what)
     tmp = p.parent / f".{p.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
     try:
         try:
             f = h5py.File(tmp, "w-")
         except OSError as e:
-            raise ResultFileError(f"output: cannot write {str(p)!r} ({_one_line(e)})") from None
+            raise ResultFileError(f"{what}: cannot write {str(p)!r} ({_one_line(e)})") from None
         with f:
             _write(f, result)
         with open(tmp, "rb+") as fh:
@@ -341,14 +348,10 @@ def save_result(result: Result, path, *, force: bool = False) -> Path:
             try:  # atomic no-clobber: link fails if the target appeared meanwhile
                 os.link(tmp, p)
             except FileExistsError:
-                raise FileExistsError(
-                    f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
-                ) from None
+                raise FileExistsError(_exists_message(p, what)) from None
             except OSError:  # file system without hard links
                 if p.exists():
-                    raise FileExistsError(
-                        f"output: file {str(p)!r} exists (use --force, or save_result(..., force=True), to overwrite)"
-                    ) from None
+                    raise FileExistsError(_exists_message(p, what)) from None
                 os.replace(tmp, p)
     finally:
         try:

@@ -86,7 +86,7 @@ def unit_of(name: str, units: str) -> str:
 
 @dataclass
 class Result:
-    """Everything one run measures (docs/model.md, section 6).
+    """Everything one run measures (docs/measures.md, section 6).
 
     Scalars: ``z0`` (top height at t = 0), ``t_ff = sqrt(2 z0 / g)``, ``t_fall`` (top end
     first reaches z = 0; NaN if not reached), ``t_landed`` (last segment landed; NaN if
@@ -172,6 +172,18 @@ class Result:
     units: str = "nondimensional"
     extra: dict = field(default_factory=dict)
     engine: str = "unknown"  # fingerprint of the engine's sources (provenance.engine_fingerprint)
+
+    def __repr__(self) -> str:
+        """One line: the chain, the start, the method, how the run ended and the size of
+        its records (the arrays themselves: the fields, ``summary()``, the tables)."""
+        p, ic = self.params, self.ic
+        start = "explicit state" if ic is None else f"{ic.kind}" + (f" seed {ic.seed}" if ic.kind == "random" else "")
+        ratio = self.t_fall / self.t_ff if self.t_ff else math.nan
+        return (
+            f"Result(N={p.segments}, alpha={math.degrees(p.alpha):.4g}deg, floor={p.floor}, start={start}, "
+            f"method={self.options.method}, status={self.status}, t_fall/t_ff={ratio:.6g}, "
+            f"frames={len(self.frame_t)}, events={len(self.event_t)}, units={self.units})"
+        )
 
     # ----------------------------------------------------------------- summaries
     def event_counts(self) -> dict:

@@ -247,13 +247,16 @@ def run_tasks(
             old[sig] = signal.signal(sig, stop)
         _run_on_cluster(todo, scheduler, workers, writer, report, progress, log)
     except _Stop as exc:
-        report.interrupted = True
-        print(
-            f"\nsweep interrupted ({exc}): {report.ran} runs done now, {len(writer.rows)} rows in {out}; "
-            f"the same command finishes the rest",
-            file=log,
-            flush=True,
-        )
+        if report.ran == len(todo):  # the signal came after the last run had ended: nothing was cut short
+            print(f"\nsweep: {exc} after the last run had ended: every run is in {out}", file=log, flush=True)
+        else:
+            report.interrupted = True
+            print(
+                f"\nsweep interrupted ({exc}): {report.ran} of {len(todo)} runs done now, {len(writer.rows)} rows "
+                f"in {out}; the same command finishes the rest",
+                file=log,
+                flush=True,
+            )
     finally:
         for sig, h in old.items():
             signal.signal(sig, h)

@@ -66,19 +66,26 @@ def parse_segments(text: str | int) -> list[int]:
     return sorted(set(out))
 
 
+def _angle(text: str) -> float:
+    try:
+        return parse_angle(text)
+    except ParameterError as e:
+        raise ParameterError(f"alpha: {e}") from None
+
+
 def parse_alphas(text: str) -> list[float]:
     """``pi/4,60deg`` or ``10deg:120deg:10deg`` (or a mix) -> sorted distinct radians in (0, pi]."""
     out: list[float] = []
     for item in _items(text, "alpha"):
         parts = item.split(":")
         if len(parts) == 1:
-            out.append(parse_angle(parts[0]))
+            out.append(_angle(parts[0]))
         elif len(parts) == 3:
             if all(p.strip().lower().endswith("deg") for p in parts):  # a grid in degrees: exact degrees
                 a, b, s = (float(p.strip()[:-3]) for p in parts)
                 out.extend(math.radians(v) for v in _grid(a, b, s, "alpha"))
             else:
-                a, b, s = (parse_angle(p) for p in parts)
+                a, b, s = (_angle(p) for p in parts)
                 out.extend(_grid(a, b, s, "alpha"))
         else:
             raise ParameterError(f"alpha: {item!r} is not an angle or start:stop:step range")

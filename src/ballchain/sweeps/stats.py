@@ -6,7 +6,8 @@ the optimal alpha per N with a paired bootstrap interval.
 Only runs that reached the quantity count for it (a run stopped by ``--until`` has no
 t_fall); ``n_runs`` and ``n_error`` say how many rows a point has and how many failed.
 Bootstrap intervals use ``scipy.stats.bootstrap`` (BCa, 9999 resamples) with a fixed
-seed, so the same table gives the same numbers.
+seed, so the same table gives the same numbers; a point with fewer than
+``MIN_INTERVAL_N`` values has no interval of its mean (``ci_low``, ``ci_high``: None).
 """
 
 from __future__ import annotations
@@ -23,6 +24,9 @@ N_RESAMPLES = 9999
 SEED = 20261123
 GROUP_KEYS = ("segments", "alpha", "floor", "anchor_cone", "ic", "eps", "rtol", "until")
 FAST = 1.0  # "faster than free fall": t_fall / t_ff < 1
+# no bootstrap interval of a mean from fewer runs: below it the interval's coverage is far
+# from its nominal 95% (with 2 runs the resamples see at most 3 distinct means)
+MIN_INTERVAL_N = 5
 
 
 def mean_interval(x, confidence: float = CONFIDENCE, seed: int = SEED) -> tuple[float, float]:
@@ -85,7 +89,7 @@ def point_stats(df) -> list[dict]:
         for col in ("ratio", "landed_ratio"):
             x = g[col].to_numpy(dtype=float)
             x = x[np.isfinite(x)]
-            lo, hi = mean_interval(x)
+            lo, hi = mean_interval(x) if x.size >= MIN_INTERVAL_N else (math.nan, math.nan)
             row[col] = {
                 "n": int(x.size),
                 "mean": float(np.mean(x)) if x.size else None,
@@ -160,7 +164,7 @@ def table_stats(path) -> dict:
 
     from .table import read_table
 
-    df = pd.DataFrame(read_table(path))
+    df = pd.DataFrame(read_table(path, what="table"))
     return _finite(
         {
             "table": str(path),

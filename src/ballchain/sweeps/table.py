@@ -246,19 +246,23 @@ def _sort_key(row: dict):
     return tuple(k(row[c]) for c in SORT_KEYS)
 
 
-def read_table(path) -> list[dict]:
-    """The rows of an existing sweep table (ParameterError if it is not one)."""
+def read_table(path, what: str = "out") -> list[dict]:
+    """The rows of an existing sweep table (ParameterError if it is not one; ``what``: the
+    option or argument that named it, for the message)."""
     import pyarrow.parquet as pq
 
+    if not Path(path).is_file():
+        raise ParameterError(f"{what}: no such file {str(path)!r}")
     try:
         t = pq.read_table(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable file: one line
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ParameterError(f"out: {str(path)!r} exists and is not a readable Parquet table ({msg})") from None
+        raise ParameterError(f"{what}: {str(path)!r} is not a readable Parquet table ({msg})") from None
     core = [c for c in ("run_id", "status", *INPUT_COLUMNS) if c not in t.column_names]
     if core:
         raise ParameterError(
-            f"out: {str(path)!r} is not a ballchain sweep table (no column {core[0]!r}); choose another --out"
+            f"{what}: {str(path)!r} is not a ballchain sweep table (no column {core[0]!r})"
+            + ("; choose another --out" if what == "out" else "")
         )
     # a table of an older version: columns it lacks are filled with their empty value
     return [_complete(r) for r in t.select([c for c in COLUMNS if c in t.column_names]).to_pylist()]

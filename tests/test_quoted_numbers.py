@@ -1,0 +1,235 @@
+"""The numbers the README, the index and the large-N results page quote, recomputed from
+the committed tables (docs/data) by the command the page gives: a number in the text
+that its data no longer give fails here.
+
+The command is read from the page itself (its code block that runs
+``benchmarks/large_n.py``), so the page's command is the one checked."""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1]
+PAGE = ROOT / "docs" / "large-n.md"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+pytestmark = pytest.mark.slow  # (about 20 s: the command's bootstrap intervals and fits)
+
+
+def _page_command(page: Path = PAGE) -> list[str]:
+    """The page's ``python benchmarks/large_n.py ...`` command, as arguments."""
+    text = page.read_text()
+    m = re.search(r"^ {4}python benchmarks/large_n\.py (.*?)(?=\n\n)", text, re.S | re.M)
+    assert m, "the page gives no large_n.py command"
+    args = shlex.split(m.group(1).replace("\\\n", " "))
+    if "--plot" in args:
+        plot = args.index("--plot")
+        del args[plot : plot + 2]  # the figure is not redrawn here
+    return [sys.executable, str(ROOT / "benchmarks" / "large_n.py"), *args]
+
+
+def _run(args: list[str]) -> str:
+    out = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, check=True, timeout=600)
+    return out.stdout
+
+
+@pytest.fixture(scope="module")
+def computed():
+    cmd = _page_command()
+    data = json.loads(_run([*[a for a in cmd if a not in ("--events", "--paired")], "--json"]))
+    text = _run(cmd)
+    event_tables = [a for a in cmd if re.search(r"(optimal-alpha|reproduction|largeN-event\d+)\.parquet$", a)]
+    exact_only = _run([cmd[0], cmd[1], *event_tables, "--pool-engines", "3f1506e64dc4,9f716c31d3bb"])
+    return data, text, exact_only
+
+
+def _mean(g) -> str:
+    return f"{g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}]"
+
+
+def _representative(groups) -> dict:
+    """One ensemble per N, the one the fit uses (large_n._best_per_n)."""
+    from large_n import _best_per_n
+
+    return _best_per_n([g for g in groups if g["runs"] >= 2], "event")
+
+
+def _check_row(g, method, starts, mean, g_meas, g_inf, row):
+    assert method.split(",")[0] == g["method"], row
+    if g["method"] == "timestep":
+        assert f"theta {g['theta']:g}" in method and f"dt {g['dt']:g}" in method, row
+    assert (int(starts), mean) == (g["runs"], _mean(g)), row
+    assert (g_meas, g_inf) == (f"{g['gamma_measured']:.2f}", f"{g['gamma_inferred']:.2f}"), row
+
+
+def test_the_gamma_page_is_what_its_data_give(computed):
+    """The gamma page's table (and so its findings, which quote it) from the same command."""
+    data, _, _ = computed
+    page = ROOT / "docs" / "gamma.md"
+    assert _page_command(page) == [a for a in _page_command() if a not in ("--events", "--paired")]
+    rep = _representative(data["groups"])
+    rows = [ln for ln in page.read_text().splitlines() if re.match(r"\| \d+ \|", ln)]
+    assert len(rows) >= 8
+    for row in rows:
+        n, method, starts, g_meas, g_inf, mean = (c.strip() for c in row.strip("|").split("|"))
+        _check_row(rep[int(n)], method, starts, mean, g_meas, g_inf, row)
+    findings = " ".join(page.read_text().split("## Findings")[1].split("| N |")[0].split())
+    table = " ".join(rows)
+    for value in re.findall(r"\b\d\.\d\d\b", findings):
+        assert f"| {value} |" in table, value
+
+
+def test_the_results_table_is_what_its_data_give(computed):
+    data, _, _ = computed
+    rows = [ln for ln in PAGE.read_text().splitlines() if re.match(r"\| \d+ \|", ln)]
+    assert len(rows) >= 10
+    rep = _representative(data["groups"])
+    for row in rows:
+        n, method, starts, mean, fast, g_meas, g_inf = (c.strip() for c in row.strip("|").split("|"))
+        g = rep[int(n)]
+        _check_row(g, method, starts, mean, g_meas, g_inf, row)
+        assert fast == f"{g['fast']:.2f}", row
+
+
+def test_every_interval_the_page_quotes_is_computed_by_its_command(computed):
+    """Each "x [lo, hi]" of the findings and of what would change them is a mean, a
+    paired difference or a fit that the command (or the exact method's fit) prints."""
+    data, text, exact_only = computed
+    page = PAGE.read_text()
+    prose = " ".join((page.split("| N | method |")[0] + page.split("## What would change the answer")[1]).split())
+    fit = data["fit"]
+    printed = text + exact_only + f" r_inf = {fit['r_inf']:.3f} [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}]"
+    quoted = re.findall(r"[+-]?\d\.\d{3,4} \[[+-]?\d\.\d{3,4}, [+-]?\d\.\d{3,4}\]", prose)
+    assert len(quoted) >= 12
+    for q in quoted:
+        assert q in printed or q.replace(" [", ", r_inf 95% [") in printed or _fit_text(q, exact_only), q
+    assert f"p = {fit['p']:.2f}" in prose
+
+
+def _fit_text(quoted: str, printed: str) -> bool:
+    """``0.925 [0.923, 0.928]`` against the fit line ``t_fall/t_ff = 0.925 + ...; r_inf 95% [0.923, 0.928]``."""
+    m = re.match(r"(\S+) \[(\S+), (\S+)\]", quoted)
+    fit = re.search(r"t_fall/t_ff = (\S+) \+ .*?r_inf 95% \[(\S+), (\S+)\]", printed)
+    return bool(m and fit and m.groups() == fit.groups())
+
+
+def test_the_readme_and_the_index_quote_what_the_data_give(computed):
+    data, _, _ = computed
+    rep = _representative(data["groups"])
+    fit = data["fit"]
+    for path in (ROOT / "README.md", ROOT / "docs" / "index.md"):
+        text = " ".join(path.read_text().split())
+        found = 0
+        for value, n in re.findall(r"(\d\.\d+) at N = (\d+)", text):
+            g = rep[int(n)]
+            assert float(value) == round(g["mean"], len(value) - 2), (path.name, value, n)
+            found += 1
+        for n, value, starts in re.findall(r"N = (\d+) \((\d\.\d+), (\d+) starts\)", text):
+            g = rep[int(n)]
+            assert (float(value), int(starts)) == (round(g["mean"], 3), g["runs"]), (path.name, n)
+            found += 1
+        for value, starts in re.findall(r"(\d\.\d+) at N = \d+ \((\d+) starts\)", text):
+            assert any(round(g["mean"], 3) == float(value) and g["runs"] == int(starts) for g in rep.values())
+        ends, of = re.search(r"(\d+) of (\d+) starts", text).groups()
+        g = rep[1024]
+        assert (int(ends), int(of)) == (g["runs"], g["runs"] + g["failed"]), path.name
+        r_inf = f"{fit['r_inf']:.3f} [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}]"
+        assert r_inf in text, path.name
+        assert found >= 3, path.name
+
+
+def test_the_time_steppers_page_quotes_the_paired_differences_the_command_prints(computed):
+    """The time-stepper's page gives its default's change at N = 1024 from the paired
+    differences of the large-N command."""
+    _, text, _ = computed
+    page = (ROOT / "docs" / "timestep.md").read_text()
+    section = " ".join(page.split("## Why the default step changes at N = 1024")[1].split("\n## ")[0].split())
+    quoted = re.findall(r"[+-]\d\.\d{4} \[[+-]\d\.\d{4}, [+-]\d\.\d{4}\]", section)
+    assert len(quoted) == 4
+    for q in quoted:
+        assert q in text, q
+
+
+def test_the_methods_compared_page_is_what_its_command_prints():
+    """Every row of the paired table and every interval of the findings of the page that
+    sets the two methods against each other, from the page's own command."""
+    page = ROOT / "docs" / "methods-compared.md"
+    printed = _run(_page_command(page))
+    out_rows = {}
+    for line in printed.splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 8 and cells[0].isdigit() and cells[1].startswith("dt "):
+            out_rows.setdefault((int(cells[0]), cells[1], int(cells[4])), []).append(tuple(cells[5:8]))
+    text = page.read_text()
+    rows = [ln for ln in text.splitlines() if re.match(r"\| \d+ \| dt ", ln)]
+    assert len(rows) >= 8
+    for row in rows:
+        n, step, pairs, diff, ks, elock = (c.strip() for c in row.strip("|").split("|"))
+        key = (int(n), step.replace(", theta 1/2", ""), int(pairs))
+        assert (diff, ks, elock) in out_rows.get(key, []), row
+    findings = " ".join(text.split("## Findings")[1].split("| N |")[0].split())
+    quoted = re.findall(r"[+-]\d\.\d{4} \[[+-]\d\.\d{4}, [+-]\d\.\d{4}\]", findings)
+    assert len(quoted) >= 8
+    for q in quoted:
+        assert q in printed, q
+
+
+def _page_commands(page: Path) -> str:
+    """The output of every ``python benchmarks/...`` and ``ballchain stats`` command of a
+    page's code blocks (figures they would write left out)."""
+    text = page.read_text()
+    blocks = re.findall(
+        r"^ {4}((?:python benchmarks/\S+\.py|ballchain stats) .*?)(?=\n(?! {8}\S)|\n\n)", text, re.M | re.S
+    )
+    out = []
+    for block in blocks:
+        args = shlex.split(block.split("#")[0].replace("\\\n", " "))
+        for option in ("--plot", "--plot-n"):
+            while option in args:
+                del args[args.index(option) : args.index(option) + 2]
+        if args[0] == "python":
+            args = [sys.executable, *args[1:]]
+        else:
+            args = [sys.executable, "-m", "ballchain.cli", *args[1:]]
+        out.append(_run(args))
+    assert out, page.name
+    return "\n".join(out)
+
+
+def _intervals(text: str) -> set[str]:
+    return set(re.findall(r"\d\.\d{2,4} \[\d\.\d{2,4}, \d\.\d{2,4}\]", " ".join(text.split())))
+
+
+def test_the_optimal_alpha_page_quotes_what_its_commands_print():
+    page = ROOT / "docs" / "optimal-alpha.md"
+    printed = _page_commands(page)
+    quoted = _intervals(page.read_text())
+    assert len(quoted) >= 20
+    assert sorted(q for q in quoted if q not in printed) == []
+
+
+def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
+    """The reproduction page's intervals: from its commands, and the two means it gives
+    without the falls slower than 1.2 t_ff, recomputed here from its table."""
+    import pandas as pd
+
+    from ballchain.sweeps.stats import mean_interval
+
+    page = ROOT / "docs" / "reproduction.md"
+    printed = _page_commands(page)
+    df = pd.read_parquet(ROOT / "docs" / "data" / "reproduction.parquet")
+    for n in (128, 256):
+        x = df[(df.segments == n) & (df.rtol == 1e-10) & (df.status == "landed")]["ratio"].to_numpy()
+        x = x[x <= 1.2]
+        lo, hi = mean_interval(x)
+        printed += f"\n{x.mean():.3f} [{lo:.3f}, {hi:.3f}]"
+    quoted = _intervals(page.read_text())
+    assert len(quoted) >= 10
+    assert sorted(q for q in quoted if q not in printed) == []
