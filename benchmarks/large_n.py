@@ -55,6 +55,8 @@ def _median(g: pd.DataFrame, col: str) -> float:
     return float(np.median(x)) if x.size else math.nan
 
 
+STEPPERS = ("timestep", "rattle")  # the methods with a step (dt), paired against the exact one
+
 def _groups(df: pd.DataFrame) -> list[dict]:
     out = []
     keys = ["segments", "method", "dt", "theta", "dt_rule", "rtol", "engine"]
@@ -65,10 +67,10 @@ def _groups(df: pd.DataFrame) -> list[dict]:
             {
                 "segments": int(key[0]),
                 "method": key[1],
-                "dt": float(key[2]) if key[1] == "timestep" else None,
+                "dt": float(key[2]) if key[1] in STEPPERS else None,
                 "theta": float(key[3]) if key[1] == "timestep" else None,
                 "dt_rule": key[4] if key[1] == "timestep" else None,
-                "rtol": float(key[5]) if key[1] != "timestep" else None,
+                "rtol": float(key[5]) if key[1] not in STEPPERS else None,
                 "engine": "+".join(sorted(set(g["engine_made"]))) if "engine_made" in g else key[6],
                 "engine_key": key[6],  # the engine it was grouped by (the pooled engines' label)
                 "runs": len(x),
@@ -124,8 +126,10 @@ def _mean_text(g: dict) -> str:
 
 def _step_label(g: dict) -> str:
     """The group's step (time-stepper) or tolerance (event-driven)."""
-    if g["method"] != "timestep":
+    if g["method"] not in STEPPERS:
         return f"rtol {g['rtol']:g}"
+    if g["method"] != "timestep":
+        return f"dt {g['dt']:g}"
     return (
         f"dt {g['dt']:g}"
         + ("" if g["theta"] == 0.5 else f", theta {g['theta']:g}")
@@ -181,9 +185,9 @@ def _print_cost(groups: list[dict], slopes: dict) -> None:
     print("|---|---|---|---|---|---|---|---|")
     for g in groups:
         per = ""
-        if g["method"] == "timestep" and g["steps"] > 0:
+        if g["method"] in STEPPERS and g["steps"] > 0:
             per = f"{1e9 * g['wall'] / g['steps'] / g['segments']:.0f}"
-        steps = f"{g['steps']:.0f}" if g["method"] == "timestep" else ""
+        steps = f"{g['steps']:.0f}" if g["method"] in STEPPERS else ""
         print(
             f"| {g['segments']} | {g['method']} | {_step_label(g)} | {g['engine']} | {g['runs']} | {g['wall']:.3g} "
             f"| {steps} | {per} |"
@@ -298,7 +302,7 @@ def main() -> None:
     df["method"] = df["method"].fillna("event")
     if "dt" not in df:
         df["dt"] = math.nan
-    df["dt"] = df["dt"].where(df["method"] == "timestep", math.nan)
+    df["dt"] = df["dt"].where(df["method"].isin(STEPPERS), math.nan)
     if "theta" not in df:  # (tables written before the column: the update was theta = 1/2)
         df["theta"] = math.nan
     df["theta"] = df["theta"].fillna(0.5).where(df["method"] == "timestep", math.nan)
@@ -315,7 +319,7 @@ def main() -> None:
         df = _pool_engines(df, [e.strip() for e in args.pool_engines.split(",") if e.strip()])
     ok = (df["status"] == "landed") & np.isfinite(df["ratio"])
     keys = ["segments", "method", "dt", "theta", "dt_rule", "rtol", "engine"]
-    bad = df[~ok].assign(rtol=df["rtol"].where(df["method"] != "timestep", math.nan))
+    bad = df[~ok].assign(rtol=df["rtol"].where(~df["method"].isin(STEPPERS), math.nan))
     failed = bad.fillna({"dt": -1.0, "theta": -1.0, "rtol": -1.0}).groupby(keys).size().to_dict()
     df = df[ok]
     if df.empty:
@@ -368,11 +372,11 @@ def main() -> None:
             print("|---|---|---|---|---|---|---|---|")
             for g in groups:
                 ev = best_event.get(g["segments"])
-                pr = _paired(g, ev) if g["method"] == "timestep" and ev else None
+                pr = _paired(g, ev) if g["method"] in STEPPERS and ev else None
                 if pr:
                     m, lo, hi = pr["mean"], pr["lo"], pr["hi"]
                     print(
-                        f"| {g['segments']} | {_step_label(g)} | {g['engine']} | {_step_label(ev)}, {ev['engine']} "
+                        f"| {g['segments']} | {g['method']}, {_step_label(g)} | {g['engine']} | {_step_label(ev)}, {ev['engine']} "
                         f"| {pr['pairs']} | {m[0]:+.4f} [{lo[0]:+.4f}, {hi[0]:+.4f}] | {pr['ks_p']:.2f} "
                         f"| {m[1]:+.4f} [{lo[1]:+.4f}, {hi[1]:+.4f}] |"
                     )

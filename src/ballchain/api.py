@@ -25,7 +25,7 @@ from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 SIMULATE_KEYWORDS = (
     "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key", "rtol",
     "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "theta", "dt_rule",
-    "length", "mass", "gravity", "initial",
+    "step_energy_tol", "length", "mass", "gravity", "initial",
 )  # fmt: skip
 
 
@@ -152,6 +152,7 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "dt": SolverOptions.dt,
     "theta": SolverOptions.theta,
     "dt_rule": SolverOptions.dt_rule,
+    "step_energy_tol": SolverOptions.step_energy_tol,
     "checkpoints": None,
     "checkpoint_every": DEFAULT_EVERY,
 }
@@ -198,6 +199,7 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
                 "dt",
                 "theta",
                 "dt_rule",
+                "step_energy_tol",
                 "checkpoints",
                 "checkpoint_every",
             )

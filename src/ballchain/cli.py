@@ -231,6 +231,8 @@ def _method_text(s: dict) -> str:
         )
     if s.get("method") == "event":
         return f"event-driven, rtol {_fmt(s.get('rtol'), '.3g')}"
+    if s.get("method") == "rattle":
+        return f"nonsmooth RATTLE (experimental), dt = {_fmt(s.get('dt'))} t_ff/N at most"
     return str(s.get("method"))
 
 
@@ -244,7 +246,8 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
     p, o = r.params, r.options
     base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone, rtol=o.rtol,
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
-                method=o.method, dt=o.dt, theta=o.theta, dt_rule=o.dt_rule)  # fmt: skip
+                method=o.method, dt=o.dt, theta=o.theta, dt_rule=o.dt_rule,
+                step_energy_tol=o.step_energy_tol)  # fmt: skip
     if p.is_si:
         base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
     state = None
@@ -446,8 +449,9 @@ def simulate(
     method: str = typer.Option(
         _SOLVER.method,
         "--method",
-        help="Integration method: event (event-driven, every event located exactly) or timestep (Moreau-Jean "
-        "time-stepping, first order in --dt; for large N).",
+        help="Integration method: event (event-driven, every event located exactly), timestep (Moreau-Jean "
+        "time-stepping, first order in --dt; for large N) or rattle (nonsmooth RATTLE, second order where the "
+        "motion is smooth; experimental).",
     ),
     dt: float | None = typer.Option(
         _SOLVER.dt,
@@ -469,6 +473,13 @@ def simulate(
         help="How --method timestep sizes its steps: fixed (every step --dt t_ff/N) or landing (--dt t_ff/N times "
         "the speed of free fall at t_ff over the airborne chain's mean fall speed, within a factor 4: each landing "
         "gets as many steps at every speed).",
+    ),
+    step_energy_tol: float | None = typer.Option(
+        _SOLVER.step_energy_tol,
+        "--step-energy-tol",
+        help="--method rattle: the most one step may change U + T without an impact, in units of E0, before it is "
+        "taken again halved (its error control). Default 1e-7; 0: no bound (fixed steps but for the turn limit).",
+        show_default=False,
     ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
@@ -523,6 +534,7 @@ def simulate(
             dt=dt,
             theta=theta,
             dt_rule=dt_rule,
+            step_energy_tol=step_energy_tol,
             length=length,
             mass=mass,
             gravity=gravity,
@@ -908,6 +920,12 @@ def sweep(
     dt_rule: str = typer.Option(
         _SOLVER.dt_rule, "--dt-rule", help="How --method timestep sizes its steps: fixed or landing (as simulate)."
     ),
+    step_energy_tol: float | None = typer.Option(
+        _SOLVER.step_energy_tol,
+        "--step-energy-tol",
+        help="--method rattle: a step's bound on its change of U + T, in E0 (as simulate).",
+        show_default=False,
+    ),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
     ),
@@ -956,6 +974,7 @@ def sweep(
             dt=dt,
             theta=theta,
             dt_rule=dt_rule,
+            step_energy_tol=step_energy_tol,
             save_runs=save_runs,
             checkpoints=checkpoints,
             checkpoint_every=checkpoint_every,

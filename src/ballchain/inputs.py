@@ -75,5 +75,6 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         dt=v.get("dt", _SOLVER.dt),
         theta=v.get("theta", _SOLVER.theta),
         dt_rule=v.get("dt_rule", _SOLVER.dt_rule),
+        step_energy_tol=v.get("step_energy_tol", _SOLVER.step_energy_tol),
     )
     return params, init, options

@@ -34,6 +34,7 @@ RUN = {
     "dt": "the time-stepper's step in t_ff / N",
     "theta": "the time-stepper's position update",
     "dt_rule": "how the time-stepper sizes its steps: fixed or landing",
+    "step_energy_tol": "the RATTLE method's bound on a step's change of U + T, in E0 (null: its default)",
     "n_steps": "accepted integration steps",
     "n_evals": "evaluations of the equations of motion",
     "n_instants": "event instants (times at which one or more events were resolved)",

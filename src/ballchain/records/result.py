@@ -298,6 +298,7 @@ class Result:
             "dt": self.options.dt,
             "theta": self.options.theta,
             "dt_rule": self.options.dt_rule,
+            "step_energy_tol": self.options.step_energy_tol,
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
             "n_instants": int(self.n_instants),

@@ -143,6 +143,7 @@ class SweepSpec:
     dt: float | None = SolverOptions.dt  # None: by N (SolverOptions.for_segments)
     theta: float | None = SolverOptions.theta
     dt_rule: str = SolverOptions.dt_rule
+    step_energy_tol: float | None = SolverOptions.step_energy_tol
     save_runs: str | None = None
     checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
     checkpoint_every: float = DEFAULT_EVERY
@@ -180,6 +181,7 @@ class SweepSpec:
                 dt=self.dt,
                 theta=self.theta,
                 dt_rule=self.dt_rule,
+                step_energy_tol=self.step_energy_tol,
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
@@ -241,4 +243,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         + ("" if options.method == SolverOptions.method else f"_{options.method}_dt{options.dt:.12g}")
         + ("" if options.method == "event" or options.theta == SHORT_STEP[1] else f"_theta{options.theta:.12g}")
         + ("" if options.method == "event" or options.dt_rule == SolverOptions.dt_rule else f"_{options.dt_rule}")
+        + ("" if options.step_energy_tol is None else f"_etol{options.step_energy_tol:.6g}")
     )

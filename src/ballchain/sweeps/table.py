@@ -52,6 +52,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
         "how the timestep method sizes its steps: fixed (dt t_ff/N) or landing (scaled by the speed of free fall "
         "at t_ff over the airborne chain's mean fall speed); empty in tables written before the column: fixed",
     ),
+    "step_energy_tol": (
+        "float64",
+        "the rattle method's bound on a step's change of U + T, in E0 (NaN: its default; not used by the others)",
+    ),
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
     "version": ("string", "ballchain version that ran it"),
@@ -159,6 +163,7 @@ def input_row(task) -> dict:
         "dt": o.dt,
         "theta": o.theta,
         "dt_rule": o.dt_rule,
+        "step_energy_tol": math.nan if o.step_energy_tol is None else o.step_energy_tol,
         "until": math.nan if o.until is None else o.until,
         "frames_per_tff": o.frames_per_tff,
     }
