@@ -57,6 +57,7 @@ def _median(g: pd.DataFrame, col: str) -> float:
 
 STEPPERS = ("timestep", "rattle")  # the methods with a step (dt), paired against the exact one
 
+
 def _groups(df: pd.DataFrame) -> list[dict]:
     out = []
     keys = ["segments", "method", "dt", "theta", "dt_rule", "rtol", "engine"]

@@ -47,7 +47,7 @@ RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (p
 
 ERROR_MESSAGES = {
     ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
-    ERR_STEP_ENERGY: "a step changed the energy beyond its bound, halved as far as it goes",
+    ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even halved 10 times",
     ERR_ACTIVE_SET: "a stage's active set of limits and floor contacts did not settle",
     ERR_NAN: "non-finite state (blow-up)",
 }

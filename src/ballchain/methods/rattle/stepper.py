@@ -108,6 +108,7 @@ Scratch = namedtuple(
         "acc",  # (8,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
         #   [5] factorisations, [6] new anchors, [7] Newton iterations
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
+        "h_last",  # (1,): the step of the last stage 1 (its impulses, the warm start, scale with it)
     ],
 )  # fmt: skip
 
@@ -125,7 +126,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros(p, np.uint8), np.zeros(nh, np.uint8),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3),
+        np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3), np.zeros(1),
     )  # fmt: skip
 
 
@@ -373,6 +374,10 @@ def stage1(h, model, mo, ws, sc):
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
         _factor(mo, ws, sc, sc.start.e, rnd == 0)
         carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)  # warm start, row by row
+        if rnd == 0 and sc.h_last[0] > 0.0:  # P1 ~ h/2 (the forces): scaled to this step
+            for j in range(ws.nrow.shape[0]):
+                for r in range(ws.nrow[j]):
+                    ws.x[j, r] *= h / sc.h_last[0]
         met = False
         exact = False  # iteration 0: the symmetric factors; then A = J(q+) W J(q)^T (``newton``)
         last = math.inf
@@ -408,6 +413,7 @@ def stage1(h, model, mo, ws, sc):
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
         if not _switch_stage1(model, mo, ws, sc, tol):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
+            sc.h_last[0] = h
             row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.rb1)
             row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.ra1)
             return 0
@@ -784,8 +790,11 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     while level < CUTS_MAX and h / 2.0**level * wmax > TURN_MAX:
         level += 1
     fb[19] = level
-    h = min(h / 2.0**level, model.t_stop - t)
-    etol = fb[21] if level < CUTS_MAX else 0.0
+    h = h / 2.0**level
+    left = model.t_stop - t
+    if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
+        h = left if left <= h else 0.5 * left
+    etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True)
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, halved
         copy_motion(sc.start, mo)
