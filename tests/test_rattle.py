@@ -3,6 +3,7 @@ second order against the exact method where the motion is smooth, a fall whose f
 books hold, frames that do not change the fall, and what it refuses."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ import pytest
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
+TOP3 = Path(__file__).parent / "data" / "top3-state.txt"
 SMOOTH = (ChainParams(segments=8, alpha=math.pi), InitialCondition(eps=0.2))  # no limits; first landing after 0.5 t_ff
 
 
@@ -41,6 +43,38 @@ def test_a_fall_with_no_limits_holds_the_floor_and_closes_its_books():
     assert r.max_depth <= 1e-8
     assert abs(r.energy["imbalance"]) <= 1e-3 * r.energy["initial"]
     assert r.energy["lost_landing"] > 0.5 * r.energy["initial"]  # a fall ends with its energy lost at the floor
+
+
+def test_a_fall_with_limits_closes_its_books():
+    """alpha = pi/4, N = 8 to the end at the defaults: the impact steps book what they remove,
+    the smooth steps' error stays below 1e-4 of E0, nothing below the floor, and the losses
+    sum to what the chain lost (E0 = U + T + E_lock + E_land, the chain at rest on the floor)."""
+    r = simulate(ChainParams(segments=8, alpha=math.pi / 4), options=SolverOptions(method="rattle"))
+    assert r.status == "landed", r.message
+    e = r.energy
+    assert abs(e["imbalance"]) <= 1e-4 * e["initial"]
+    assert r.max_depth <= 1e-8
+    assert e["lost_locking"] > 0.1 * e["initial"] and e["lost_landing"] > 0.1 * e["initial"]
+
+
+def test_the_top_is_held():
+    """The top of tests/data/top3-state.txt (three segments locked, spinning on a landed
+    point) to 1 t_ff at the defaults: it keeps turning (status max_time), its books close to
+    1e-4 of E0, and its hinges lose no more at their locks than the exact method's."""
+    s = np.loadtxt(TOP3)
+    runs = {
+        m: simulate(
+            ChainParams(segments=3, alpha=math.pi / 4),
+            state=(s[:, :3], s[:, 3:]),
+            options=SolverOptions(method=m, max_time=1.0),
+        )
+        for m in ("event", "rattle")
+    }
+    r, ex = runs["rattle"], runs["event"]
+    assert r.status == "max_time"
+    assert abs(r.energy["imbalance"]) <= 1e-4 * r.energy["initial"]
+    assert r.energy["lost_locking"] <= ex.energy["lost_locking"] + 1e-6 * r.energy["initial"]
+    assert r.energy["kinetic"] == pytest.approx(ex.energy["kinetic"], rel=2e-3)
 
 
 def test_frames_do_not_change_the_fall():
