@@ -43,6 +43,8 @@ from .stepper import (
     run_steps,
 )
 
+ROW_NAMES = {0: "joint", 1: "joint", 2: "joint", 3: "anchor", 4: "anchor", 5: "anchor", 6: "anchor", 7: "anchor",
+             8: "anchor", 9: "axis", 10: "bend", 11: "floor"}  # fmt: skip
 RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (progress)
 
 ERROR_MESSAGES = {
@@ -87,6 +89,9 @@ def run(setup, progress, stop) -> RunOutput:
         if code == RT_LANDED:
             return LANDED, t
         at = f"at t/t_ff = {t / setup.t_ff:.6f}"
+        if code == ERR_NEWTON:
+            j, kind, value = sc.unmet
+            at += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step halved 10 times)"
         if code in ERROR_MESSAGES:
             raise SimulationError(f"{ERROR_MESSAGES[code]} {at}")
         if code == RT_MAX_STEPS:

@@ -65,7 +65,7 @@ from .rows import (
 )
 
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
-NEWTON_RATE = 0.05  # a Newton iteration that cuts the residual less than this refactors A
+NEWTON_RATE = 0.05  # an iteration that cuts the residual less than this fold moves on to (a new) A
 ROUNDS_MAX = 60  # active-set rounds of a stage at most
 POS_TOL = 1e-12  # b: stage 1 meets every row to this, plus the round-off of the heights
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
@@ -109,6 +109,7 @@ Scratch = namedtuple(
         #   [5] factorisations, [6] new anchors, [7] Newton iterations
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of the last stage 1 (its impulses, the warm start, scale with it)
+        "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
     ],
 )  # fmt: skip
 
@@ -126,7 +127,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros(p, np.uint8), np.zeros(nh, np.uint8),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3), np.zeros(1),
+        np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3), np.zeros(1), np.zeros(3),
     )  # fmt: skip
 
 
@@ -379,7 +380,7 @@ def stage1(h, model, mo, ws, sc):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] *= h / sc.h_last[0]
         met = False
-        exact = False  # iteration 0: the symmetric factors; then A = J(q+) W J(q)^T (``newton``)
+        exact = False  # the symmetric factors while each iteration cuts the residual NEWTON_RATE-fold, then A
         last = math.inf
         for it in range(NEWTON_MAX):
             generalized_forces(mo.anchored, ws.J, ws.nrow, ws.x, ws.gf)
@@ -395,7 +396,7 @@ def stage1(h, model, mo, ws, sc):
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
                     ws.rhs[j, r] = -sc.val[j, r] / h
-            if it == 0:
+            if it == 0 or (not exact and res <= NEWTON_RATE * last):  # the chord on J W J^T while it gains
                 solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)
             else:
                 if not exact or res > NEWTON_RATE * last:  # (re)factor A at this q+
@@ -409,6 +410,7 @@ def stage1(h, model, mo, ws, sc):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] += sc.rate[j, r]
         if not met:
+            _record_unmet(ws, sc)
             return ERR_NEWTON
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
         if not _switch_stage1(model, mo, ws, sc, tol):
@@ -418,6 +420,17 @@ def stage1(h, model, mo, ws, sc):
             row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.ra1)
             return 0
     return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def _record_unmet(ws, sc):
+    """sc.unmet <- the row of stage 1 furthest from being met (sc.val): point, kind, value."""
+    worst = -1.0
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            if abs(sc.val[j, r]) > worst:
+                worst = abs(sc.val[j, r])
+                sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, ws.kind[j, r], sc.val[j, r]
 
 
 @njit(cache=True)
