@@ -103,12 +103,13 @@ Scratch = namedtuple(
         "cand",  # (N-1,) uint8: stage 2's candidates, the hinges at their limit after stage 1
         "kind1", "nrow1", "x1", "rb1", "ra1",  # stage 1's layout, impulses, rates before/after
         "kind_old", "nrow_old", "x_old",  # a layout before the last switch (carry-over)
+        "kind_w", "nrow_w", "x_w",  # the last stage 2's impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
         "acc",  # (8,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
         #   [5] factorisations, [6] new anchors, [7] Newton iterations
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
-        "h_last",  # (1,): the step of the last stage 1 (its impulses, the warm start, scale with it)
+        "h_last",  # (1,): the step of the last stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
     ],
 )  # fmt: skip
@@ -126,6 +127,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros(p, np.uint8), np.zeros(nh, np.uint8),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
+        np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3), np.zeros(1), np.zeros(3),
     )  # fmt: skip
@@ -374,8 +376,11 @@ def stage1(h, model, mo, ws, sc):
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
         _factor(mo, ws, sc, sc.start.e, rnd == 0)
-        carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)  # warm start, row by row
-        if rnd == 0 and sc.h_last[0] > 0.0:  # P1 ~ h/2 (the forces): scaled to this step
+        if rnd == 0:  # warm start: the last stage 2's impulses, h/2 times the forces at this step's start
+            carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
+        else:
+            carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)  # the last round's, row by row
+        if rnd == 0 and sc.h_last[0] > 0.0:  # scaled to this step
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] *= h / sc.h_last[0]
@@ -415,7 +420,6 @@ def stage1(h, model, mo, ws, sc):
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
         if not _switch_stage1(model, mo, ws, sc, tol):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
-            sc.h_last[0] = h
             row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.rb1)
             row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.ra1)
             return 0
@@ -506,6 +510,8 @@ def stage2(h, model, mo, ws, sc):
         if not _switch_stage2(mo, ws, sc):
             row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
+            copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_w, sc.nrow_w, sc.x_w)
+            sc.h_last[0] = h
             return 0
     return ERR_ACTIVE_SET
 
