@@ -523,7 +523,8 @@ def test_the_books_of_a_fall_stopped_midway_close_as_its_frames_do():
     """The time-stepper keeps the centres' velocities V of its own (maximal coordinates),
     and its kinetic energy is T = sum 1/2 |V_i|^2 + |w_i|^2 / 6, as its frames record it.
     A fall stopped at 0.5 t_ff (--until) reports at its end the same books as its last
-    frame, 0.001 t_ff earlier (their imbalances within 1e-3 E0: 1e-5 here).  The end's
+    frame, 0.001 t_ff earlier (their imbalances within 1e-3 E0: 3e-4 here, what the
+    fall's own imbalance moves by in that time, as runs stopped there read it).  The end's
     T used to be rebuilt from the axes and rates (V as sums of the rates from the
     bottom), which the time-stepper's V need not equal once points are anchored: the
     end's books then read -0.001 E0 against the frame's +0.005 (0.11 E0 apart at
