@@ -92,3 +92,27 @@ def test_frames_at_two_rates_are_samples_of_one_fall(falls):
     np.testing.assert_array_equal(fine.frame_anchored[10 * k], coarse.frame_anchored)
     for name in ("frame_kinetic", "frame_potential", "frame_lost_locking", "frame_lost_landing"):
         np.testing.assert_allclose(getattr(fine, name)[10 * k], getattr(coarse, name), rtol=1e-9, atol=1e-9)
+
+
+def test_a_step_longer_than_the_frame_buffers_fills_every_frame_in_it(monkeypatch):
+    """A rod (N = 1) stepped 0.04 t_ff at a time with 2000 frames per t_ff: 80 frames
+    fall in each step, and buffers of 16 frames (the smallest) fill five times within
+    one.  The frames are those of buffers that hold them all, and the steps the same."""
+    from ballchain.methods import outputs
+
+    e0 = np.array([[math.sin(0.3), 0.0, math.cos(0.3)]])
+    options = SolverOptions(method="timestep", dt=0.04, frames_per_tff=2000)
+
+    def rod():
+        return simulate(ChainParams(segments=1, alpha=math.pi), None, options, state=(e0, None))
+
+    big = rod()
+    monkeypatch.setattr(outputs, "FRAME_CHUNK_BYTES", 1)  # buffers of 16 frames
+    small = rod()
+    assert big.status == small.status == "landed", (big.message, small.message)
+    assert small.n_steps == big.n_steps and 80 * small.n_steps > len(small.frame_t) > 40 * small.n_steps
+    np.testing.assert_array_equal(small.frame_t, big.frame_t)
+    np.testing.assert_array_equal(small.frame_e, big.frame_e)
+    np.testing.assert_array_equal(small.frame_kinetic, big.frame_kinetic)
+    k = np.arange(len(small.frame_t))
+    np.testing.assert_allclose(small.frame_t, k / 2000 * small.t_ff, rtol=1e-12)
