@@ -98,8 +98,9 @@ def _fall_speed(e: np.ndarray, w: np.ndarray, anchored: np.ndarray) -> float:
 def test_the_landing_rule_sizes_each_step_by_the_chains_fall_speed():
     """dt_rule landing: a step is dt t_ff/N times v_ff / v (v the airborne chain's mean
     fall speed, v_ff = g t_ff), within a factor 4 either way; here v is computed from the
-    frames' axes and rates with numpy, and each step that starts at a frame is that long
-    unless a landing or the next frame cut it.  At the end of the
+    frames' axes and rates with numpy, and the step a frame falls in (between two times
+    of the trace) is that long, unless a landing cut it, to what v changes by within a
+    step (1%: the rule reads v at the step's start, the frame inside it).  At the end of the
     fall the chain falls at about free-fall speed, and the steps there are about dt t_ff/N;
     over the whole fall the rule takes fewer steps than the fixed one."""
     n, dt = 48, 0.01
@@ -119,10 +120,11 @@ def test_the_landing_rule_sizes_each_step_by_the_chains_fall_speed():
             continue
         v = _fall_speed(r.frame_e[k], r.frame_omega[k], anchored)
         rule = h0 * (4.0 if v <= 0 else min(4.0, max(0.25, r.t_ff / v)))  # v_ff = g t_ff = t_ff (m = b = g = 1)
-        h = steps_t[np.searchsorted(steps_t, t * (1 + 1e-12))] - t
-        assert h <= rule * (1 + 1e-9), (t, h, rule)
+        i = np.searchsorted(steps_t, t)
+        h = steps_t[i] - steps_t[i - 1]
+        assert h <= rule * 1.01, (t, h, rule)
         checked += 1
-        matched += math.isclose(h, rule, rel_tol=1e-9)
+        matched += math.isclose(h, rule, rel_tol=0.01)
     assert checked > 30 and matched >= 0.8 * checked, (matched, checked)
     assert r.n_steps < 0.8 * fixed.n_steps, (r.n_steps, fixed.n_steps)
 
@@ -191,7 +193,7 @@ def test_the_default_step_is_the_long_one_from_n_1024():
             ChainParams(segments=n, alpha=math.pi / 4, floor="all"), ic, SolverOptions(method="timestep", until=0.01)
         )
         assert (r.options.dt, r.options.theta) == (dt, theta)
-        assert abs(r.n_steps - 0.01 * n / dt) <= 2, r.n_steps  # (a frame at 0.01 t_ff may cut one step)
+        assert abs(r.n_steps - 0.01 * n / dt) <= 2, r.n_steps  # (round-off in the times: one step more)
 
 
 def test_a_sweep_names_the_default_step_as_the_same_step_set_by_hand():
@@ -490,8 +492,9 @@ def test_floor_impulse_at_landings_is_bounded_by_the_chains_momentum():
     landing = r.event_kind == 3  # core.kinds: landing
     assert landing.sum() >= n
     assert np.max(np.linalg.norm(r.event_impulse[landing], axis=1)) < math.sqrt(2.0 * n * r.energy["initial"])
-    # the whole impulse is the weight's, N g t_end (the chain starts and ends at rest)
-    assert r.floor_impulse_total[2] == pytest.approx(n * r.t_landed, rel=1e-6)
+    # the whole impulse is the weight's, N g t_end (the chain starts and ends at rest), to the
+    # method's error: 2e-7 to 2e-5 of it over seeds 1 to 8 (1.6e-6 in this one)
+    assert r.floor_impulse_total[2] == pytest.approx(n * r.t_landed, rel=1e-4)
 
 
 def test_books_past_half_their_bound_are_a_warning(tmp_path):
@@ -520,7 +523,8 @@ def test_the_books_of_a_fall_stopped_midway_close_as_its_frames_do():
     """The time-stepper keeps the centres' velocities V of its own (maximal coordinates),
     and its kinetic energy is T = sum 1/2 |V_i|^2 + |w_i|^2 / 6, as its frames record it.
     A fall stopped at 0.5 t_ff (--until) reports at its end the same books as its last
-    frame, 0.001 t_ff earlier (their imbalances within 1e-3 E0: 1e-5 here).  The end's
+    frame, 0.001 t_ff earlier (their imbalances within 1e-3 E0: 3e-4 here, what the
+    fall's own imbalance moves by in that time, as runs stopped there read it).  The end's
     T used to be rebuilt from the axes and rates (V as sums of the rates from the
     bottom), which the time-stepper's V need not equal once points are anchored: the
     end's books then read -0.001 E0 against the frame's +0.005 (0.11 E0 apart at

@@ -443,8 +443,8 @@ def simulate(
     frames_per_tff: float = typer.Option(
         _SOLVER.frames_per_tff,
         "--frames-per-tff",
-        help="Output frames per t_ff (what is written: frames sample the steps' dense output and do not change the "
-        "event-driven fall; a time step never crosses a frame time).",
+        help="Output frames per t_ff (what is written: frames sample the fall and do not change it; the event-driven "
+        "method's from its steps' dense output, the time-stepper's from the step each falls in).",
     ),
     method: str = typer.Option(
         _SOLVER.method,

@@ -4,7 +4,7 @@ The velocity state is that of maximal coordinates: each segment's centre velocit
 (kept in ``Scratch.vmax``) and angular velocity w_i; the positions are the axes e, so
 the chain is joined by construction.  One step from t to t + h (``step``), each part O(N):
 
-1. **Step size**: h = min(dt, the next output frame, the stop time), dt as the rule
+1. **Step size**: h = min(dt, the stop time), dt as the rule
    ``SolverOptions.dt_rule`` gives it (``_step_by_rule``), cut at the first
    predicted landing (the floor functions after a free turn of the axes by h w, linear
    in the step) so that a landing starts the next step on the floor, not above it.
@@ -39,6 +39,11 @@ A hinge *locks* in the log when it starts to take impulse and *unlocks* when it 
 a *landing* row carries its step's floor impulse (over all anchors) and loss to landing,
 shared equally by the points that land in that step;
 ``Chain.locked`` is the set that took impulse in the last step.
+
+**Frames never change a fall**: no step is cut at a frame time, so the steps, and all
+the run's own numbers, are those of a run without frames.  A frame due at a step's
+start is its state; one at a time strictly inside a step is filled from that step
+(``fill_frames``).
 """
 
 from __future__ import annotations
@@ -77,6 +82,7 @@ from ...core.rules import (
     limit_in_force,
     settle_anchors,
 )
+from ...core.state import new_books, new_chain, new_work
 from ...floors.dispatch import floor_contacts, floor_values, top_event
 from .. import DT_RULES, LANDING_STEP_RANGE
 
@@ -124,8 +130,41 @@ Scratch = namedtuple(
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
+        "fw",  # the frames' own workspace (FrameWork)
     ],
 )
+
+# What fills the frames inside a step: its start, and a state of their own (the run's is never touched).
+FrameWork = namedtuple(
+    "FrameWork",
+    [
+        "t0",  # (1,): the last step's start
+        "h",  # (1,): its size (0: no frame inside it)
+        "e0",  # (N, 3): the axes at its start
+        "start",  # (6,): T, the lost energies (locking, landing) and the floor's impulse (3) at its start
+        "end",  # (6,): ... at its end
+        "chain",  # the frame's state (state.Chain): axes, rates, anchors and locks
+        "books",  # the frame's books (state.Books: losses, floor impulse; and its projection's ledger)
+        "ws",  # the frame's projection's workspace (state.Work)
+        "gaps",  # ... and its scratch (``_project``)
+        "pv",
+        "pts",
+        "vel",
+        "was",
+        "e_pred",
+    ],
+)
+
+
+def new_frame_work(n: int) -> FrameWork:
+    """The frames' workspace of an N-segment chain."""
+    nh = max(n - 1, 0)
+    v3 = lambda m: np.zeros((m, 3))  # noqa: E731
+    chain = new_chain(np.zeros((n, 3)), np.zeros((n, 3)), math.pi)
+    return FrameWork(
+        np.zeros(1), np.zeros(1), v3(n), np.zeros(6), np.zeros(6), chain, new_books(),
+        new_work(n), np.zeros(nh), v3(n + 1), v3(n + 1), v3(n), np.zeros(nh, np.uint8), v3(n),
+    )  # fmt: skip
 
 
 def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = None) -> Scratch:
@@ -137,7 +176,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64),
-        np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n),
+        np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n), new_frame_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -473,10 +512,11 @@ def _n_landed(anchored):
 
 
 @njit(cache=True)
-def record_frame(t, chain, sc, books, frames):
-    """Frame frames.count[0] at time t: the state, the anchors' mean force on the
-    airborne chain and the pile's pull over the last step, the force a scale under the
-    floor reads, energies (kinetic: of the velocities (V, w)) and the books."""
+def record_frame(t, kinetic, chain, sc, books, frames):
+    """Frame frames.count[0] at time t (the next frame's): the state (``chain``: the
+    run's, or a frame's own, ``fill_frames``), the anchors' mean force on the airborne
+    chain and the pile's pull over the last step (sc), the force a scale under the floor
+    reads, energies (the kinetic one given) and the books (``books``)."""
     k = frames.count[0]
     e, w = chain.Y[0], chain.Y[1]
     n = e.shape[0]
@@ -485,7 +525,6 @@ def record_frame(t, chain, sc, books, frames):
         for q in range(3):
             frames.e[k, i, q] = e[i, q]
             frames.omega[k, i, q] = w[i, q]
-    tk = kinetic_energy_maximal(sc.vmax, w)
     for j in range(n + 1):
         frames.anchored[k, j] = chain.anchored[j]
     for j in range(n - 1):
@@ -495,13 +534,96 @@ def record_frame(t, chain, sc, books, frames):
         frames.pile_pull[k, q] = sc.pull[q]
         frames.floor_impulse[k, q] = books.floor_flow[q] + books.floor_impulse[q]
     frames.scale_force[k] = sc.force[2] + _n_landed(chain.anchored)
-    frames.kinetic[k] = tk
+    frames.kinetic[k] = kinetic
     frames.potential[k] = potential_energy(e)
     frames.lost_locking[k] = books.lost_locking[0]
     frames.lost_landing[k] = books.lost_landing[0]
     frames.count[0] = k + 1
     frames.fill[0] = k + 1
     frames.next[0] += frames.dt
+
+
+@njit(cache=True)
+def _frame_tol(t):
+    """A frame within this of a step's start or end is at it (round-off of the times)."""
+    return t * 1e-12 + 1e-12
+
+
+@njit(cache=True)
+def _frame_due(tf, t):
+    """Is the frame at tf due at a step's start t (not inside an earlier step)?"""
+    return tf <= t + _frame_tol(t)
+
+
+@njit(cache=True)
+def _energies(chain, sc, books, out):
+    """out: the run's T (of the velocities (V, w)), lost energies (locking, landing)
+    and floor impulse (3) now."""
+    out[0] = kinetic_energy_maximal(sc.vmax, chain.Y[1])
+    out[1] = books.lost_locking[0]
+    out[2] = books.lost_landing[0]
+    for q in range(3):
+        out[3 + q] = books.floor_flow[q] + books.floor_impulse[q]
+
+
+@njit(cache=True)
+def _state_between(s, model, chain, sc, fw):
+    """The frame's state and books at the fraction s of the last step (``fill_frames``),
+    from its start and its end (the run's chain, sc; fw.start, fw.end), in fw; returns
+    its kinetic energy."""
+    fc = fw.chain
+    anchored = chain.anchored
+    rotate_axes(fw.e0, sc.w_mid, s * fw.h[0], anchored, fc.Y[0])
+    w, wf = chain.Y[1], fc.Y[1]
+    for i in range(w.shape[0]):
+        for q in range(3):
+            wf[i, q] = (1.0 - s) * sc.w_pre[i, q] + s * w[i, q]
+    for j in range(anchored.shape[0]):
+        fc.anchored[j] = anchored[j]
+        for q in range(3):
+            fc.anchor_pos[j, q] = chain.anchor_pos[j, q]
+    for k in range(chain.locked.shape[0]):
+        fc.locked[k] = chain.locked[k]
+    a, b, fb = fw.start, fw.end, fw.books
+    fb.lost_locking[0] = (1.0 - s) * a[1] + s * b[1]
+    fb.lost_landing[0] = (1.0 - s) * a[2] + s * b[2]
+    for q in range(3):
+        fb.floor_flow[q] = (1.0 - s) * a[3 + q] + s * b[3 + q]
+        fb.floor_impulse[q] = 0.0
+    _project(model, fc, fw.ws, fw, fb)
+    return (1.0 - s) * a[0] + s * b[0]
+
+
+@njit(cache=True)
+def fill_frames(model, chain, sc, books, frames):
+    """The frames at times strictly inside the last step (t0, t0 + h), from the state at
+    its start and at its end (one due at its end waits for the next step's start), as
+    many as the buffers hold; False if some are left for when they have been emptied.
+    A frame at tf, the fraction s = (tf - t0) / h of the step, on a state of its own
+    (``FrameWork``; the run's is not touched):
+
+    * axes: each turned from the step's start by s h times the rates the step turns it
+      at (``rotate_axes``: the step's own turn when s = 1; landed segments stay), then
+      put back on the anchors and the bend limits by the step's projection (``_project``);
+    * rates w: linear in s between the step's start (before its impulses) and its end;
+    * the kinetic energy and the books (lost energies, floor impulse): the start's plus
+      s times the step's change (so the frame's energy books close as well as its ends'
+      do: T of interpolated velocities would dip by s (1 - s) |dV|^2 / 2 in a step whose
+      impulses change V by dV, a landing's);
+    * anchors and locks: the step's end (its touches are made at its start);
+    * the anchors' force and the pile's pull: the step's means."""
+    fw = sc.fw
+    t0, h = fw.t0[0], fw.h[0]
+    if h <= 0.0:
+        return True
+    t_end = t0 + h
+    _energies(chain, sc, books, fw.end)
+    while frames.next[0] < t_end - _frame_tol(t_end):
+        if frames.count[0] >= frames.t.shape[0]:
+            return False
+        kinetic = _state_between((frames.next[0] - t0) / h, model, chain, sc, fw)
+        record_frame(frames.next[0], kinetic, fw.chain, sc, fw.books, frames)
+    return True
 
 
 @njit(cache=True)
@@ -539,9 +661,15 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     """One Moreau-Jean step from t (module docstring, parts 1-6), of size dt at most.
     Returns (code, t + h): 0, or ERR_*."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
-    if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
-        record_frame(t, chain, sc, books, frames)
-    h = min(_step_by_rule(dt, model, chain, sc), frames.next[0] - t, model.t_stop - t)
+    if _frame_due(frames.next[0], t):
+        record_frame(frames.next[0], kinetic_energy_maximal(sc.vmax, w), chain, sc, books, frames)
+    h = min(_step_by_rule(dt, model, chain, sc), model.t_stop - t)
+    fw = sc.fw
+    fw.h[0] = 0.0  # no frame inside this step unless one may be (cuts only shorten it)
+    inside = frames.next[0] < t + h
+    if inside:
+        _copy3(e, fw.e0)
+        _energies(chain, sc, books, fw.start)
     _copy3(sc.vmax, sc.v_pre)
     na = _touches(t, 0, model, chain, sc, books)
     _copy3(w, sc.w_pre)
@@ -583,6 +711,8 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     books.work_error[0] += _kick_energy(h, anchored, sc.v_pre) + potential_energy(e) - u0
     _project(model, chain, ws, sc, books)
     t_end = t + h
+    if inside:
+        fw.t0[0], fw.h[0] = t, h
     z_end = 2.0 * np.sum(e[:, 2])
     if top_event(model.floor) and z_top > 0.0 and z_end <= 0.0:
         if fall_ended(books, t + h * z_top / (z_top - z_end), True, False):
@@ -603,11 +733,21 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
 @njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
 def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
     """Steps until the fall ends, the stop time, full buffers or ``model.return_every``
-    steps.  Returns (code, t): TS_* or a negative ERR_*."""
+    steps, each followed by the frames inside it (``fill_frames``; a return for full
+    buffers fills the rest first on the next call).  Returns (code, t): TS_* or a
+    negative ERR_*."""
     n = chain.Y.shape[1]
     room = 3 * n + 8
     taken = 0
     while True:
+        if not fill_frames(model, chain, sc, books, frames):  # the last step's first
+            return TS_BUFFER, t
+        if all_anchored(chain.anchored):
+            books.t_landed[0] = t
+            fall_ended(books, t, True, True)
+            return TS_LANDED, t
+        if taken >= model.return_every:
+            return TS_RETURN, t
         if log.t.shape[0] - log.n[0] < room:
             return TS_RETURN, t
         if trace.count[0] >= trace.t.shape[0] - 2 or frames.count[0] >= frames.t.shape[0] - 1:
@@ -619,10 +759,4 @@ def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
         code, t = step(t, dt, model, chain, ws, sc, books, frames, trace, log)
         if code < 0:
             return code, t
-        if all_anchored(chain.anchored):
-            books.t_landed[0] = t
-            fall_ended(books, t, True, True)
-            return TS_LANDED, t
         taken += 1
-        if taken >= model.return_every:
-            return TS_RETURN, t
