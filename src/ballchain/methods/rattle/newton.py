@@ -18,12 +18,17 @@ from __future__ import annotations
 from ...core.dynamics import _weights
 from ...core.jit import njit
 
-PIVOT_TINY = 1e-300
+PIVOT_RTOL = 1e-12  # a pivot below this fraction of its block's largest entry: A is taken as singular
 
 
 @njit(cache=True)
 def _lu(D, j, nr, piv):
-    """LU of D[j] (nr x nr) in place, partial pivoting (row swaps in piv[j])."""
+    """LU of D[j] (nr x nr) in place, partial pivoting (row swaps in piv[j]); False if a
+    pivot is below PIVOT_RTOL of the block's largest entry (singular to round-off)."""
+    scale = 0.0
+    for r in range(nr):
+        for c in range(nr):
+            scale = max(scale, abs(D[j, r, c]))
     for k in range(nr):
         p = k
         big = abs(D[j, k, k])
@@ -35,14 +40,14 @@ def _lu(D, j, nr, piv):
             for s in range(nr):
                 D[j, k, s], D[j, p, s] = D[j, p, s], D[j, k, s]
         d = D[j, k, k]
-        if abs(d) < PIVOT_TINY:
-            d = PIVOT_TINY
-            D[j, k, k] = d
+        if abs(d) <= PIVOT_RTOL * scale:
+            return False
         for i in range(k + 1, nr):
             f = D[j, i, k] / d
             D[j, i, k] = f
             for s in range(k + 1, nr):
                 D[j, i, s] -= f * D[j, k, s]
+    return True
 
 
 @njit(cache=True)
@@ -75,7 +80,8 @@ def _lower(J0, J1, j, r, p, wv, ww):
 
 @njit(cache=True)
 def factor_newton(anchored, ws):
-    """Block LU of A = J1 W J^T (``rows.Rows``: ws.J1 the rows at q+, ws.J at q) into ws (D, piv, X)."""
+    """Block LU of A = J1 W J^T (``rows.Rows``: ws.J1 the rows at q+, ws.J at q) into ws
+    (D, piv, X); False if A is singular to round-off (then the caller keeps to J W J^T)."""
     J0, J1, nrow, drop, D, piv, X, col = ws.J, ws.J1, ws.nrow, ws.drop, ws.D, ws.piv, ws.X, ws.col
     npts = nrow.shape[0]
     n = npts - 1
@@ -109,7 +115,8 @@ def factor_newton(anchored, ws):
                     D[j, r, s] = 0.0
                     D[j, s, r] = 0.0
                 D[j, r, r] = 1.0
-        _lu(D, j, nr, piv)
+        if not _lu(D, j, nr, piv):
+            return False
         if j < npts - 1:
             for s in range(nrow[j + 1]):
                 for r in range(nr):
@@ -121,6 +128,7 @@ def factor_newton(anchored, ws):
                 _lu_solve(D, j, nr, piv, col)
                 for r in range(nr):
                     X[j, r, s] = col[r]
+    return True
 
 
 @njit(cache=True)

@@ -386,6 +386,7 @@ def stage1(h, model, mo, ws, sc):
                     ws.x[j, r] *= h / sc.h_last[0]
         met = False
         exact = False  # the symmetric factors while each iteration cuts the residual NEWTON_RATE-fold, then A
+        singular = False  # A was singular to round-off: the chord on J W J^T only
         last = math.inf
         for it in range(NEWTON_MAX):
             generalized_forces(mo.anchored, ws.J, ws.nrow, ws.x, ws.gf)
@@ -397,26 +398,36 @@ def stage1(h, model, mo, ws, sc):
                 met = True
                 break
             if not math.isfinite(res):
-                return ERR_NEWTON
+                break
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
                     ws.rhs[j, r] = -sc.val[j, r] / h
-            if it == 0 or (not exact and res <= NEWTON_RATE * last):  # the chord on J W J^T while it gains
-                solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)
+            if (not exact) and (singular or it == 0 or res <= NEWTON_RATE * last):
+                solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)  # the chord on J W J^T
             else:
                 if not exact or res > NEWTON_RATE * last:  # (re)factor A at this q+
                     row_gradients(mo.e, ws.kind, ws.nrow, ws.J1)
-                    factor_newton(mo.anchored, ws)
                     sc.acc[5] += 1.0
-                    exact = True
-                solve_newton(mo.anchored, ws, ws.rhs, sc.rate)
+                    exact = factor_newton(mo.anchored, ws)
+                    singular = not exact
+                if exact:
+                    solve_newton(mo.anchored, ws, ws.rhs, sc.rate)
+                else:
+                    solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)
             last = res
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] += sc.rate[j, r]
         if not met:
             _record_unmet(ws, sc)
-            return ERR_NEWTON
+            if not _release_unmet_bend(mo, ws, sc):
+                return ERR_NEWTON
+            for j in range(ws.nrow.shape[0]):  # (a diverged iterate is no warm start)
+                for r in range(ws.nrow[j]):
+                    if not abs(ws.x[j, r]) < 1e30:
+                        ws.x[j, r] = 0.0
+            copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
+            continue
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
         if not _switch_stage1(model, mo, ws, sc, tol):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
@@ -428,13 +439,35 @@ def stage1(h, model, mo, ws, sc):
 
 @njit(cache=True)
 def _record_unmet(ws, sc):
-    """sc.unmet <- the row of stage 1 furthest from being met (sc.val): point, kind, value."""
+    """sc.unmet <- the row of stage 1 furthest from being met (sc.val): point, kind, value
+    (a non-finite value first)."""
     worst = -1.0
     for j in range(ws.nrow.shape[0]):
         for r in range(ws.nrow[j]):
-            if abs(sc.val[j, r]) > worst:
+            v = abs(sc.val[j, r])
+            if not math.isfinite(v) or v > worst:
+                if not math.isfinite(v):
+                    sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, ws.kind[j, r], sc.val[j, r]
+                    return
                 worst = abs(sc.val[j, r])
                 sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, ws.kind[j, r], sc.val[j, r]
+
+
+@njit(cache=True)
+def _release_unmet_bend(mo, ws, sc):
+    """Stage 1's Newton did not meet its rows: the active set is likely wrong, not the
+    step.  The bend rows whose impulses pull are switched off, or else, if the row furthest
+    from met (sc.unmet) is a bend row, that one.  Returns whether any was."""
+    released = False
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            if ws.kind[j, r] == K_BEND and ws.x[j, r] < 0.0:
+                mo.locked[j - 1] = 0
+                released = True
+    if not released and int(sc.unmet[1]) == K_BEND:
+        mo.locked[int(sc.unmet[0]) - 1] = 0
+        released = True
+    return released
 
 
 @njit(cache=True)
@@ -754,6 +787,32 @@ def _step_forces(h, sc, fb):
 
 
 @njit(cache=True)
+def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
+    """fm <- the state hf after the last step's start, and fb[0:5] its books: one step of
+    hf, or, where that fails, 2, 4, ... equal steps (at most 2^CUTS_MAX).  Returns the
+    length of the last of them (the frame's forces are its means), or the failure's code."""
+    for cuts in range(CUTS_MAX + 1):
+        m = 2**cuts
+        copy_motion(sc.start, fm)
+        fws.valid[0] = 0
+        fsc.h_last[0] = 0.0
+        for q in range(5):
+            fb[q] = fb[11 + q]
+        code = 0
+        for _ in range(m):
+            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False)
+            if code < 0:
+                break
+            fb[0] += fsc.acc[0]
+            fb[1] += fsc.acc[1]
+            for q in range(3):
+                fb[2 + q] += fsc.acc[2 + q]
+        if code == 0:
+            return hf / m
+    return code
+
+
+@njit(cache=True)
 def frame_substeps(model, sc, fws, fm, fsc, fb, frames):
     """The frames due strictly inside the last step (fb[16], fb[17]: its t and h): each
     from a step of its own from the step's start (state in sc) to the frame's time, on the
@@ -767,18 +826,10 @@ def frame_substeps(model, sc, fws, fm, fsc, fb, frames):
         if frames.count[0] >= frames.t.shape[0] - 1:
             return RT_BUFFER
         hf = frames.next[0] - t
-        copy_motion(sc.start, fm)
-        fws.valid[0] = 0
-        code, _ = rattle_step(t, hf, model, fm, fws, fsc, 0.0, False)
-        if code < 0:
-            return code
-        for q in range(5):
-            fb[q] = fb[11 + q]
-        fb[0] += fsc.acc[0]
-        fb[1] += fsc.acc[1]
-        for q in range(3):
-            fb[2 + q] += fsc.acc[2 + q]
-        _step_forces(hf, fsc, fb)
+        last = _frame_state(t, hf, model, sc, fws, fm, fsc, fb)
+        if last < 0.0:
+            return int(last)
+        _step_forces(last, fsc, fb)
         record_frame(frames.next[0], fm, fb, frames)
     fb[18] = 0.0
     _books_now_and_forces(h, sc, fb)
