@@ -125,6 +125,12 @@ def _mean_text(g: dict) -> str:
     return f"{g['mean']:.3f} [{g['lo']:.3f}, {g['hi']:.3f}]"
 
 
+def _stepper_label(g: dict) -> str:
+    """A stepping method's group in the paired table: its step (the time-stepper's, as the
+    pages quote it), the method's name first for the others."""
+    return _step_label(g) if g["method"] == "timestep" else f"{g['method']}, {_step_label(g)}"
+
+
 def _step_label(g: dict) -> str:
     """The group's step (time-stepper) or tolerance (event-driven)."""
     if g["method"] not in STEPPERS:
@@ -377,7 +383,7 @@ def main() -> None:
                 if pr:
                     m, lo, hi = pr["mean"], pr["lo"], pr["hi"]
                     print(
-                        f"| {g['segments']} | {g['method']}, {_step_label(g)} | {g['engine']} | {_step_label(ev)}, {ev['engine']} "
+                        f"| {g['segments']} | {_stepper_label(g)} | {g['engine']} | {_step_label(ev)}, {ev['engine']} "
                         f"| {pr['pairs']} | {m[0]:+.4f} [{lo[0]:+.4f}, {hi[0]:+.4f}] | {pr['ks_p']:.2f} "
                         f"| {m[1]:+.4f} [{lo[1]:+.4f}, {hi[1]:+.4f}] |"
                     )

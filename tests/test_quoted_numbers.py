@@ -233,3 +233,15 @@ def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
     quoted = _intervals(page.read_text())
     assert len(quoted) >= 10
     assert sorted(q for q in quoted if q not in printed) == []
+
+
+def test_the_rattle_page_quotes_what_its_command_prints():
+    """Every interval the RATTLE method's page quotes (its ensembles against the exact
+    method, the paired differences) is printed by the page's own command."""
+    page = ROOT / "docs" / "rattle.md"
+    printed = " ".join(_page_commands(page).split())
+    text = " ".join(page.read_text().split())
+    quoted = re.findall(r"[+-]?\d\.\d{3,4} \[[+-]?\d\.\d{3,4}, [+-]?\d\.\d{3,4}\]", text)
+    assert len(quoted) >= 4
+    for q in quoted:
+        assert q in printed, q
