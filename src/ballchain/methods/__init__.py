@@ -4,7 +4,8 @@ without the compiled kernels).
 A method is a module with ``run(setup, progress, stop) -> RunOutput`` (see
 ``methods/outputs.py``): it advances the chain from ``setup`` to the end of the fall and
 fills the shared outputs (frames, trace, event log, books) from which ``engine``
-builds the ``Result``.  To add one: a module (or sub-package) and a line here.
+builds the ``Result``.  To add one: a sub-package whose ``__init__`` states the bounds
+its runs are audited against (``AUDIT``: ``bounds.AuditBounds``), and a line here.
 """
 
 from __future__ import annotations
@@ -55,6 +56,12 @@ def default_step(method: str, segments: int) -> tuple[float, float]:
 
         return DEFAULT_DT, 1.0
     return LONG_STEP if method == "timestep" and segments >= LONG_STEP_FROM else SHORT_STEP
+
+
+def audit_bounds(name: str):
+    """The ``bounds.AuditBounds`` that the method ``name`` states (its package's ``AUDIT``)."""
+    module = METHODS[name][0].split(".")[0]
+    return importlib.import_module(f"{__name__}.{module}").AUDIT
 
 
 def method_runner(name: str):

@@ -19,12 +19,12 @@ and a message that names the book and the amounts (its data is kept).
   whose bends pass their limits within a step and are not always put back by its
   projection, by more than ``TIMESTEP_HINGE_PER_DT`` times its --dt.
 
-The time-stepping method is first order in its step: its imbalance and depth are its
-own error, reported as they are, shrinking with dt (docs/timestep.md), and checked
-against looser bounds (``TIMESTEP_ENERGY_RTOL``, ``TIMESTEP_DEPTH_TOL``,
-``TIMESTEP_HINGE_PER_DT``) that a
-broken run exceeds (a chain through the floor, a blown-up step) and a sound one does
-not at the default dt.
+Each method states its bounds in its package (``AUDIT``, a ``methods.bounds.AuditBounds``;
+``methods.audit_bounds``): the exact method's are round-off's; the time-stepper's, first
+order in its step, are looser bounds (``TIMESTEP_ENERGY_RTOL``, ``TIMESTEP_DEPTH_TOL``,
+``TIMESTEP_HINGE_PER_DT``) that a broken run exceeds (a chain through the floor, a
+blown-up step) and a sound one does not at the default dt; the RATTLE method's hold the
+floor and the bends as the exact method's and the books to 1e-2 of E0.
 """
 
 from __future__ import annotations
@@ -35,33 +35,22 @@ import math
 import numpy as np
 
 from ..floors.registry import WATCHES_EVERY_POINT
+from ..methods import audit_bounds
 from .result import Result
 
-ENERGY_RTOL = 1e-8  # |E0 - U - T - E_lock - E_land| / E0 at most
-DEPTH_TOL = 1e-8  # deepest point below a floor that watches every point, units b
-TIMESTEP_ENERGY_RTOL = 0.1  # the same, for the time-stepping method (its first-order error)
-TIMESTEP_DEPTH_TOL = 0.1  # the same, units b
-ANCHOR_TOL = 1e-6  # b: an anchored point this far from its anchor in a frame breaks a constraint (both methods)
-HINGE_TOL = 1e-7  # cos(alpha) - cos(bend) at most, over the hinges whose limit is in force, in every frame
-# The time-stepper's bends pass their limits within a step by up to w h sin(alpha) in the
-# cosine (w the bend's rate: near the pile w ~ 2 v / b, v ~ 2 sqrt(N) sqrt(g b), and
-# h = dt t_ff / N = 2 dt / sqrt(N) sqrt(b / g): about 6 dt); its projection puts them
-# back, but not when that would move a point further than 0.1 b (it is then undone),
-# and it can push a neighbour past.  Sound falls keep them within 5 dt (0.10 at N = 1024,
-# dt 0.02, the worst of 16 starts; 0.09 at dt 0.04), so the bound is per unit dt:
-TIMESTEP_HINGE_PER_DT = 15.0
+ENERGY_RTOL = audit_bounds("event").energy_rtol  # the exact method's bounds (its package states them)
+DEPTH_TOL = audit_bounds("event").depth_tol
+HINGE_TOL = audit_bounds("event").hinge_tol
+TIMESTEP_ENERGY_RTOL = audit_bounds("timestep").energy_rtol  # the time-stepper's
+TIMESTEP_DEPTH_TOL = audit_bounds("timestep").depth_tol
+TIMESTEP_HINGE_PER_DT = audit_bounds("timestep").hinge_per_dt
+ANCHOR_TOL = 1e-6  # b: an anchored point this far from its anchor in a frame breaks a constraint (every method)
 
 
 def tolerances(method: str) -> tuple[float, float]:
-    """(energy, depth) tolerances of the books of a run by ``method`` (the RATTLE method
-    states its own: ``methods.rattle``)."""
-    if method == "timestep":
-        return TIMESTEP_ENERGY_RTOL, TIMESTEP_DEPTH_TOL
-    if method == "rattle":
-        from ..methods import rattle
-
-        return rattle.ENERGY_RTOL, rattle.DEPTH_TOL
-    return ENERGY_RTOL, DEPTH_TOL
+    """(energy, depth) tolerances of the books of a run by ``method`` (its package states them)."""
+    b = audit_bounds(method)
+    return b.energy_rtol, b.depth_tol
 
 
 def _projection_share(e: dict, e0: float) -> str:
@@ -118,10 +107,8 @@ def anchor_miss(result: Result) -> tuple[float, float]:
 
 def hinge_tolerance(options) -> float:
     """The most a bend may pass its limit (in the cosine) in a frame of a run with
-    ``options``: ``HINGE_TOL``, or ``TIMESTEP_HINGE_PER_DT`` dt for the time-stepper."""
-    if options.method == "timestep":
-        return TIMESTEP_HINGE_PER_DT * float(options.dt)
-    return HINGE_TOL
+    ``options``: its method's bound (``AuditBounds.hinge``: per unit dt for the time-stepper)."""
+    return audit_bounds(options.method).hinge(options.dt)
 
 
 def hinge_excess(result: Result) -> tuple[float, float, int]:
@@ -190,9 +177,9 @@ def near_bounds(result: Result) -> list[str]:
     """For a time-stepping run whose books close: the ones past NEAR_BOUND of the
     method's bound, each as a sentence (its error is first order in dt: halving --dt
     halves it).  Empty for the event-driven method, whose bounds are round-off's."""
-    if result.options.method != "timestep":
+    if not audit_bounds(result.options.method).warn_near:
         return []
-    energy_rtol, depth_tol = tolerances("timestep")
+    energy_rtol, depth_tol = tolerances(result.options.method)
     e0, imbalance, depth = _measured(result)
     ratio = abs(imbalance) / e0 if e0 > 0 else math.nan
     out = []

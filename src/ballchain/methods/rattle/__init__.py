@@ -7,12 +7,12 @@ the bounds its runs are audited against (``records.audit``).
 
 from __future__ import annotations
 
+from ..bounds import AuditBounds
+
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
 STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is halved)
 # Audit bounds (records.audit): the method holds the floor and the limits at the position
 # level, to its solver's tolerance (stage 1 meets every row to about 1e-12 b), so the depth,
 # anchors and bends are held to the event-driven method's bounds; its energy error is
 # second order in dt where the motion is smooth, and bounded, not drifting.
-ENERGY_RTOL = 1e-2  # |E0 - U - T - E_lock - E_land| / E0 at most
-DEPTH_TOL = 1e-8  # b
-HINGE_TOL = 1e-7  # in the cosine
+AUDIT = AuditBounds(energy_rtol=1e-2, depth_tol=1e-8, hinge_tol=1e-7)
