@@ -28,6 +28,7 @@ from .stepper import (
     ERR_NAN,
     ERR_NEWTON,
     ERR_STEP_ENERGY,
+    ERR_STEP_NAN,
     FB_SIZE,
     RT_BUFFER,
     RT_LANDED,
@@ -50,6 +51,7 @@ RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (p
 ERROR_MESSAGES = {
     ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
     ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even halved 10 times",
+    ERR_STEP_NAN: "a step's state was not finite even halved 10 times (a singular stage)",
     ERR_ACTIVE_SET: "a stage's active set of limits and floor contacts did not settle",
     ERR_NAN: "non-finite state (blow-up)",
 }

@@ -76,7 +76,7 @@ def layout(anchored, bend, floor_on, kind, nrow):
 @njit(cache=True)
 def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
     """out[j, r] = the constraint function of row r of point j at (c, e); returns the
-    largest |value| over the equality rows and the negative part of the unilateral ones."""
+    largest |value| (inf if one is not a number)."""
     worst = 0.0
     for j in range(nrow.shape[0]):
         a = j - 1
@@ -98,7 +98,8 @@ def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
             else:
                 v = c[j, 2] + e[j, 2]
             out[j, r] = v
-            worst = max(worst, abs(v))
+            if not abs(v) <= worst:  # (NaN too: a non-finite value is never small)
+                worst = abs(v) if abs(v) == abs(v) else np.inf
     return worst
 
 

@@ -73,7 +73,7 @@ RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put 
 
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
-ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_NAN = -1, -2, -3, -6
+ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_STEP_NAN, ERR_NAN = -1, -2, -3, -4, -6
 
 # The state a step advances: the centres and their velocities beside the chain's axes,
 # anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
@@ -380,10 +380,11 @@ def stage1(h, model, mo, ws, sc):
             carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
         else:
             carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)  # the last round's, row by row
-        if rnd == 0 and sc.h_last[0] > 0.0:  # scaled to this step
+        if rnd == 0:  # scaled to this step (a non-finite impulse is no warm start)
+            scale = h / sc.h_last[0] if sc.h_last[0] > 0.0 else 1.0
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
-                    ws.x[j, r] *= h / sc.h_last[0]
+                    ws.x[j, r] = ws.x[j, r] * scale if abs(ws.x[j, r]) < 1e30 else 0.0
         met = False
         exact = False  # the symmetric factors while each iteration cuts the residual NEWTON_RATE-fold, then A
         singular = False  # A was singular to round-off: the chord on J W J^T only
@@ -520,7 +521,8 @@ def _switch_stage2(mo, ws, sc):
 def stage2(h, model, mo, ws, sc):
     """Stage 2 (module docstring): u+ in mo, P2 in ws.x, the rows' rates before (sc.val)
     and after (sc.rate).  The candidates (hinges in force active in stage 1 or at their
-    limit within the position tolerance) start all locked.  Returns 0 or ERR_ACTIVE_SET."""
+    limit within the position tolerance) start all locked.  Returns 0, ERR_ACTIVE_SET or
+    ERR_STEP_NAN (a singular solve)."""
     e, anchored, locked = mo.e, mo.anchored, mo.locked
     tol = position_tol(e.shape[0])
     half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
@@ -540,6 +542,8 @@ def stage2(h, model, mo, ws, sc):
         solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
         generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
         add_impulses(anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
+        if not math.isfinite(np.sum(mo.vc) + np.sum(mo.ve)):
+            return ERR_STEP_NAN
         if not _switch_stage2(mo, ws, sc):
             row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
@@ -611,6 +615,8 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     if na > 0:  # landed segments: the columns of the factors are not the state's
         ws.valid[0] = 0
     lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve)
+    if not math.isfinite(lost):  # (a singular stage: taken again halved, as a failed one)
+        return ERR_STEP_NAN, na
     if na > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
         if etol > 0.0 and lost < -etol:
             return ERR_STEP_ENERGY, na
