@@ -54,6 +54,53 @@ def _chain_traces(pts: np.ndarray, state: np.ndarray, go, visible: bool = True) 
     return traces
 
 
+def _player(steps: list) -> dict:
+    """The layout's time controls: the slider over the frames (``steps``) right of the
+    play/pause buttons, its time above it, clear of them."""
+    return dict(
+        sliders=[
+            dict(
+                active=0,
+                steps=steps,
+                x=0.16,
+                len=0.84,
+                y=-0.02,
+                yanchor="top",
+                currentvalue=dict(prefix="t / t_ff = ", xanchor="left"),
+                pad=dict(t=10),
+            )
+        ],  # fmt: skip
+        updatemenus=[
+            dict(
+                type="buttons",
+                direction="left",
+                x=0.0,
+                y=-0.06,
+                xanchor="left",
+                yanchor="top",
+                buttons=[
+                    dict(
+                        label="play",
+                        method="animate",
+                        args=[
+                            None,
+                            dict(frame=dict(duration=60, redraw=True), fromcurrent=True, transition=dict(duration=0)),
+                        ],
+                    ),
+                    dict(
+                        label="pause",
+                        method="animate",
+                        args=[
+                            [None],
+                            dict(mode="immediate", frame=dict(duration=0, redraw=False), transition=dict(duration=0)),
+                        ],
+                    ),
+                ],
+            )
+        ],  # fmt: skip
+    )
+
+
 def view_figure(result: Result, *, every: int | None = None, frames: int | None = None, stretch: float = 1.0):
     """The interactive figure (a ``plotly.graph_objects.Figure``) of the frames chosen as
     ``ballchain animate`` chooses them (``every`` K-th, or ``frames`` spread evenly;
@@ -125,47 +172,7 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
         ),  # fmt: skip
         xaxis=dict(title="t / t_ff"),
         yaxis=dict(title="z_top / b", range=[min(0.0, float(np.nanmin(pts_all[:, 0, 2]))) - 0.5, zmax]),
-        # the slider right of the play/pause buttons, its time above it, clear of them
-        sliders=[
-            dict(
-                active=0,
-                steps=steps,
-                x=0.16,
-                len=0.84,
-                y=-0.02,
-                yanchor="top",
-                currentvalue=dict(prefix="t / t_ff = ", xanchor="left"),
-                pad=dict(t=10),
-            )
-        ],  # fmt: skip
-        updatemenus=[
-            dict(
-                type="buttons",
-                direction="left",
-                x=0.0,
-                y=-0.06,
-                xanchor="left",
-                yanchor="top",
-                buttons=[
-                    dict(
-                        label="play",
-                        method="animate",
-                        args=[
-                            None,
-                            dict(frame=dict(duration=60, redraw=True), fromcurrent=True, transition=dict(duration=0)),
-                        ],
-                    ),
-                    dict(
-                        label="pause",
-                        method="animate",
-                        args=[
-                            [None],
-                            dict(mode="immediate", frame=dict(duration=0, redraw=False), transition=dict(duration=0)),
-                        ],
-                    ),
-                ],
-            )
-        ],  # fmt: skip
+        **_player(steps),
         legend=dict(x=0.0, y=1.0),
         margin=dict(l=10, r=10, t=60, b=40),
     )
