@@ -1269,7 +1269,7 @@ def _axis_rates(e, w, out):
 
 
 @njit(cache=True)
-def _rates_for_axes(e, de, w):
+def rates_for_axes(e, de, w):
     """w_i = e_i x de_i: the rates that turn the (moved, unit) axes e_i at the rates de_i
     they had before the move, but for the components along e_i (which a segment's fixed
     length forbids): the points' velocities are kept through a position projection up to
@@ -1295,7 +1295,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     ``vel``: scratch of the points' positions and the centres' velocities): normalise,
     then Gauss-Newton on anchor positions and locked angles
     (delta = -W J^T (J W J^T)^{-1} c), then (``with_velocities``) the rates that keep
-    the axes' velocities de_i/dt through that move (``_rates_for_axes``), and the same
+    the axes' velocities de_i/dt through that move (``rates_for_axes``), and the same
     projection on velocities.  Returns the largest position residual before projection
     and after it (above ``tol`` only when Gauss-Newton ran ``iters`` iterations without
     meeting every row)."""
@@ -1324,7 +1324,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     if not with_velocities:
         return res0, res
     if it > 0:
-        _rates_for_axes(e, vel, w)
+        rates_for_axes(e, vel, w)
         normalize_state(e, w, anchored)
         fits = constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs)
     # velocities

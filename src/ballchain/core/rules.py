@@ -85,6 +85,16 @@ def is_landed(anchored, i):
     return anchored[i] == 1 and anchored[i + 1] == 1
 
 
+@njit(cache=True)
+def landed_count(anchored):
+    """How many segments have landed (``is_landed``): the floor holds up their weight."""
+    m = 0
+    for i in range(anchored.shape[0] - 1):
+        if is_landed(anchored, i):
+            m += 1
+    return m
+
+
 @njit(cache=True, inline="always")
 def landed_or_landing(anchored, i):
     """Segment i has landed or lands in the current impact (both ends anchored or

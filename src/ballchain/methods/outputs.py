@@ -5,6 +5,7 @@ arrays, and what a method hands back (``RunOutput``).  The compiled side of each
 
 from __future__ import annotations
 
+from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
@@ -151,6 +152,28 @@ def drive(setup, progress, stop, advance, out: RunOutput, log_rows: int, state: 
         message += ("; " if message else "") + ck.failure
     out.status, out.message, out.t = status, message, t
     return out
+
+
+LoopCodes = namedtuple("LoopCodes", ["stop", "buffer", "returned", "landed", "max_steps"])
+
+
+def loop_verdict(code: int, t: float, codes: LoopCodes, errors: dict, where: str, max_steps: int):
+    """What ``drive`` makes of a stepping method's compiled loop returning ``code`` at t
+    (``codes``: its return codes; ``errors``: the messages of its failures, each followed
+    by ``where`` it failed): (verdict, t), or SimulationError."""
+    if code == codes.buffer:
+        return FLUSH, t
+    if code == codes.landed:
+        return LANDED, t
+    if code in errors:
+        raise SimulationError(f"{errors[code]} {where}")
+    if code == codes.max_steps:
+        raise SimulationError(f"more than max_steps = {max_steps} steps {where}")
+    if code == codes.stop:
+        return STOPPED, t
+    if code != codes.returned:  # pragma: no cover - every code is handled above
+        raise SimulationError(f"unknown code {code} from the compiled loop")
+    return GO_ON, t
 
 
 REST_RATE = 1e-9  # every |w_i| below this (sqrt(g/b)): the chain is at rest

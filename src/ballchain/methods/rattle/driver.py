@@ -6,20 +6,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...core.dynamics import rates_for_axes
 from ...core.state import new_books, new_chain, new_model
 from ...errors import ParameterError
 from ...floors.registry import FLOOR_CODES
 from ..outputs import (
-    FLUSH,
-    GO_ON,
-    LANDED,
-    STOPPED,
     FrameBuffer,
     LogBuffer,
+    LoopCodes,
     RunOutput,
-    SimulationError,
     TraceBuffer,
     drive,
+    loop_verdict,
 )
 from . import STEP_ENERGY_TOL
 from .rows import new_rows
@@ -40,7 +38,6 @@ from .stepper import (
     maximal_state,
     new_frame_work,
     new_scratch,
-    rates_of,
     run_steps,
 )
 
@@ -48,6 +45,7 @@ ROW_NAMES = {0: "joint", 1: "joint", 2: "joint", 3: "anchor", 4: "anchor", 5: "a
              8: "anchor", 9: "axis", 10: "bend", 11: "floor"}  # fmt: skip
 RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (progress)
 
+LOOP_CODES = LoopCodes(RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS)
 ERROR_MESSAGES = {
     ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
     ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even halved 10 times",
@@ -85,24 +83,12 @@ def run(setup, progress, stop) -> RunOutput:
 
     def advance(t):
         code, t = run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames.compiled, trace.compiled, log.compiled)
-        rates_of(mo.e, mo.ve, chain.Y[1])
-        if code == RT_BUFFER:
-            return FLUSH, t
-        if code == RT_LANDED:
-            return LANDED, t
-        at = f"at t/t_ff = {t / setup.t_ff:.6f}"
+        rates_for_axes(mo.e, mo.ve, chain.Y[1])  # w = e x de/dt
+        where = f"at t/t_ff = {t / setup.t_ff:.6f}"
         if code == ERR_NEWTON:
             j, kind, value = sc.unmet
-            at += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step halved 10 times)"
-        if code in ERROR_MESSAGES:
-            raise SimulationError(f"{ERROR_MESSAGES[code]} {at}")
-        if code == RT_MAX_STEPS:
-            raise SimulationError(f"more than max_steps = {o.max_steps} steps {at}")
-        if code == RT_STOP:
-            return STOPPED, t
-        if code != RT_RETURN:  # pragma: no cover - every code is handled above
-            raise SimulationError(f"unknown code {code} from the compiled loop")
-        return GO_ON, t
+            where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step halved 10 times)"
+        return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
     state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve}, "scratch": sc, "frame_scratch": fr.sc}

@@ -37,7 +37,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.books import log_row, lowest_point
-from ...core.dynamics import factor_general, generalized_forces, potential_energy, solve_general
+from ...core.dynamics import factor_general, generalized_forces, potential_energy, rates_for_axes, solve_general
 from ...core.jit import entry, njit
 from ...core.rules import (
     LOG_LANDING,
@@ -47,6 +47,7 @@ from ...core.rules import (
     fall_ended,
     hold_at,
     is_landed,
+    landed_count,
     limit_in_force,
 )
 from .newton import factor_newton, solve_newton
@@ -168,15 +169,6 @@ def maximal_state(e, w, c, vc, ve):
         vc[i, 0], vc[i, 1], vc[i, 2] = ux + dx, uy + dy, uz + dz
         px, py, pz = px + 2.0 * e[i, 0], py + 2.0 * e[i, 1], pz + 2.0 * e[i, 2]
         ux, uy, uz = ux + 2.0 * dx, uy + 2.0 * dy, uz + 2.0 * dz
-
-
-@njit(cache=True)
-def rates_of(e, ve, w):
-    """w_i = e_i x de_i/dt: the angular velocity of a rod (no spin) from its axis' rate."""
-    for i in range(e.shape[0]):
-        w[i, 0] = e[i, 1] * ve[i, 2] - e[i, 2] * ve[i, 1]
-        w[i, 1] = e[i, 2] * ve[i, 0] - e[i, 0] * ve[i, 2]
-        w[i, 2] = e[i, 0] * ve[i, 1] - e[i, 1] * ve[i, 0]
 
 
 @njit(cache=True)
@@ -676,15 +668,6 @@ def _hinge_impulse(k, kind1, nrow1, x1, rb1, ra1, kind2, nrow2, x2, rb2, ra2):
 
 
 @njit(cache=True)
-def n_landed(anchored):
-    m = 0
-    for i in range(anchored.shape[0] - 1):
-        if is_landed(anchored, i):
-            m += 1
-    return m
-
-
-@njit(cache=True)
 def commit(t, h, na, mo, ws, sc, books, log):
     """The step's books and log: energy lost at hinges and landings, the floor's impulse
     (a step with a landing: the impacts' account, else the flow), the landed segments'
@@ -696,7 +679,7 @@ def commit(t, h, na, mo, ws, sc, books, log):
     account = books.floor_impulse if na > 0 else books.floor_flow
     for q in range(3):
         account[q] += sc.acc[2 + q]
-    books.floor_flow[2] += h * n_landed(sc.start.anchored)
+    books.floor_flow[2] += h * landed_count(sc.start.anchored)
     for k in range(locked.shape[0]):
         if locked[k] and not sc.start.locked[k]:
             p, lost = _hinge_impulse(
@@ -752,10 +735,8 @@ def record_frame(t, mo, fb, frames):
     e = mo.e
     n = e.shape[0]
     frames.t[k] = t
+    rates_for_axes(e, mo.ve, frames.omega[k])
     for i in range(n):
-        frames.omega[k, i, 0] = e[i, 1] * mo.ve[i, 2] - e[i, 2] * mo.ve[i, 1]
-        frames.omega[k, i, 1] = e[i, 2] * mo.ve[i, 0] - e[i, 0] * mo.ve[i, 2]
-        frames.omega[k, i, 2] = e[i, 0] * mo.ve[i, 1] - e[i, 1] * mo.ve[i, 0]
         for q in range(3):
             frames.e[k, i, q] = e[i, q]
     for j in range(n + 1):
@@ -766,7 +747,7 @@ def record_frame(t, mo, fb, frames):
         frames.floor_force[k, q] = fb[5 + q]
         frames.pile_pull[k, q] = fb[8 + q]
         frames.floor_impulse[k, q] = fb[2 + q]
-    frames.scale_force[k] = fb[7] + n_landed(mo.anchored)
+    frames.scale_force[k] = fb[7] + landed_count(mo.anchored)
     frames.kinetic[k] = kinetic_energy_rattle(mo.vc, mo.ve)
     frames.potential[k] = potential_energy(e)
     frames.lost_locking[k] = fb[0]

@@ -9,16 +9,13 @@ from ...core.state import new_books, new_chain, new_model, new_work
 from ...floors.registry import FLOOR_CODES
 from .. import DT_RULES
 from ..outputs import (
-    FLUSH,
-    GO_ON,
-    LANDED,
-    STOPPED,
     FrameBuffer,
     LogBuffer,
+    LoopCodes,
     RunOutput,
-    SimulationError,
     TraceBuffer,
     drive,
+    loop_verdict,
 )
 from .stepper import (
     ERR_ENERGY,
@@ -36,6 +33,7 @@ from .stepper import (
 
 RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (progress)
 
+LOOP_CODES = LoopCodes(TS_STOP, TS_BUFFER, TS_RETURN, TS_LANDED, TS_MAX_STEPS)
 ERROR_MESSAGES = {
     ERR_IMPACT: "the impact problem of a step did not converge",
     ERR_ENERGY: "a step's impact raised the kinetic energy",
@@ -73,22 +71,10 @@ def run(setup, progress, stop) -> RunOutput:
 
     def advance(t):
         code, t = run_steps(t, h, model, chain, ws, sc, books, frames.compiled, trace.compiled, log.compiled)
-        if code == TS_BUFFER:
-            return FLUSH, t
-        if code == TS_LANDED:
-            return LANDED, t
-        at = f"at t/t_ff = {t / setup.t_ff:.6f}"
+        where = f"at t/t_ff = {t / setup.t_ff:.6f}"
         if code == ERR_ENERGY:
-            raise SimulationError(f"{ERROR_MESSAGES[code]} by {-sc.removed[0]:.3g} (units m g b) {at}")
-        if code in ERROR_MESSAGES:
-            raise SimulationError(f"{ERROR_MESSAGES[code]} {at}")
-        if code == TS_MAX_STEPS:
-            raise SimulationError(f"more than max_steps = {o.max_steps} steps {at}")
-        if code == TS_STOP:
-            return STOPPED, t
-        if code != TS_RETURN:  # pragma: no cover - every code is handled above
-            raise SimulationError(f"unknown code {code} from the compiled loop")
-        return GO_ON, t
+            where = f"by {-sc.removed[0]:.3g} (units m g b) {where}"
+        return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
     state = {"chain": chain, "work": ws, "scratch": sc, "books": books}

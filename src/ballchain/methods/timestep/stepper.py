@@ -79,6 +79,7 @@ from ...core.rules import (
     fall_ended,
     hold_at,
     is_landed,
+    landed_count,
     limit_in_force,
     settle_anchors,
 )
@@ -503,15 +504,6 @@ def _nothing_to_project(model, chain, sc):
 
 
 @njit(cache=True)
-def _n_landed(anchored):
-    m = 0
-    for i in range(anchored.shape[0] - 1):
-        if is_landed(anchored, i):
-            m += 1
-    return m
-
-
-@njit(cache=True)
 def record_frame(t, kinetic, chain, sc, books, frames):
     """Frame frames.count[0] at time t (the next frame's): the state (``chain``: the
     run's, or a frame's own, ``fill_frames``), the anchors' mean force on the airborne
@@ -533,7 +525,7 @@ def record_frame(t, kinetic, chain, sc, books, frames):
         frames.floor_force[k, q] = sc.force[q]
         frames.pile_pull[k, q] = sc.pull[q]
         frames.floor_impulse[k, q] = books.floor_flow[q] + books.floor_impulse[q]
-    frames.scale_force[k] = sc.force[2] + _n_landed(chain.anchored)
+    frames.scale_force[k] = sc.force[2] + landed_count(chain.anchored)
     frames.kinetic[k] = kinetic
     frames.potential[k] = potential_energy(e)
     frames.lost_locking[k] = books.lost_locking[0]
@@ -697,7 +689,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
             h *= s
     reuse_factors(ws.S, np.bool_(False))  # the position update turns them
     _book(t, h, na, chain, ws, sc, books, log)
-    books.floor_flow[2] += h * _n_landed(anchored)
+    books.floor_flow[2] += h * landed_count(anchored)
     books.n_evals[0] += 1
     settle_anchors(chain, model.cone, model.alpha)
     for i in range(e.shape[0]):
