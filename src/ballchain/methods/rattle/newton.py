@@ -81,8 +81,8 @@ def _lower(J0, J1, j, r, p, wv, ww):
 @njit(cache=True)
 def factor_newton(anchored, ws):
     """Block LU of A = J1 W J^T (``rows.Rows``: ws.J1 the rows at q+, ws.J at q) into ws
-    (D, piv, X); False if A is singular to round-off (then the caller keeps to J W J^T)."""
-    J0, J1, nrow, drop, D, piv, X, col = ws.J, ws.J1, ws.nrow, ws.drop, ws.D, ws.piv, ws.X, ws.col
+    (D, piv, X, and the lower blocks Lb for the solves); False if A is singular to round-off (then the caller keeps to J W J^T)."""
+    J0, J1, nrow, drop, D, piv, X, Lb, col = ws.J, ws.J1, ws.nrow, ws.drop, ws.D, ws.piv, ws.X, ws.Lb, ws.col
     npts = nrow.shape[0]
     n = npts - 1
     for j in range(npts):
@@ -102,10 +102,9 @@ def factor_newton(anchored, ws):
                 D[j, r, s] = acc
         if j >= 1:
             for r in range(nr):
-                if drop[j, r]:
-                    continue
                 for p in range(nrow[j - 1]):
-                    lv = _lower(J0, J1, j, r, p, av, aw)
+                    lv = 0.0 if drop[j, r] else _lower(J0, J1, j, r, p, av, aw)
+                    Lb[j, r, p] = lv
                     if lv != 0.0:
                         for s in range(nr):
                             D[j, r, s] -= lv * X[j - 1, p, s]
@@ -132,19 +131,17 @@ def factor_newton(anchored, ws):
 
 
 @njit(cache=True)
-def solve_newton(anchored, ws, b, x):
+def solve_newton(ws, b, x):
     """x = A^{-1} b with the factors of ``factor_newton`` (dropped rows: x = 0)."""
-    J0, J1, nrow, drop, D, piv, X, col = ws.J, ws.J1, ws.nrow, ws.drop, ws.D, ws.piv, ws.X, ws.col
+    nrow, drop, D, piv, X, Lb, col = ws.nrow, ws.drop, ws.D, ws.piv, ws.X, ws.Lb, ws.col
     npts = nrow.shape[0]
-    n = npts - 1
     for j in range(npts):
         nr = nrow[j]
-        av, aw = _weights(anchored, j - 1, n)
         for r in range(nr):
             v = 0.0 if drop[j, r] else b[j, r]
             if j >= 1 and not drop[j, r]:
                 for p in range(nrow[j - 1]):
-                    v -= _lower(J0, J1, j, r, p, av, aw) * x[j - 1, p]
+                    v -= Lb[j, r, p] * x[j - 1, p]
             col[r] = v
         _lu_solve(D, j, nr, piv, col)
         for r in range(nr):

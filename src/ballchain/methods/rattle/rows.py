@@ -179,10 +179,11 @@ def copy_layout(kind, nrow, x, kind_to, nrow_to, x_to):
 
 # The rows and the solvers' workspace: J, kind, nrow, S, G, drop, rhs, x, gf as the core's
 # ``state.Work`` (what ``dynamics.factor_general`` / ``solve_general`` take), and for stage
-# 1's Newton matrix (``newton``) the rows at q+ (J1), the block LU (D, piv, X), a column;
+# 1's Newton matrix (``newton``) the rows at q+ (J1), the block LU (D, piv, X) and its lower
+# blocks (Lb, kept for the solves), a column;
 # valid (1,): J, kind, nrow and the factors are the last stage 2's, at the state's axes.
 Rows = namedtuple(
-    "Rows", ["J", "kind", "nrow", "S", "G", "drop", "rhs", "x", "gf", "J1", "D", "piv", "X", "col", "valid"]
+    "Rows", ["J", "kind", "nrow", "S", "G", "drop", "rhs", "x", "gf", "J1", "Lb", "D", "piv", "X", "col", "valid"]
 )
 
 
@@ -200,6 +201,7 @@ def new_rows(n: int) -> Rows:
         np.zeros((p, RMAX)),
         np.zeros((n, 6)),
         np.zeros((p, RMAX, 12)),
+        np.zeros((p, RMAX, RMAX)),
         np.zeros((p, RMAX, RMAX)),
         np.zeros((p, RMAX), np.int64),
         np.zeros((p, RMAX, RMAX)),

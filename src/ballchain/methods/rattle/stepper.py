@@ -70,6 +70,9 @@ NEWTON_RATE = 0.05  # an iteration that cuts the residual less than this fold mo
 ROUNDS_MAX = 60  # active-set rounds of a stage at most
 POS_TOL = 1e-12  # b: stage 1 meets every row to this, plus the round-off of the heights
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
+EARLY_ROUNDS = 4  # rounds of stage 1 in which rows found far past their limit are switched on within the iteration
+EARLY_MARGIN = 10.0
+EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual is below this (b)  # ... "far": by more than this many times the iterate's residual
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
 
 # run_steps codes (negative: the run cannot go on)
@@ -107,8 +110,9 @@ Scratch = namedtuple(
         "kind_w", "nrow_w", "x_w",  # the last stage 2's impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
-        "acc",  # (8,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
-        #   [5] factorisations, [6] new anchors, [7] Newton iterations
+        "acc",  # (10,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
+        #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
+        #   step's start minus at its end, [9] 1 if the step had an impact
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of the last stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
@@ -130,7 +134,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(8), np.zeros(3), np.zeros(1), np.zeros(3),
+        np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3),
     )  # fmt: skip
 
 
@@ -299,45 +303,68 @@ def _pile_impulse(anchored, kind, nrow, x, pull):
 @njit(cache=True)
 def _switch_stage1(model, mo, ws, sc, tol):
     """The complementarity of stage 1 at q+: a bend or floor row whose impulse pulls is
-    switched off; a hinge in force or a free point found past its limit switched on.
-    Returns whether the active set changed."""
-    anchored, locked, e, c = mo.anchored, mo.locked, mo.e, mo.c
+    switched off; a hinge in force or a free point found past its limit by more than tol
+    switched on (``switch_on_violated``).  Returns whether the active set changed."""
     changed = False
     for j in range(ws.nrow.shape[0]):
         for r in range(ws.nrow[j]):
             k = ws.kind[j, r]
             if ws.x[j, r] < 0.0:
                 if k == K_BEND:
-                    locked[j - 1] = 0
+                    mo.locked[j - 1] = 0
                     changed = True
                 elif k == K_FLOOR:
                     sc.floor_on[j] = 0
                     changed = True
+    return switch_on_violated(model, mo, sc, tol) or changed
+
+
+@njit(cache=True)
+def switch_on_violated(model, mo, sc, margin):
+    """A hinge in force past its limit, or a free point below the floor, by more than
+    ``margin`` is switched on.  Inside stage 1's Newton iteration the margin is far beyond
+    what the iterate's residual can account for: the set is known wrong before the
+    iteration has met its rows.  Returns whether any was."""
+    anchored, locked, e, c = mo.anchored, mo.locked, mo.e, mo.c
+    changed = False
     for k in range(locked.shape[0]):
         if locked[k] == 0 and limit_in_force(anchored, k, model.cone, model.alpha):
             g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
-            if g < -tol:
+            if g < -margin:
                 locked[k] = 1
                 changed = True
-    n = e.shape[0]
-    for j in range(n):
-        if anchored[j] == 0 and sc.floor_on[j] == 0 and c[j, 2] + e[j, 2] < -tol:
+    for j in range(e.shape[0]):
+        if anchored[j] == 0 and sc.floor_on[j] == 0 and c[j, 2] + e[j, 2] < -margin:
             sc.floor_on[j] = 1
             changed = True
     return changed
 
 
 @njit(cache=True)
-def _factor(mo, ws, sc, e, reuse):
-    """The rows of the current layout at axes e, and the factors of J W J^T; with
-    ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its layout is this
-    one: a step's stage 1 starts where the last stage 2 ended, with its active set."""
+def _factor(mo, ws, sc, e, reuse, factor):
+    """The rows of the current layout at axes e, and (with ``factor``) the factors of
+    J W J^T; with ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its
+    layout is this one: a step's stage 1 starts where the last stage 2 ended, with its
+    active set.  Returns whether ws holds the factors of J W J^T for these rows (without
+    them, no row is marked redundant)."""
     layout(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old)
     if reuse and ws.valid[0] != 0 and same_layout(sc.kind_old, sc.nrow_old, ws.kind, ws.nrow):
-        return
+        return True
     ws.valid[0] = 0
     layout(mo.anchored, mo.locked, sc.floor_on, ws.kind, ws.nrow)
     row_gradients(e, ws.kind, ws.nrow, ws.J)
+    if factor:
+        _factor_symmetric(mo, ws, sc)
+    else:
+        for j in range(ws.nrow.shape[0]):
+            for r in range(ws.nrow[j]):
+                ws.drop[j, r] = 0
+    return factor
+
+
+@njit(cache=True)
+def _factor_symmetric(mo, ws, sc):
+    """The factors of J W J^T for the rows in ws (``dynamics.factor_general``)."""
     factor_general(mo.anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
     sc.acc[5] += 1.0
 
@@ -367,7 +394,7 @@ def stage1(h, model, mo, ws, sc):
     for rnd in range(ROUNDS_MAX):
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
-        _factor(mo, ws, sc, sc.start.e, rnd == 0)
+        have_sym = _factor(mo, ws, sc, sc.start.e, rnd == 0, False)  # (J W J^T only if the last stage 2's serves)
         if rnd == 0:  # warm start: the last stage 2's impulses, h/2 times the forces at this step's start
             carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
         else:
@@ -380,6 +407,7 @@ def stage1(h, model, mo, ws, sc):
         met = False
         exact = False  # the symmetric factors while each iteration cuts the residual NEWTON_RATE-fold, then A
         singular = False  # A was singular to round-off: the chord on J W J^T only
+        switched = False  # rows switched on before the iteration met its rows
         last = math.inf
         for it in range(NEWTON_MAX):
             generalized_forces(mo.anchored, ws.J, ws.nrow, ws.x, ws.gf)
@@ -392,10 +420,16 @@ def stage1(h, model, mo, ws, sc):
                 break
             if not math.isfinite(res):
                 break
+            if rnd < EARLY_ROUNDS and (
+                switch_on_violated(model, mo, sc, max(tol, EARLY_MARGIN * res))
+                or (res <= EARLY_RES and _switch_stage1(model, mo, ws, sc, tol))
+            ):
+                switched = True
+                break  # a limit or the floor passed by far more than the residual: the set is wrong, not yet the iterate
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
                     ws.rhs[j, r] = -sc.val[j, r] / h
-            if (not exact) and (singular or it == 0 or res <= NEWTON_RATE * last):
+            if (not exact) and (singular or (have_sym and (it == 0 or res <= NEWTON_RATE * last))):
                 solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)  # the chord on J W J^T
             else:
                 if not exact or res > NEWTON_RATE * last:  # (re)factor A at this q+
@@ -403,14 +437,23 @@ def stage1(h, model, mo, ws, sc):
                     sc.acc[5] += 1.0
                     exact = factor_newton(mo.anchored, ws)
                     singular = not exact
+                    if singular and not have_sym:  # J W J^T, its redundant rows dropped, and A again
+                        _factor_symmetric(mo, ws, sc)
+                        have_sym = True
+                        sc.acc[5] += 1.0
+                        exact = factor_newton(mo.anchored, ws)
+                        singular = not exact
                 if exact:
-                    solve_newton(mo.anchored, ws, ws.rhs, sc.rate)
+                    solve_newton(ws, ws.rhs, sc.rate)
                 else:
                     solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)
             last = res
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] += sc.rate[j, r]
+        if switched:  # a new round with the rows switched on, from these impulses
+            copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
+            continue
         if not met:
             _record_unmet(ws, sc)
             if not _release_unmet_bend(mo, ws, sc):
@@ -526,7 +569,7 @@ def stage2(h, model, mo, ws, sc):
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
     for _ in range(ROUNDS_MAX):
-        _factor(mo, ws, sc, e, False)  # (sc.floor_on is all 0 after ``land``: no floor rows)
+        _factor(mo, ws, sc, e, False, True)  # (sc.floor_on is all 0 after ``land``: no floor rows)
         row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.val)
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
@@ -607,9 +650,11 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     if na > 0:  # landed segments: the columns of the factors are not the state's
         ws.valid[0] = 0
     lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve)
+    sc.acc[8] = lost
     if not math.isfinite(lost):  # (a singular stage: taken again halved, as a failed one)
         return ERR_STEP_NAN, na
     if na > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
+        sc.acc[9] = 1.0
         if etol > 0.0 and lost < -etol:
             return ERR_STEP_ENERGY, na
         _book_impact(lost, lock_work, land_work, na + touched, sc.acc)
@@ -709,13 +754,17 @@ def commit(t, h, na, mo, ws, sc, books, log):
 # frame info (fb, FB_SIZE): [0] lost at hinges, [1] at landings, [2:5] the floor's impulse
 # so far, [5:8] the anchors' mean force over the last step, [8:11] the pile's pull, [11:16]
 # [0:5] at the last step's start, [16] that step's t, [17] its h, [18] 1 while frames inside
-# it are still to be taken (the frame buffer was full), [19] how many times the step is
-# halved (a step whose stage 1 or 2 failed, or which changed the energy beyond its bound,
-# is taken again halved), [20] the steps taken at that size (after GROW_AFTER the step is
+# it are still to be taken (the frame buffer was full), [19] the step's level: it is
+# dt t_ff/N / 2^level (a step whose stage 1 or 2 failed is taken again halved, one that
+# changed U + T beyond its bound shortened as its h^3 error asks: ``_cut``, ``_growth``),
+# [20] without the bound, the steps taken at that size (after GROW_AFTER the step is
 # doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound)
 FB_SIZE = 22
-CUTS_MAX = 10  # a step is halved at most this many times
-GROW_AFTER = 8  # successful steps at a halved size before the next is tried doubled
+CUTS_MAX = 10  # a step is halved at most this many times (its level is at most this)
+GROW_AFTER = 8  # without the energy bound: steps at a halved size before the next is tried doubled
+SAFETY = 0.8  # the energy control aims a step's change of U + T at this fraction of its bound
+SHRINK_MIN = 1.5  # ... and shortens a refused step at least this many fold
+GROW_MAX = 2.0  # ... and changes an accepted one's successor by at most this factor
 TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w| small)
 
 
@@ -836,16 +885,46 @@ def _books_now_and_forces(h, sc, fb):
 
 
 @njit(cache=True)
+def _cut(code, change, etol):
+    """How many halvings (log2, not only whole) a refused step is shortened by: for a step
+    that changed U + T by ``change`` beyond etol, the local error of a second-order step
+    (h^3) brought to SAFETY etol, at least SHRINK_MIN-fold; for a failed stage, one."""
+    if code != ERR_STEP_ENERGY or not (abs(change) > etol > 0.0):
+        return 1.0
+    return max(math.log2(SHRINK_MIN), math.log2(abs(change) / (SAFETY * etol)) / 3.0)
+
+
+@njit(cache=True)
+def _growth(change, impact, etol, fb):
+    """How many halvings (log2) the next step is lengthened by after one accepted: with the
+    energy bound, the smooth step's change of U + T brought to SAFETY etol (h^3), by a
+    factor in [1/GROW_MAX, GROW_MAX] (an impact step, whose change is its loss, keeps the
+    size); without it, one halving undone after GROW_AFTER steps at a size."""
+    if etol > 0.0:
+        if impact:
+            return 0.0
+        if change == 0.0:
+            return math.log2(GROW_MAX)
+        g = math.log2(SAFETY * etol / abs(change)) / 3.0
+        return min(max(g, -math.log2(GROW_MAX)), math.log2(GROW_MAX))
+    fb[20] += 1.0
+    if fb[20] >= GROW_AFTER:
+        fb[20] = 0.0
+        return 1.0
+    return 0.0
+
+
+@njit(cache=True)
 def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     """One step from t (h at most: cut at the stop time) with its books, log and trace;
     the frames inside it are left pending (fb[18]).  Returns (code, t + h)."""
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
         _books_now(books, fb)
         record_frame(t, mo, fb, frames)
-    level = int(fb[19])
-    wmax = _fastest_turn(mo.ve)  # a step turns no segment more than TURN_MAX: halve it until
-    while level < CUTS_MAX and h / 2.0**level * wmax > TURN_MAX:
-        level += 1
+    level = fb[19]  # the step is h / 2^level (level >= 0, not only whole: the energy control sets it)
+    wmax = _fastest_turn(mo.ve)  # a step turns no segment more than TURN_MAX
+    if h / 2.0**level * wmax > TURN_MAX:
+        level = min(float(CUTS_MAX), math.log2(h * wmax / TURN_MAX))
     fb[19] = level
     h = h / 2.0**level
     left = model.t_stop - t
@@ -853,19 +932,16 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         h = left if left <= h else 0.5 * left
     etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True)
-    if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, halved
+    if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
         copy_motion(sc.start, mo)
         ws.valid[0] = 0
-        fb[19] = level + 1
+        fb[19] = min(float(CUTS_MAX), level + _cut(code, sc.acc[8], etol))
         fb[20] = 0.0
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     if code < 0:
         return code, t
-    fb[20] += 1.0  # steps taken at this size: after GROW_AFTER, the next is doubled
-    if level > 0 and fb[20] >= GROW_AFTER:
-        fb[19] = level - 1
-        fb[20] = 0.0
+    fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb))
     _books_now(books, fb)
     for q in range(5):
         fb[11 + q] = fb[q]
