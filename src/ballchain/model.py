@@ -197,7 +197,7 @@ class InitialCondition:
         return d
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)  # by name only: the methods' fields follow (their order is the registry's)
 class _RunOptions:
     """Numerical options.
 

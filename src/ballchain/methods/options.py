@@ -156,7 +156,8 @@ class MethodOption:
 def options_dataclass(base: type, name: str, module: str, names=None) -> type:
     """The frozen dataclass ``name`` of ``module``: the fields of ``base`` (a frozen
     dataclass), then one per method option (``methods.all_options``; ``names``: only
-    those) with its type and default; its docstring is ``base``'s and each option's help."""
+    those) with its type and default, given by name only; its docstring is ``base``'s and
+    each option's help."""
     import textwrap
     from dataclasses import field, make_dataclass
 
@@ -168,6 +169,7 @@ def options_dataclass(base: type, name: str, module: str, names=None) -> type:
         [(o.name, o.annotation, field(default=o.default)) for o in opts],
         bases=(base,),
         frozen=True,
+        kw_only=True,
         namespace={"__module__": module},
     )
     cls.__doc__ = (
