@@ -904,7 +904,9 @@ def sweep(
         _SOLVER.max_time, "--max-time", help="The time cap of each run, in t_ff (as simulate: status max_time)."
     ),
     method: str = typer.Option(
-        _SOLVER.method, "--method", help=f"Integration method of every run: {', '.join(METHODS)} (as simulate)."
+        _SOLVER.method,
+        "--method",
+        help=f"Integration method of every run: {', '.join(list(METHODS)[:-1])} or {list(METHODS)[-1]} (as simulate).",
     ),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
