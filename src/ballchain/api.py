@@ -19,13 +19,15 @@ from pathlib import Path
 from typing import Any
 
 from .inputs import build_inputs
+from .methods import option_names
 from .methods.checkpoint import DEFAULT_EVERY
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
 SIMULATE_KEYWORDS = (
-    "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key", "rtol",
-    "until", "max_time", "max_events", "frames_per_tff", "method", "dt", "theta", "dt_rule",
-    "step_energy_tol", "length", "mass", "gravity", "initial",
+    "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key",
+    "until", "max_time", "max_events", "frames_per_tff", "method",
+    *option_names("simulate"),  # the methods' own options (methods.all_options)
+    "length", "mass", "gravity", "initial",
 )  # fmt: skip
 
 
@@ -144,15 +146,11 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "runs": 1,
     "seed": 0,
     "eps": InitialCondition.eps,
-    "rtol": SolverOptions.rtol,
     "until": SolverOptions.until,
     "frames_per_tff": SolverOptions.frames_per_tff,
     "max_time": SolverOptions.max_time,
     "method": SolverOptions.method,
-    "dt": SolverOptions.dt,
-    "theta": SolverOptions.theta,
-    "dt_rule": SolverOptions.dt_rule,
-    "step_energy_tol": SolverOptions.step_energy_tol,
+    **{name: getattr(SolverOptions, name) for name in option_names("sweep")},  # the methods' own options
     "checkpoints": None,
     "checkpoint_every": DEFAULT_EVERY,
 }
@@ -185,25 +183,7 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
         alphas=tuple(parse_angle(a) for a in listed(g["alpha"])),
         floors=tuple(listed(g["floor"])),
         ics=tuple(listed(g["ic"])),
-        **{
-            k: g[k]
-            for k in (
-                "runs",
-                "seed",
-                "eps",
-                "rtol",
-                "until",
-                "frames_per_tff",
-                "max_time",
-                "method",
-                "dt",
-                "theta",
-                "dt_rule",
-                "step_energy_tol",
-                "checkpoints",
-                "checkpoint_every",
-            )
-        },  # fmt: skip
+        **{k: v for k, v in g.items() if k not in ("segments", "alpha", "floor", "ic")},
     )
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(out) if out is not None else Path(tmp) / "sweep.parquet"

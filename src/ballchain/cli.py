@@ -13,6 +13,7 @@ bar goes to stderr.
 from __future__ import annotations
 
 import functools
+import inspect
 import json
 import math
 import sys
@@ -25,8 +26,9 @@ from typer.core import TyperGroup
 
 from . import __version__
 from .inputs import _CHAIN, _SOLVER, _START, _parse_angle, build_inputs  # noqa: F401  (build_inputs: part of the CLI)
-from .methods import LONG_STEP, LONG_STEP_FROM, SHORT_STEP
+from .methods import METHODS, all_options, option_help, option_names
 from .methods.checkpoint import DEFAULT_EVERY
+from .methods.timestep import LONG_STEP, LONG_STEP_FROM, SHORT_STEP
 from .model import InitialCondition, ParameterError
 from .records.files import ResultFileError, check_output_dir, check_writable, file_info, load_result, save_result
 
@@ -244,10 +246,9 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
 
     r = load_result(path)
     p, o = r.params, r.options
-    base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone, rtol=o.rtol,
+    base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone,
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
-                method=o.method, dt=o.dt, theta=o.theta, dt_rule=o.dt_rule,
-                step_energy_tol=o.step_energy_tol)  # fmt: skip
+                method=o.method, **{name: getattr(o, name) for name in option_names("simulate")})  # fmt: skip
     if p.is_si:
         base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
     state = None
@@ -391,7 +392,39 @@ def _simulate_with_progress(simulate, params, init, options, show_progress: bool
 
 
 # --------------------------------------------------------------------------- commands
+def _method_option_parameters(command: str) -> list[inspect.Parameter]:
+    """A typer option for each of the methods' options ``command`` takes (``option_names``):
+    flag, default, type and help from its ``MethodOption``."""
+    opts = all_options()
+    return [
+        inspect.Parameter(
+            name,
+            inspect.Parameter.POSITIONAL_OR_KEYWORD,
+            default=typer.Option(
+                opts[name].default, opts[name].flag, help=option_help(name), show_default=opts[name].default is not None
+            ),
+            annotation=opts[name].annotation,
+        )
+        for name in option_names(command)
+    ]
+
+
+def _with_method_options(command: str):
+    """Give the command (whose ``**method_options`` receives them) the methods' options as
+    typer options after its ``--method`` (typer reads the function's ``__signature__``)."""
+
+    def decorate(func):
+        sig = inspect.signature(func)
+        params = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+        at = next(i for i, p in enumerate(params) if p.name == "method") + 1
+        func.__signature__ = sig.replace(parameters=params[:at] + _method_option_parameters(command) + params[at:])
+        return func
+
+    return decorate
+
+
 @app.command()
+@_with_method_options("simulate")
 def simulate(
     ctx: typer.Context,
     segments: int | None = typer.Option(
@@ -423,7 +456,6 @@ def simulate(
     spawn_key: str = typer.Option(
         "", "--spawn-key", help="Spawn key of the random start's SeedSequence (run k of a sweep: k)."
     ),
-    rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator, in (0, 1)."),
     until: float | None = typer.Option(
         None,
         "--until",
@@ -452,34 +484,6 @@ def simulate(
         help="Integration method: event (event-driven, every event located exactly), timestep (Moreau-Jean "
         "time-stepping, first order in --dt; for large N) or rattle (nonsmooth RATTLE, second order where the "
         "motion is smooth; experimental).",
-    ),
-    dt: float | None = typer.Option(
-        _SOLVER.dt,
-        "--dt",
-        help="The time step of --method timestep, in units of t_ff/N (N segments). Default: 0.01 below N = 1024, "
-        "0.02 from N = 1024 on.",
-        show_default=False,
-    ),
-    theta: float | None = typer.Option(
-        _SOLVER.theta,
-        "--theta",
-        help="The position update of --method timestep, in [0.5, 1]: the axes turn at theta w+ + (1 - theta) w, "
-        "w and w+ the rates before and after a step's impulses. Default: 0.5 below N = 1024, 1 from N = 1024 on.",
-        show_default=False,
-    ),
-    dt_rule: str = typer.Option(
-        _SOLVER.dt_rule,
-        "--dt-rule",
-        help="How --method timestep sizes its steps: fixed (every step --dt t_ff/N) or landing (--dt t_ff/N times "
-        "the speed of free fall at t_ff over the airborne chain's mean fall speed, within a factor 4: each landing "
-        "gets as many steps at every speed).",
-    ),
-    step_energy_tol: float | None = typer.Option(
-        _SOLVER.step_energy_tol,
-        "--step-energy-tol",
-        help="--method rattle: the most one step may change U + T without an impact, in units of E0, before it is "
-        "taken again halved (its error control). Default 1e-7; 0: no bound (fixed steps but for the turn limit).",
-        show_default=False,
     ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
@@ -510,6 +514,7 @@ def simulate(
         "--initial",
         help="Initial state from a file instead of --ic: a text or .npy array, N x 3 (segment axes from the top, pointing up the chain) or N x 6 (axes, then angular velocities in sqrt(g/b)).",
     ),
+    **method_options: Any,
 ) -> None:
     """Simulate one fall (defaults: the paper's case N = 128, alpha = pi/4, helix)."""
     state = None
@@ -525,19 +530,15 @@ def simulate(
             phase=phase,
             seed=seed,
             spawn_key=spawn_key,
-            rtol=rtol,
             until=until,
             frames_per_tff=frames_per_tff,
             max_time=max_time,
             max_events=max_events,
             method=method,
-            dt=dt,
-            theta=theta,
-            dt_rule=dt_rule,
-            step_energy_tol=step_energy_tol,
             length=length,
             mass=mass,
             gravity=gravity,
+            **method_options,  # the methods' own (methods.all_options)
         )
         if from_ is not None:
             values, state = _values_from_file(from_, values, ctx, initial is None)
@@ -874,6 +875,7 @@ def export(
 
 
 @app.command()
+@_with_method_options("sweep")
 def sweep(
     segments: str = typer.Option("64", "--segments", "-N", help="N values: a list (64,128) or range start:stop:step."),
     alpha: str = typer.Option(
@@ -890,7 +892,6 @@ def sweep(
         0, "--seed", help="Entropy of numpy.random.SeedSequence; run k uses its k-th spawned child."
     ),
     eps: float = typer.Option(_START.eps, "--eps", help="Largest initial tilt."),
-    rtol: float = typer.Option(_SOLVER.rtol, "--rtol", help="Relative tolerance of the integrator."),
     until: float | None = typer.Option(
         None, "--until", help="Stop each run at this time in t_ff (default: until landed)."
     ),
@@ -903,28 +904,9 @@ def sweep(
         _SOLVER.max_time, "--max-time", help="The time cap of each run, in t_ff (as simulate: status max_time)."
     ),
     method: str = typer.Option(
-        _SOLVER.method, "--method", help="Integration method of every run: event or timestep (as simulate)."
-    ),
-    dt: float | None = typer.Option(
-        _SOLVER.dt,
-        "--dt",
-        help="Time step of --method timestep, in units of t_ff/N (default as simulate: by N).",
-        show_default=False,
-    ),
-    theta: float | None = typer.Option(
-        _SOLVER.theta,
-        "--theta",
-        help="Position update of --method timestep, in [0.5, 1] (default as simulate: by N).",
-        show_default=False,
-    ),
-    dt_rule: str = typer.Option(
-        _SOLVER.dt_rule, "--dt-rule", help="How --method timestep sizes its steps: fixed or landing (as simulate)."
-    ),
-    step_energy_tol: float | None = typer.Option(
-        _SOLVER.step_energy_tol,
-        "--step-energy-tol",
-        help="--method rattle: a step's bound on its change of U + T, in E0 (as simulate).",
-        show_default=False,
+        _SOLVER.method,
+        "--method",
+        help=f"Integration method of every run: {', '.join(list(METHODS)[:-1])} or {list(METHODS)[-1]} (as simulate).",
     ),
     out: str = typer.Option(
         "sweep.parquet", "--out", help="The Parquet table (one row per run; an existing table is resumed)."
@@ -950,6 +932,7 @@ def sweep(
     retry_errors: bool = typer.Option(False, "--retry-errors", help="Run again the runs whose row says error."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object (what the sweep did) on stdout."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    **method_options: Any,
 ) -> None:
     """Run a grid of falls on dask.distributed into one Parquet table (resumable)."""
     from .model import FLOOR_MODELS, IC_KINDS
@@ -966,18 +949,14 @@ def sweep(
             runs=runs,
             seed=seed,
             eps=eps,
-            rtol=rtol,
             until=until,
             frames_per_tff=frames_per_tff,
             max_time=max_time,
             method=method,
-            dt=dt,
-            theta=theta,
-            dt_rule=dt_rule,
-            step_energy_tol=step_energy_tol,
             save_runs=save_runs,
             checkpoints=checkpoints,
             checkpoint_every=checkpoint_every,
+            **method_options,  # the methods' own (methods.all_options)
         )
         from .sweeps.execute import check_scheduler, run_sweep
 

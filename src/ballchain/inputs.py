@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from .methods import all_options
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 
@@ -35,7 +36,8 @@ _CHAIN, _START, _SOLVER = ChainParams(), InitialCondition(), SolverOptions()
 def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition, SolverOptions]:
     """The CLI's option values (by the dataclasses' field names, plus ``ic`` for the start's
     kind, ``spawn_key`` as text and ``length``/``mass``/``gravity`` for a chain in SI units;
-    a missing value takes the dataclass's default) -> validated dataclasses (raises
+    a missing value takes the dataclass's default; the methods' options by their names,
+    ``methods.all_options``) -> validated dataclasses (raises
     ParameterError)."""
     v = dict(values)
     chain_kw = dict(
@@ -66,15 +68,11 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         spawn_key=_parse_spawn_key(v.get("spawn_key", "")),
     )
     options = SolverOptions(
-        rtol=v.get("rtol", _SOLVER.rtol),
         until=v.get("until", _SOLVER.until),
         frames_per_tff=v.get("frames_per_tff", _SOLVER.frames_per_tff),
         max_time=v.get("max_time", _SOLVER.max_time),
         max_events=v.get("max_events", _SOLVER.max_events),
         method=v.get("method", _SOLVER.method),
-        dt=v.get("dt", _SOLVER.dt),
-        theta=v.get("theta", _SOLVER.theta),
-        dt_rule=v.get("dt_rule", _SOLVER.dt_rule),
-        step_energy_tol=v.get("step_energy_tol", _SOLVER.step_energy_tol),
+        **{name: v[name] for name in all_options() if name in v},  # the methods' own (methods.all_options)
     )
     return params, init, options

@@ -21,9 +21,10 @@ import numpy as np
 
 from .errors import ParameterError  # noqa: F401  (re-exported: the model's validation raises it)
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
-from .methods import DT_RULES, METHOD_NAMES, default_step  # noqa: E402  (one registry of methods)
+from .methods import METHOD_NAMES, all_options, method_default  # noqa: E402  (one registry of methods)
+from .methods.event_driven import RTOL_MIN  # noqa: E402, F401  (re-exported: the event method's)
+from .methods.options import options_dataclass
 
-RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 IC_KINDS = ("helix", "planar", "random")
 
 
@@ -196,119 +197,60 @@ class InitialCondition:
         return d
 
 
-@dataclass(frozen=True)
-class SolverOptions:
+@dataclass(frozen=True, kw_only=True)  # by name only: the methods' fields follow (their order is the registry's)
+class _RunOptions:
     """Numerical options.
 
-    rtol: relative tolerance of the Dormand-Prince 5(4) integrator (atol = rtol on the
-        nondimensional state, whose entries are O(1)).
     until: stop at this time in units of t_ff (None: run until every segment has
         landed, at most ``max_time`` t_ff).
+    max_time: the time cap, in units of t_ff (a chain not landed by then stops with
+        status ``max_time``).
     frames_per_tff: output frames (all segment directions) per t_ff.
     max_events: stop with a clear error after this many event instants (a Zeno guard;
         one instant can add many rows to the event log).
-    event_xtol: tolerance of event times, in units of sqrt(b/g).
-    hold_rate: the accumulation threshold, in sqrt(g/b): a hinge released at an event
-        instant that accelerates back to its limit and would return slower than this is
-        held at its limit (the limit of the converging series of impacts it would start;
-        docs/model.md shows that results converge as it goes to zero).
-    hold_apex: the resolution limit of the same rule: a released hinge whose excursion
-        away from its limit (v^2 / 2|a|, in units of the bend function g = cos) would
-        stay below this is held too (it cannot be resolved in double precision; at
-        least 1e-12).
+    max_steps: stop with a clear error after this many integrator steps.
+    progress: report progress.
     method: the integration method (``methods.METHODS``): ``event`` (event-driven:
-        every event located and resolved exactly) or ``timestep`` (Moreau-Jean
-        time-stepping, first order in dt).
-    dt: the time-stepping method's step, in units of t_ff / N (N segments; about half
-        the time a segment takes to land at the end of the fall is t_ff / 4N).  None (the
-        default): 0.01 below N = 1024 and 0.02 from it (``methods.default_step``; filled
-        in by ``for_segments`` when a run starts).  Not used by the event-driven method.
-    theta: the time-stepping method's position update, in [1/2, 1]: each axis turns by
-        h (theta w+ + (1 - theta) w), w and w+ the rates before and after the step's
-        impulses (1/2: the mean; 1: the rates after them).  None (the default): 1/2
-        below N = 1024 and 1 from it.  Not used by the event-driven method.
-    dt_rule: how the time-stepping method sizes its steps (``DT_RULES``): ``fixed``,
-        every step dt t_ff / N; ``landing``, each step dt t_ff / N times v_ff / v, v the
-        airborne chain's mean fall speed and v_ff = g t_ff the speed of free fall at
-        t_ff, kept within a factor ``LANDING_STEP_RANGE`` of dt t_ff / N: a segment takes
-        about 2b / v to land, so each landing gets as many steps at every speed as the
-        fixed step gives it at the end of a free fall.  Not used by the event-driven
-        method.
-    step_energy_tol: how far one step of the RATTLE method may change U + T, in units of
-        E0, before it is taken again halved (its error control: a step whose stage 1 meets
-        a fast change of the constraint forces, a locked stretch folding, creates energy);
-        None (the default): ``methods.rattle.STEP_ENERGY_TOL``; 0: off (fixed steps, but
-        for the turn limit: the scheme's own order shows).  Not used by the other methods.
+        every event located and resolved exactly), ``timestep`` (Moreau-Jean
+        time-stepping, first order in dt) or ``rattle`` (nonsmooth RATTLE, second order
+        where the motion is smooth).
+
+    The fields that follow are the methods' own options, stated by their packages
+    (``methods.all_options``: name, default, help and check in one place):
     """
 
-    rtol: float = 1e-10
     until: float | None = None
     max_time: float = 3.0
     frames_per_tff: float = 100.0
     max_events: int = 2_000_000
-    event_xtol: float = 1e-13
     max_steps: int = 50_000_000
     progress: bool = False
-    hold_rate: float = 1e-6
-    hold_apex: float = 1e-11
     method: str = "event"
-    dt: float | None = None
-    theta: float | None = None
-    dt_rule: str = "fixed"
-    step_energy_tol: float | None = None
 
     def __post_init__(self) -> None:
-        r = float(self.rtol)
-        if not math.isfinite(r) or not (0.0 < r < 1.0):
-            raise ParameterError(f"rtol must be finite and in (0, 1), got {self.rtol!r}")
-        if r < RTOL_MIN:
-            raise ParameterError(
-                f"rtol {self.rtol!r} is below what double precision can honour "
-                f"(at least {RTOL_MIN:g}: the state is O(1) and its round-off ~1e-16 per step)"
-            )
-        object.__setattr__(self, "rtol", r)
         if self.until is not None:
             object.__setattr__(self, "until", _finite_positive("until", self.until))
         object.__setattr__(self, "max_time", _finite_positive("max_time", self.max_time))
         object.__setattr__(self, "frames_per_tff", _finite_positive("frames_per_tff", self.frames_per_tff))
-        object.__setattr__(self, "event_xtol", _finite_positive("event_xtol", self.event_xtol))
-        object.__setattr__(self, "hold_rate", _finite_positive("hold_rate", self.hold_rate))
-        object.__setattr__(self, "hold_apex", _finite_positive("hold_apex", self.hold_apex))
-        if self.hold_apex < 1e-12:
-            raise ParameterError(
-                f"hold_apex must be >= 1e-12 (the round-off band of the bend function), got {self.hold_apex!r}"
-            )
         if self.method not in METHOD_NAMES:
             raise ParameterError(f"method must be one of {METHOD_NAMES}, got {self.method!r}")
-        if self.dt is not None:
-            object.__setattr__(self, "dt", _finite_positive("dt", self.dt))
-            if self.dt > 4.0:
-                raise ParameterError(f"dt must be at most 4 (units of t_ff/N), got {self.dt!r}")
-        if self.theta is not None:
-            try:
-                t = float(self.theta)
-            except (TypeError, ValueError):
-                raise ParameterError(f"theta must be a number in [0.5, 1], got {self.theta!r}") from None
-            if not (0.5 <= t <= 1.0):
-                raise ParameterError(f"theta must be in [0.5, 1] (below 1/2 the step is unstable), got {self.theta!r}")
-            object.__setattr__(self, "theta", t)
-        if self.dt_rule not in DT_RULES:
-            raise ParameterError(f"dt_rule must be one of {tuple(DT_RULES)}, got {self.dt_rule!r}")
-        if self.step_energy_tol is not None:
-            v = float(self.step_energy_tol)
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ParameterError(f"step_energy_tol must be finite and >= 0, got {self.step_energy_tol!r}")
-            object.__setattr__(self, "step_energy_tol", v)
+        for name, opt in all_options().items():
+            object.__setattr__(self, name, opt.validated(getattr(self, name)))
         if int(self.max_events) < 1:
             raise ParameterError(f"max_events must be >= 1, got {self.max_events!r}")
 
     def for_segments(self, segments: int) -> SolverOptions:
-        """These options with ``dt`` and ``theta`` filled in where they were left to their
-        default (None), for an N-segment chain (``methods.default_step``)."""
-        if self.dt is not None and self.theta is not None:
+        """These options with those left to a default by N (None; ``MethodOption.by_segments``:
+        ``dt`` and ``theta``) filled in for an N-segment chain (``methods.method_default``)."""
+        unset = [
+            name for name, opt in all_options().items() if opt.by_segments is not None and getattr(self, name) is None
+        ]
+        if not unset:
             return self
-        dt, theta = default_step(self.method, int(segments))
-        return replace(self, dt=dt if self.dt is None else self.dt, theta=theta if self.theta is None else self.theta)
+        return replace(self, **{name: method_default(self.method, name, int(segments)) for name in unset})
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+SolverOptions = options_dataclass(_RunOptions, "SolverOptions", __name__)

@@ -4,8 +4,11 @@ without the compiled kernels).
 A method is a module with ``run(setup, progress, stop) -> RunOutput`` (see
 ``methods/outputs.py``): it advances the chain from ``setup`` to the end of the fall and
 fills the shared outputs (frames, trace, event log, books) from which ``engine``
-builds the ``Result``.  To add one: a sub-package whose ``__init__`` states the bounds
-its runs are audited against (``AUDIT``: ``bounds.AuditBounds``), and a line here.
+builds the ``Result``.  To add one: a sub-package whose ``__init__`` (plain data, no
+kernels) states the bounds its runs are audited against (``AUDIT``: ``bounds.AuditBounds``)
+and the options it owns (``OPTIONS``: ``options.MethodOption``; ``DEFAULTS``, ``USES``: its
+defaults of other methods' options), and a line here.  The command line, ``SolverOptions``,
+the sweeps and the JSON keys learn the options from ``all_options``.
 """
 
 from __future__ import annotations
@@ -35,33 +38,95 @@ METHODS = {
 }
 METHOD_NAMES = tuple(METHODS)
 
-# How the time-stepping method sizes its steps (``SolverOptions.dt_rule``) -> the code its
-# compiled step reads (``timestep.stepper._step_by_rule``).
-DT_RULES = {"fixed": 0, "landing": 1}
-LANDING_STEP_RANGE = 4.0  # dt_rule "landing": a step within this factor of dt t_ff / N, either way
+# What each method's package owns (its options, their defaults and constants) lives there;
+# the time-stepper's constants are also read from here (``timestep.stepper``, the tests).
+from .timestep import DT_RULES, LANDING_STEP_RANGE, LONG_STEP, LONG_STEP_FROM, SHORT_STEP  # noqa: E402, F401
 
-# The time-stepping method's step when not given (``SolverOptions.dt``, ``.theta``: None).
-SHORT_STEP = (0.01, 0.5)  # (dt in t_ff / N, theta): agrees with the exact method at N = 64-256
-LONG_STEP = (0.02, 1.0)  # ... at N = 1024, 2048 and 4096, where the short step falls early from 2048 on
-LONG_STEP_FROM = 1024  # N from which the default is the long step
+
+def method_package(name: str):
+    """The package of the method ``name`` (its ``__init__``: plain data, no kernels)."""
+    if name not in METHODS:
+        raise KeyError(f"no method {name!r} (known: {', '.join(METHOD_NAMES)})")
+    return importlib.import_module(f"{__name__}.{METHODS[name][0].split('.')[0]}")
+
+
+def method_options(name: str) -> tuple:
+    """The options the method ``name`` owns (its package's ``OPTIONS``: ``options.MethodOption``)."""
+    return tuple(getattr(method_package(name), "OPTIONS", ()))
+
+
+def all_options() -> dict:
+    """Every method's options by name, in the registry's order (methods, then each one's
+    ``OPTIONS``): what ``SolverOptions``, the command line, the sweeps and the JSON keys
+    learn them from.  An option belongs to one method: a name stated twice is an error."""
+    out: dict = {}
+    for method in METHODS:
+        for opt in method_options(method):
+            if opt.name in out:
+                raise ValueError(f"option {opt.name!r} is stated by two methods ({option_owner(opt.name)}, {method})")
+            out[opt.name] = opt
+    return out
+
+
+def option_names(command: str) -> list[str]:
+    """The methods' options that ``ballchain COMMAND`` takes as flags (and ``bc.simulate``,
+    ``bc.sweep`` as keywords): for ``simulate`` those with a flag, for ``sweep`` those of
+    them with a sweep column."""
+    return [
+        name
+        for name, opt in all_options().items()
+        if opt.flag is not None and (command != "sweep" or opt.column is not None)
+    ]
+
+
+def option_owner(name: str) -> str:
+    """The method whose package states the option ``name``."""
+    for method in METHODS:
+        if any(opt.name == name for opt in method_options(method)):
+            return method
+    raise KeyError(f"no method states an option {name!r}")
+
+
+def method_default(method: str, name: str, segments: int):
+    """The value a run of ``method`` with N = ``segments`` takes for the option ``name`` when
+    it is not given: its package's own (``DEFAULTS``), else the owner's default for N
+    (``by_segments``) for the owner's runs, else the option's ``unused`` value (recorded,
+    not used); an option without ``by_segments`` keeps its ``default``."""
+    opt = all_options()[name]
+    own = getattr(method_package(method), "DEFAULTS", {})
+    if name in own:
+        value = own[name]
+        return value(segments) if callable(value) else value
+    if opt.by_segments is None:
+        return opt.default
+    return opt.by_segments(segments) if option_owner(name) == method else opt.unused
+
+
+def option_help(name: str) -> str:
+    """The ``--help`` text of the option ``name``: its own, and the defaults of the other
+    methods that use it (their package's ``DEFAULTS`` and ``USES``)."""
+    text = all_options()[name].help
+    for method in METHODS:
+        pkg = method_package(method)
+        if name in getattr(pkg, "USES", ()) and name in getattr(pkg, "DEFAULTS", {}):
+            value = pkg.DEFAULTS[name]
+            text += f" --method {method}: default {value:g}" if not callable(value) else f" --method {method}: by N"
+            text += "."
+    return text
 
 
 def default_step(method: str, segments: int) -> tuple[float, float]:
-    """(dt, theta) of a run that does not set them: for the time-stepping method the long
-    step (dt = 0.02, theta = 1) from N = LONG_STEP_FROM on and the short one (dt = 0.01,
-    theta = 1/2) below; the event-driven method does not use them (the short step's values
-    are recorded)."""
-    if method == "rattle":
-        from .rattle import DEFAULT_DT
-
-        return DEFAULT_DT, 1.0
-    return LONG_STEP if method == "timestep" and segments >= LONG_STEP_FROM else SHORT_STEP
+    """(dt, theta) of a run of ``method`` that does not set them (``method_default``): for
+    the time-stepping method the long step (dt = 0.02, theta = 1) from N = LONG_STEP_FROM
+    on and the short one (dt = 0.01, theta = 1/2) below; the RATTLE method its own
+    (``rattle.DEFAULTS``); the event-driven method does not use them (the short step's
+    values are recorded)."""
+    return method_default(method, "dt", segments), method_default(method, "theta", segments)
 
 
 def audit_bounds(name: str):
     """The ``bounds.AuditBounds`` that the method ``name`` states (its package's ``AUDIT``)."""
-    module = METHODS[name][0].split(".")[0]
-    return importlib.import_module(f"{__name__}.{module}").AUDIT
+    return method_package(name).AUDIT
 
 
 def method_runner(name: str):

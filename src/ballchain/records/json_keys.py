@@ -5,6 +5,8 @@ print, so a key cannot appear or go without its line here."""
 
 from __future__ import annotations
 
+from ..methods import all_options
+
 # ``ballchain simulate --json`` and ``ballchain info --json``: Result.summary() and the
 # measures of cli.run_summary.  Units: the run's (``units``), times in its time unit.
 RUN = {
@@ -29,12 +31,9 @@ RUN = {
     "max_depth": "the deepest airborne point below the floor (0 if none)",
     "floor_impulse": "the floor's impulse on the chain at impacts, (x, y, z)",
     "floor_impulse_total": "the floor's whole impulse from t = 0 to the end, (x, y, z)",
-    "rtol": "the event-driven integrator's relative tolerance",
-    "method": "the integration method (event or timestep)",
-    "dt": "the time-stepper's step in t_ff / N",
-    "theta": "the time-stepper's position update",
-    "dt_rule": "how the time-stepper sizes its steps: fixed or landing",
-    "step_energy_tol": "the RATTLE method's bound on a step's change of U + T, in E0 (null: its default)",
+    "method": "the integration method (event, timestep or rattle)",
+    # the methods' own options (methods.all_options: those with a key), in the registry's order
+    **{name: opt.json for name, opt in all_options().items() if opt.json is not None},
     "n_steps": "accepted integration steps",
     "n_evals": "evaluations of the equations of motion",
     "n_instants": "event instants (times at which one or more events were resolved)",

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.kinds import EVENT_CODES, EVENT_KINDS, EVENT_MEANINGS  # noqa: F401  (re-exported)
+from ..methods import all_options
 from ..model import ChainParams, InitialCondition, SolverOptions
 
 # field -> physical quantity; unit_of turns these into unit strings
@@ -293,12 +294,10 @@ class Result:
             "max_depth": num(self.max_depth),
             "floor_impulse": [num(v) for v in np.asarray(self.floor_impulse)],
             "floor_impulse_total": [num(v) for v in np.asarray(self.floor_impulse_total)],
-            "rtol": self.options.rtol,
             "method": self.options.method,
-            "dt": self.options.dt,
-            "theta": self.options.theta,
-            "dt_rule": self.options.dt_rule,
-            "step_energy_tol": self.options.step_energy_tol,
+            **{  # the methods' own options (methods.all_options: those with a key)
+                name: getattr(self.options, name) for name, opt in all_options().items() if opt.json is not None
+            },
             "n_steps": int(self.n_steps),
             "n_evals": int(self.n_evals),
             "n_instants": int(self.n_instants),

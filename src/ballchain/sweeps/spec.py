@@ -17,8 +17,9 @@ import math
 import os
 from dataclasses import dataclass, field
 
-from ..methods import SHORT_STEP
+from ..methods import all_options
 from ..methods.checkpoint import DEFAULT_EVERY
+from ..methods.options import options_dataclass
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 MAX_RUNS = 1_000_000  # a guard against a typo in a range step
@@ -124,9 +125,16 @@ class Task:
     checkpoint_every: float = DEFAULT_EVERY  # seconds of wall time between checkpoints
 
 
+def sweep_options() -> list[str]:
+    """The methods' options a sweep sets (those with a sweep column: ``methods.all_options``)."""
+    return [name for name, opt in all_options().items() if opt.column is not None]
+
+
 @dataclass(frozen=True)
-class SweepSpec:
-    """A sweep: the grid, the starts per point, and the per-run options."""
+class _SweepGrid:
+    """A sweep: the grid, the starts per point, and the per-run options (the methods' own
+    follow, ``sweep_options``: one field each, as ``SolverOptions`` has; ``dt`` and
+    ``theta`` None: by N, ``SolverOptions.for_segments``)."""
 
     segments: tuple[int, ...]
     alphas: tuple[float, ...]
@@ -135,15 +143,10 @@ class SweepSpec:
     runs: int = 1
     seed: int = 0
     eps: float = InitialCondition.eps
-    rtol: float = SolverOptions.rtol
     until: float | None = SolverOptions.until
     frames_per_tff: float = SolverOptions.frames_per_tff
     max_time: float = SolverOptions.max_time
     method: str = SolverOptions.method
-    dt: float | None = SolverOptions.dt  # None: by N (SolverOptions.for_segments)
-    theta: float | None = SolverOptions.theta
-    dt_rule: str = SolverOptions.dt_rule
-    step_energy_tol: float | None = SolverOptions.step_energy_tol
     save_runs: str | None = None
     checkpoints: str | None = None  # a directory: each run checkpoints there and resumes from it
     checkpoint_every: float = DEFAULT_EVERY
@@ -173,15 +176,11 @@ class SweepSpec:
             self,
             "options",
             SolverOptions(
-                rtol=self.rtol,
                 until=self.until,
                 frames_per_tff=self.frames_per_tff,
                 max_time=self.max_time,
                 method=self.method,
-                dt=self.dt,
-                theta=self.theta,
-                dt_rule=self.dt_rule,
-                step_energy_tol=self.step_energy_tol,
+                **{name: getattr(self, name) for name in sweep_options()},
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
@@ -228,10 +227,13 @@ class SweepSpec:
         return out
 
 
+SweepSpec = options_dataclass(_SweepGrid, "SweepSpec", __name__, sweep_options())
+
+
 def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
     """A run's key in the table: every input that changes the run, readable (``options``
-    with dt and theta filled in: ``SolverOptions.for_segments``; a theta of 1/2 is not
-    named, as before the option existed)."""
+    with dt and theta filled in: ``SolverOptions.for_segments``); the methods' options
+    each add their part (``MethodOption.key``: nothing when not set, as before they existed)."""
     until = "end" if options.until is None else f"{options.until:.12g}"
     key = "-".join(str(k) for k in ic.spawn_key) or "none"
     return (
@@ -240,8 +242,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
         f"_fr{options.frames_per_tff:.12g}"
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
-        + ("" if options.method == SolverOptions.method else f"_{options.method}_dt{options.dt:.12g}")
-        + ("" if options.method == "event" or options.theta == SHORT_STEP[1] else f"_theta{options.theta:.12g}")
-        + ("" if options.method == "event" or options.dt_rule == SolverOptions.dt_rule else f"_{options.dt_rule}")
-        + ("" if options.step_energy_tol is None else f"_etol{options.step_energy_tol:.6g}")
+        + "".join(opt.key(options) for opt in all_options().values())
     )

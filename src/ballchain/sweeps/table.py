@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..methods import all_options
 from ..model import ParameterError
 from ..records.result import EVENT_KINDS
 
@@ -39,23 +40,12 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "seed": ("int64", "entropy of numpy.random.SeedSequence (random family)"),
     "spawn_key": ("string", "spawn key of the run's SeedSequence child, comma-separated ('' for none)"),
     "run_index": ("int64", "k: the run's index among the starts of its point"),
-    "rtol": ("float64", "integrator tolerance"),
-    "method": ("string", "integration method: event (event-driven) or timestep (Moreau-Jean)"),
-    "dt": ("float64", "time step of the timestep method, units of t_ff/N (not used by the event method)"),
-    "theta": (
-        "float64",
-        "position update of the timestep method (axes turn at theta w+ + (1 - theta) w; not used by the event "
-        "method; empty in tables written before the column: 0.5)",
-    ),
-    "dt_rule": (
+    "method": (
         "string",
-        "how the timestep method sizes its steps: fixed (dt t_ff/N) or landing (scaled by the speed of free fall "
-        "at t_ff over the airborne chain's mean fall speed); empty in tables written before the column: fixed",
+        "integration method: event (event-driven), timestep (Moreau-Jean) or rattle (nonsmooth RATTLE)",
     ),
-    "step_energy_tol": (
-        "float64",
-        "the rattle method's bound on a step's change of U + T, in E0 (NaN: its default; not used by the others)",
-    ),
+    # the methods' own options (methods.all_options: those with a column), in the registry's order
+    **{name: (opt.column_type, opt.column) for name, opt in all_options().items() if opt.column is not None},
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
     "version": ("string", "ballchain version that ran it"),
@@ -120,9 +110,11 @@ CONVENTIONS = (
     "nondimensional units m = b = g = 1: times in sqrt(b/g), lengths in b, energies in m g b, "
     "impulses in m sqrt(g b); ratio columns in units of t_ff = sqrt(2 z0 / g); one row per run; "
     "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
-    "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --rtol RTOL "
-    "--method METHOD --dt DT --theta THETA --dt-rule DT_RULE --frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set)"
+    "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --method METHOD "
+    + "".join(f"{opt.flag} {name.upper()} " for name, opt in all_options().items() if opt.column and opt.flag)
+    + "--frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set; an empty value: leave the option out)"
 )
+EMPTY = {"string": "", "int64": 0, "float64": math.nan, "bool": False}  # a column's value for None
 
 
 def schema():
@@ -158,12 +150,12 @@ def input_row(task) -> dict:
         "seed": ic.seed,
         "spawn_key": ",".join(str(k) for k in ic.spawn_key),
         "run_index": task.run_index,
-        "rtol": o.rtol,
         "method": o.method,
-        "dt": o.dt,
-        "theta": o.theta,
-        "dt_rule": o.dt_rule,
-        "step_energy_tol": math.nan if o.step_energy_tol is None else o.step_energy_tol,
+        **{  # the methods' own options (None: the column's empty value)
+            name: EMPTY[opt.column_type] if getattr(o, name) is None else getattr(o, name)
+            for name, opt in all_options().items()
+            if opt.column is not None
+        },
         "until": math.nan if o.until is None else o.until,
         "frames_per_tff": o.frames_per_tff,
     }
@@ -237,7 +229,7 @@ def _complete(row: dict) -> dict:
     for k, (t, _) in COLUMNS.items():
         v = row.get(k)
         if v is None:
-            v = {"string": "", "int64": 0, "float64": math.nan, "bool": False}[t]
+            v = EMPTY[t]
         out[k] = v
     return out
 

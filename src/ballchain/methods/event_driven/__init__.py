@@ -2,11 +2,79 @@
 handler at each event instant (``events``), how event functions are watched (``watch``),
 and the Python driver of a run (``driver``).
 
-What the method owns (plain data, importable without its kernels): the bounds its runs
-are audited against (``records.audit``), round-off's: its every event is located and
-resolved exactly.
+What the method owns (plain data, importable without its kernels): its options
+(``OPTIONS``: the integrator's tolerance, how exactly event times are located, and the
+accumulation rule's thresholds) and the bounds its runs are audited against
+(``records.audit``), round-off's: its every event is located and resolved exactly.
 """
 
+from __future__ import annotations
+
+import math
+
+from ...errors import ParameterError
 from ..bounds import AuditBounds
+from ..options import MethodOption, positive
 
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
+
+RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
+
+
+def _rtol(name: str, value) -> float:
+    """A relative tolerance: in (0, 1) and no tighter than RTOL_MIN."""
+    try:
+        r = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number in (0, 1), got {value!r}") from None
+    if not math.isfinite(r) or not (0.0 < r < 1.0):
+        raise ParameterError(f"{name} must be finite and in (0, 1), got {value!r}")
+    if r < RTOL_MIN:
+        raise ParameterError(
+            f"{name} {value!r} is below what double precision can honour "
+            f"(at least {RTOL_MIN:g}: the state is O(1) and its round-off ~1e-16 per step)"
+        )
+    return r
+
+
+OPTIONS = (
+    MethodOption(
+        "rtol",
+        float,
+        1e-10,
+        "Relative tolerance of the integrator, in (0, 1) (the event method's Dormand-Prince 5(4); atol = rtol "
+        "on the nondimensional state, whose entries are O(1)).",
+        _rtol,
+        flag="--rtol",
+        json="the event-driven integrator's relative tolerance",
+        column="integrator tolerance",
+        # in every run's key since the first tables, at its own place (sweeps.spec.run_id)
+        run_key=lambda options: "",
+    ),
+    MethodOption(
+        "event_xtol",
+        float,
+        1e-13,
+        "The tolerance of event times, in units of sqrt(b/g).",
+        positive(),
+    ),
+    MethodOption(
+        "hold_rate",
+        float,
+        1e-6,
+        "The accumulation threshold, in sqrt(g/b): a hinge released at an event instant that "
+        "accelerates back to its limit and would return slower than this is held at its limit (the "
+        "limit of the converging series of impacts it would start; docs/model.md shows that results "
+        "converge as it goes to zero).",
+        positive(),
+    ),
+    MethodOption(
+        "hold_apex",
+        float,
+        1e-11,
+        "The resolution limit of the same rule: a released hinge whose excursion away from its limit "
+        "(v^2 / 2|a|, in units of the bend function g = cos) would stay below this is held too (it "
+        "cannot be resolved in double precision; at least 1e-12).",
+        positive(at_least=1e-12, why="the round-off band of the bend function"),
+    ),
+)

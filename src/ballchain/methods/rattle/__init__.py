@@ -1,13 +1,15 @@
 """Nonsmooth RATTLE: a second-order constrained step (``stepper``: the compiled step and
 loop; ``rows``: the constraints in maximal coordinates; ``driver``: a run).
 
-What the method owns (plain data, importable without its kernels): its default step and
-the bounds its runs are audited against (``records.audit``).
+What the method owns (plain data, importable without its kernels): its options
+(``OPTIONS``), its default step (``DEFAULTS``: the step ``dt`` is the time-stepping
+package's option) and the bounds its runs are audited against (``records.audit``).
 """
 
 from __future__ import annotations
 
 from ..bounds import AuditBounds
+from ..options import MethodOption, non_negative
 
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
 STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is halved)
@@ -16,3 +18,31 @@ STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is
 # anchors and bends are held to the event-driven method's bounds; its energy error is
 # second order in dt where the motion is smooth, and bounded, not drifting.
 AUDIT = AuditBounds(energy_rtol=1e-2, depth_tol=1e-8, hinge_tol=1e-7)
+
+# The values its runs take for options other packages state, when not given: ``dt`` (its
+# step, used: named in that option's help) and ``theta`` (not used; recorded).
+DEFAULTS = {"dt": DEFAULT_DT, "theta": 1.0}
+USES = ("dt",)  # which of those it uses
+
+
+def _etol_key(options) -> str:
+    """A run's key names a bound that was set."""
+    return "" if options.step_energy_tol is None else f"_etol{options.step_energy_tol:.6g}"
+
+
+OPTIONS = (
+    MethodOption(
+        "step_energy_tol",
+        float,
+        None,
+        "--method rattle: the most one step may change U + T without an impact, in units of E0, before it is "
+        f"taken again halved (its error control). Default {str(STEP_ENERGY_TOL).replace('e-0', 'e-')}; 0: no bound (fixed steps but "
+        "for the turn limit).",
+        non_negative,
+        flag="--step-energy-tol",
+        json="the RATTLE method's bound on a step's change of U + T, in E0 (null: its default)",
+        column="the rattle method's bound on a step's change of U + T, in E0 (NaN: its default; not used by "
+        "the others)",
+        run_key=_etol_key,
+    ),
+)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from ...core.state import new_books, new_chain, new_model, new_work
 from ...floors.registry import FLOOR_CODES
-from .. import DT_RULES
 from ..outputs import (
     FrameBuffer,
     LogBuffer,
@@ -17,6 +16,7 @@ from ..outputs import (
     drive,
     loop_verdict,
 )
+from . import DT_RULES
 from .stepper import (
     ERR_ENERGY,
     ERR_IMPACT,
