@@ -1,7 +1,8 @@
 """Where the nonsmooth RATTLE method (``--method rattle``, experimental) stands: its order
 where the motion is smooth, a fall with no limits, a fall with limits, and the spinning top.
 
-    python benchmarks/rattle_status.py
+    python benchmarks/rattle_status.py           # tables 1-3
+    python benchmarks/rattle_status.py --cost    # table 4
 
 Prints Markdown tables (the numbers of ``docs/rattle.md``):
 
@@ -13,13 +14,20 @@ Prints Markdown tables (the numbers of ``docs/rattle.md``):
    its energy bound (``--step-energy-tol 0``) where there are limits (single falls with
    locks are chaotic: their t_fall and E_lock differ by the chaos, not by the method);
 3. the top of ``tests/data/top3-state.txt`` run to 1 t_ff at the defaults: its kinetic
-   energy at the end over its start, the locks and unlocks, E_lock, the books.
+   energy at the end over its start, the locks and unlocks, E_lock, the books;
+4. the cost of a step (``--cost``, alone; slow at large N): whole falls at N = 128, 256 and
+   512 (random starts of seed 2026, the first two) -- steps per fall over N, block
+   factorisations per step (refused steps' included), ns per segment and step -- and the
+   first 2000 steps of a fall at N = 256 .. 4096: ns per segment and step (flat in N: the
+   step is O(N)) and factorisations per step.
 """
 
 from __future__ import annotations
 
 import math
+import statistics
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -84,8 +92,38 @@ def top() -> None:
         )
 
 
+def _timed(n: int, key: int, **options):
+    start = InitialCondition(kind="random", seed=2026, spawn_key=(key,))
+    t0 = time.perf_counter()
+    r = simulate(ChainParams(segments=n, alpha=math.pi / 4), start, SolverOptions(method="rattle", **options))
+    return r, time.perf_counter() - t0
+
+
+def cost() -> None:
+    simulate(ChainParams(segments=8, alpha=math.pi / 4), options=SolverOptions(method="rattle"))  # compiled first
+    print("\n| N | start | status | steps / N | factorisations / step | ns / segment / step | wall (s) |")
+    print("|---|---|---|---|---|---|---|")
+    for n in (128, 256, 512):
+        for key in (0, 1):
+            r, wall = _timed(n, key)
+            print(
+                f"| {n} | {key} | {r.status} | {r.n_steps / n:.1f} | {r.n_evals / r.n_steps:.2f} "
+                f"| {wall / r.n_steps / n * 1e9:.0f} | {wall:.1f} |"
+            )
+    print("\n| N | steps | factorisations / step | ns / segment / step (median of 3) |")
+    print("|---|---|---|---|")
+    for n in (256, 1024, 4096):
+        runs = [_timed(n, 0, max_steps=2000, frames_per_tff=1) for _ in range(3)]
+        r = runs[0][0]
+        per = statistics.median(w / x.n_steps / n * 1e9 for x, w in runs)
+        print(f"| {n} | {r.n_steps} | {r.n_evals / r.n_steps:.2f} | {per:.0f} |")
+
+
 if __name__ == "__main__":
     print(machine_info())
-    convergence()
-    falls()
-    top()
+    if "--cost" in sys.argv[1:]:
+        cost()
+    else:
+        convergence()
+        falls()
+        top()

@@ -12,7 +12,7 @@ from ..bounds import AuditBounds
 from ..options import MethodOption, non_negative
 
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
-STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is halved)
+STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is taken again, shorter)
 # Audit bounds (records.audit): the method holds the floor and the limits at the position
 # level, to its solver's tolerance (stage 1 meets every row to about 1e-12 b), so the depth,
 # anchors and bends are held to the event-driven method's bounds; its energy error is
@@ -36,7 +36,7 @@ OPTIONS = (
         float,
         None,
         "--method rattle: the most one step may change U + T without an impact, in units of E0, before it is "
-        f"taken again halved (its error control). Default {str(STEP_ENERGY_TOL).replace('e-0', 'e-')}; 0: no bound (fixed steps but "
+        f"taken again shorter, as its h^3 error asks (its error control; the next step is sized the same way). Default {str(STEP_ENERGY_TOL).replace('e-0', 'e-')}; 0: no bound (fixed steps but "
         "for the turn limit).",
         non_negative,
         flag="--step-energy-tol",

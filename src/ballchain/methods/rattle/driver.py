@@ -48,8 +48,8 @@ RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (p
 LOOP_CODES = LoopCodes(RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS)
 ERROR_MESSAGES = {
     ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
-    ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even halved 10 times",
-    ERR_STEP_NAN: "a step's state was not finite even halved 10 times (a singular stage)",
+    ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even 2^10 times shorter than --dt",
+    ERR_STEP_NAN: "a step's state was not finite even 2^10 times shorter than --dt (a singular stage)",
     ERR_ACTIVE_SET: "a stage's active set of limits and floor contacts did not settle",
     ERR_NAN: "non-finite state (blow-up)",
 }
@@ -87,7 +87,7 @@ def run(setup, progress, stop) -> RunOutput:
         where = f"at t/t_ff = {t / setup.t_ff:.6f}"
         if code == ERR_NEWTON:
             j, kind, value = sc.unmet
-            where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step halved 10 times)"
+            where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step 2^10 times shorter than --dt)"
         return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
