@@ -25,6 +25,11 @@ impulse P on row r does to T is P (rate before + rate after) / 2 (exact for impu
 applied together); the bend rows' share is booked to the hinges, the floor rows' and new
 anchors' share to the landings, the equalities' share is the method's own error
 (the imbalance, second order).  A hinge is *locked* while it takes impulse in stage 2.
+A landing and a new lock beside it (``_lock_beside_landing``) are not resolved in one
+step: such a step is taken again halved (down to h / 2^SPLIT_CUTS) until they fall in
+steps of their own.  In one step they would be one simultaneous impact, whose rows'
+work books to the landing what the exact method, resolving the landing and then the
+lock it makes close, books to the lock (docs/rattle.md).
 Frames come from a second step from the step's start to the frame's time, on a copy of
 the state (``frame_substep``): the fall does not depend on when frames are taken.
 """
@@ -74,10 +79,13 @@ EARLY_ROUNDS = 4  # rounds of stage 1 in which rows found far past their limit a
 EARLY_MARGIN = 10.0
 EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual is below this (b)  # ... "far": by more than this many times the iterate's residual
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
+SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
+SPLIT_REACH = 2  # ... "beside": the hinge's point within this many points of the landing point
 
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
 ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_STEP_NAN, ERR_NAN = -1, -2, -3, -4, -6
+ERR_MERGED = -7  # a landing and a lock beside it in one step: taken again halved (not returned by run_steps)
 
 # The state a step advances: the centres and their velocities beside the chain's axes,
 # anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
@@ -610,14 +618,16 @@ def settle(model, mo):
 
 
 @njit(cache=True)
-def rattle_step(t, h, model, mo, ws, sc, etol, landings):
+def rattle_step(t, h, model, mo, ws, sc, etol, landings, split):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
     what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
     rates; stage 2's in ws, sc.val, sc.rate).  With etol > 0 a step is refused
     (ERR_STEP_ENERGY) that changes U + T by more than etol without an impact, or raises
     it by more than etol with one (an impact removes energy).  Without ``landings`` (a
     frame's step, inside a step of the fall) a point stopped by the floor is not anchored:
-    the fall anchors it, at its own step's end.  Returns (code, new anchors)."""
+    the fall anchors it, at its own step's end.  With ``split`` a step in which a point
+    lands and a hinge beside it locks is refused (ERR_MERGED: ``_lock_beside_landing``).
+    Returns (code, new anchors)."""
     for q in range(sc.acc.shape[0]):
         sc.acc[q] = 0.0
     for q in range(3):
@@ -642,6 +652,12 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     code = stage2(h, model, mo, ws, sc)
     if code < 0:
         return code, na
+    if (
+        split
+        and na > 0
+        and _lock_beside_landing(sc.start.locked, mo.locked, sc.kind1, sc.nrow1, sc.x1, sc.new_anchor, na)
+    ):
+        return ERR_MERGED, na
     lock_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_BEND)
     land_work -= _new_anchor_work(mo.anchored, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
     _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
@@ -661,6 +677,28 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
     return 0, na
+
+
+@njit(cache=True)
+def _lock_beside_landing(locked0, locked, kind1, nrow1, x1, new_anchor, na):
+    """Did a hinge not locked at the step's start, its point within SPLIT_REACH points of a
+    point anchored in this step, lock in it (impulse in stage 1, or locked after stage 2)?
+    The exact method lands the point first and then locks the hinge, which the landing
+    made close fast (the lock a few 1e-3 to 0.5 steps later, at about 3e-4 E0 each at
+    N = 512): resolved together, the bend row's rate before is the one before the landing,
+    its work small, and the landing's rows take the lock's loss."""
+    nh = locked0.shape[0]
+    for r in range(na):
+        j = new_anchor[r]
+        for k in range(max(j - 1 - SPLIT_REACH, 0), min(j - 1 + SPLIT_REACH, nh - 1) + 1):
+            if locked0[k] != 0:
+                continue
+            if locked[k] != 0:
+                return True
+            for q in range(nrow1[k + 1]):
+                if kind1[k + 1, q] == K_BEND and x1[k + 1, q] > 0.0:
+                    return True
+    return False
 
 
 @njit(cache=True)
@@ -836,7 +874,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             fb[q] = fb[11 + q]
         code = 0
         for _ in range(m):
-            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False)
+            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False)
             if code < 0:
                 break
             fb[0] += fsc.acc[0]
@@ -931,7 +969,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     etol = fb[21]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True)
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS)
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
         copy_motion(sc.start, mo)
         ws.valid[0] = 0
