@@ -80,7 +80,7 @@ EARLY_MARGIN = 10.0
 EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual is below this (b)  # ... "far": by more than this many times the iterate's residual
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
 SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
-SPLIT_REACH = 2  # ... "beside": the hinge's point within this many points of the landing point
+SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
 
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
