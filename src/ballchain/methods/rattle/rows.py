@@ -4,8 +4,7 @@ Coordinates per segment i: its centre c_i and its axis e_i (lower end c - e, upp
 c + e).  For a thin uniform rod the kinetic energy is exactly
 1/2 |c'|^2 + 1/6 |e'|^2 (integrate 1/2 |c' + s e'|^2 ds/2 over s in [-1, 1]), so the
 inverse mass W = diag(1, 1, 1, 3, 3, 3) is constant: the same weights as the core's
-(v, w) rows (``dynamics.W_V``, ``W_W``), and the same block-tridiagonal factorisation of
-J W J^T (``dynamics.factor_general``).  Rows are gathered per point j, on the segment
+(v, w) rows (``dynamics.W_V``, ``W_W``), and J W J^T is block tridiagonal (``blocks``).  Rows are gathered per point j, on the segment
 above it (a = j - 1, columns 0:6 = (c_a, e_a)) and the one below (c = j, columns 6:12):
 
   kind 0-2   joint, free point:     (c_a - e_a) - (c_c + e_c) = 0          linear
@@ -104,9 +103,10 @@ def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
 
 
 @njit(cache=True)
-def row_gradients(e, kind, nrow, J):
-    """J[j, r] = the gradient of row r of point j at axes e, over (c_a, e_a, c_c, e_c)."""
-    for j in range(nrow.shape[0]):
+def row_gradients(e, kind, nrow, J, j_from):
+    """J[j, r] = the gradient of row r of point j at axes e, over (c_a, e_a, c_c, e_c), for
+    the points from j_from on."""
+    for j in range(j_from, nrow.shape[0]):
         a = j - 1
         for r in range(nrow[j]):
             for q in range(12):
@@ -177,34 +177,29 @@ def copy_layout(kind, nrow, x, kind_to, nrow_to, x_to):
             x_to[j, r] = x[j, r]
 
 
-# The rows and the solvers' workspace: J, kind, nrow, S, G, drop, rhs, x, gf as the core's
-# ``state.Work`` (what ``dynamics.factor_general`` / ``solve_general`` take), and for stage
-# 1's Newton matrix (``newton``) the rows at q+ (J1), the block LU (D, piv, X) and its lower
-# blocks (Lb, kept for the solves), a column;
-# valid (1,): J, kind, nrow and the factors are the last stage 2's, at the state's axes.
-Rows = namedtuple(
-    "Rows", ["J", "kind", "nrow", "S", "G", "drop", "rhs", "x", "gf", "J1", "Lb", "D", "piv", "X", "col", "valid"]
-)
+# The rows and the solvers' workspace: the rows' gradients J (at q), kinds and counts,
+# right-hand side, impulses x and generalised forces gf (as the core's ``state.Work``), the
+# rows at q+ (J1, stage 1), the factors of J W J^T (``sym``, the last stage 2's: the next
+# stage 1 starts from them, and gives its Newton matrix their redundant rows) and of stage
+# 1's Newton matrix J1 W J^T (``newt``; ``blocks``);
+# valid (1,): J, kind, nrow and ``sym`` are the last stage 2's, at the state's axes.
+Rows = namedtuple("Rows", ["J", "kind", "nrow", "rhs", "x", "gf", "J1", "sym", "newt", "valid"])
 
 
 def new_rows(n: int) -> Rows:
     """The rows of an N-segment chain, RMAX a point, and their solvers' workspace."""
+    from .blocks import new_factors  # (blocks reads the kinds from here)
+
     p = n + 1
     return Rows(
         np.zeros((p, RMAX, 12)),
         np.zeros((p, RMAX), np.int8),
         np.zeros(p, np.int64),
-        np.zeros((p, RMAX + 3, RMAX)),
-        np.zeros((p, RMAX, RMAX)),
-        np.zeros((p, RMAX), np.uint8),
         np.zeros((p, RMAX)),
         np.zeros((p, RMAX)),
         np.zeros((n, 6)),
         np.zeros((p, RMAX, 12)),
-        np.zeros((p, RMAX, RMAX)),
-        np.zeros((p, RMAX, RMAX)),
-        np.zeros((p, RMAX), np.int64),
-        np.zeros((p, RMAX, RMAX)),
-        np.zeros(RMAX),
+        new_factors(p, RMAX),
+        new_factors(p, RMAX),
         np.zeros(1, np.uint8),
     )

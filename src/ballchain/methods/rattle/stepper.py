@@ -42,7 +42,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.books import log_row, lowest_point
-from ...core.dynamics import factor_general, generalized_forces, potential_energy, rates_for_axes, solve_general
+from ...core.dynamics import generalized_forces, potential_energy, rates_for_axes
 from ...core.jit import entry, njit
 from ...core.rules import (
     LOG_LANDING,
@@ -55,7 +55,7 @@ from ...core.rules import (
     landed_count,
     limit_in_force,
 )
-from .newton import factor_newton, solve_newton
+from .blocks import factor_blocks, solve_blocks
 from .rows import (
     K_ANCHOR_LOWER,
     K_ANCHOR_UPPER,
@@ -349,44 +349,58 @@ def switch_on_violated(model, mo, sc, margin):
 
 
 @njit(cache=True)
-def _factor(mo, ws, sc, e, reuse, factor):
+def _factor(mo, ws, sc, e, reuse, factor, keep):
     """The rows of the current layout at axes e, and (with ``factor``) the factors of
     J W J^T; with ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its
     layout is this one: a step's stage 1 starts where the last stage 2 ended, with its
-    active set.  Returns whether ws holds the factors of J W J^T for these rows (without
-    them, no row is marked redundant)."""
+    active set.  With ``keep`` (ws holds the rows at these axes of the last layout, and
+    the factors of J W J^T if ``factor``) only the points from the one before the first
+    changed point are done again.  Returns (whether ws holds the factors of J W J^T for
+    these rows (without them, no row is marked redundant), that first point done again)."""
     layout(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old)
-    if reuse and ws.valid[0] != 0 and same_layout(sc.kind_old, sc.nrow_old, ws.kind, ws.nrow):
-        return True
+    first = first_change(sc.kind_old, sc.nrow_old, ws.kind, ws.nrow)
+    if reuse and ws.valid[0] != 0 and first == ws.nrow.shape[0]:
+        return True, first
     ws.valid[0] = 0
+    j0 = max(first - 1, 0) if keep else 0
     layout(mo.anchored, mo.locked, sc.floor_on, ws.kind, ws.nrow)
-    row_gradients(e, ws.kind, ws.nrow, ws.J)
+    row_gradients(e, ws.kind, ws.nrow, ws.J, j0)
     if factor:
-        _factor_symmetric(mo, ws, sc)
+        _factor_symmetric(mo, ws, sc, j0)
     else:
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
-                ws.drop[j, r] = 0
-    return factor
+                ws.sym.drop[j, r] = 0
+    return factor, j0
 
 
 @njit(cache=True)
-def _factor_symmetric(mo, ws, sc):
-    """The factors of J W J^T for the rows in ws (``dynamics.factor_general``)."""
-    factor_general(mo.anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
+def _factor_symmetric(mo, ws, sc, j0):
+    """The factors of J W J^T for the rows in ws (ws.sym), its redundant rows dropped, from
+    point j0 on (``blocks.factor_blocks``)."""
+    factor_blocks(mo.anchored, ws.J, ws.J, ws.kind, ws.nrow, ws.sym.drop, ws.sym, True, j0)
     sc.acc[5] += 1.0
 
 
 @njit(cache=True)
-def same_layout(kind_a, nrow_a, kind_b, nrow_b):
-    """Are the two layouts the same rows?"""
+def _factor_newton(mo, ws, j0):
+    """The factors of stage 1's Newton matrix J(q+) W J(q)^T (ws.newt), from point j0 on:
+    the rows at q+ (J1) taken there, the rows that ws.sym drops dropped; False if it is
+    singular to round-off."""
+    row_gradients(mo.e, ws.kind, ws.nrow, ws.J1, j0)
+    return factor_blocks(mo.anchored, ws.J1, ws.J, ws.kind, ws.nrow, ws.sym.drop, ws.newt, False, j0) >= 0
+
+
+@njit(cache=True)
+def first_change(kind_a, nrow_a, kind_b, nrow_b):
+    """The first point whose rows differ between two layouts (the number of points if none)."""
     for j in range(nrow_a.shape[0]):
         if nrow_a[j] != nrow_b[j]:
-            return False
+            return j
         for r in range(nrow_a[j]):
             if kind_a[j, r] != kind_b[j, r]:
-                return False
-    return True
+                return j
+    return nrow_a.shape[0]
 
 
 @njit(cache=True)
@@ -399,10 +413,14 @@ def stage1(h, model, mo, ws, sc):
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
     for j in range(sc.floor_on.shape[0]):
         sc.floor_on[j] = 0
+    newt_valid = False  # ws.newt holds the factors of the last round's Newton matrix
     for rnd in range(ROUNDS_MAX):
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
-        have_sym = _factor(mo, ws, sc, sc.start.e, rnd == 0, False)  # (J W J^T only if the last stage 2's serves)
+        have_sym, j0 = _factor(
+            mo, ws, sc, sc.start.e, rnd == 0, False, rnd > 0
+        )  # (J W J^T only if the last stage 2's serves)
+        restart = j0 if newt_valid else 0  # the Newton matrix's factors kept for the points before j0
         if rnd == 0:  # warm start: the last stage 2's impulses, h/2 times the forces at this step's start
             carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
         else:
@@ -438,23 +456,24 @@ def stage1(h, model, mo, ws, sc):
                 for r in range(ws.nrow[j]):
                     ws.rhs[j, r] = -sc.val[j, r] / h
             if (not exact) and (singular or (have_sym and (it == 0 or res <= NEWTON_RATE * last))):
-                solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)  # the chord on J W J^T
+                solve_blocks(ws.nrow, ws.sym, ws.rhs, sc.rate)  # the chord on J W J^T
             else:
                 if not exact or res > NEWTON_RATE * last:  # (re)factor A at this q+
-                    row_gradients(mo.e, ws.kind, ws.nrow, ws.J1)
                     sc.acc[5] += 1.0
-                    exact = factor_newton(mo.anchored, ws)
+                    exact = _factor_newton(mo, ws, restart if not exact else 0)
+                    restart = 0
                     singular = not exact
                     if singular and not have_sym:  # J W J^T, its redundant rows dropped, and A again
-                        _factor_symmetric(mo, ws, sc)
+                        _factor_symmetric(mo, ws, sc, 0)
                         have_sym = True
                         sc.acc[5] += 1.0
-                        exact = factor_newton(mo.anchored, ws)
+                        exact = _factor_newton(mo, ws, 0)
                         singular = not exact
+                    newt_valid = exact
                 if exact:
-                    solve_newton(ws, ws.rhs, sc.rate)
+                    solve_blocks(ws.nrow, ws.newt, ws.rhs, sc.rate)
                 else:
-                    solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, sc.rate)
+                    solve_blocks(ws.nrow, ws.sym, ws.rhs, sc.rate)
             last = res
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):
@@ -576,13 +595,13 @@ def stage2(h, model, mo, ws, sc):
             cand = locked[k] != 0 or g <= tol
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
-    for _ in range(ROUNDS_MAX):
-        _factor(mo, ws, sc, e, False, True)  # (sc.floor_on is all 0 after ``land``: no floor rows)
+    for rnd in range(ROUNDS_MAX):
+        _factor(mo, ws, sc, e, False, True, rnd > 0)  # (sc.floor_on is all 0 after ``land``: no floor rows)
         row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.val)
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
                 ws.rhs[j, r] = -sc.val[j, r]
-        solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
+        solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
         generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
         add_impulses(anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
         if not math.isfinite(np.sum(mo.vc) + np.sum(mo.ve)):

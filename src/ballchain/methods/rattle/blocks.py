@@ -1,0 +1,235 @@
+"""The block LU of the step's matrices: A = J1 W J0^T, block tridiagonal over the points.
+
+Both stages solve with such a matrix.  Stage 1's Newton matrix is J(q+) W J(q)^T (not
+symmetric: stage 1 solves g(q_free + h W J(q)^T P) = 0 for the impulses P); stage 2's is
+the symmetric J(q+) W J(q+)^T (J1 = J0).  A symmetric factorisation of J W J^T does not
+serve stage 1: it differs from A by O(h |u|), and its inverse amplifies that by the
+condition number, which grows with the length of a locked stretch of chain (a chord
+iteration on it crawls, at a spectral radius of 0.7 at N = 8).  So both are factored by
+one block LU without pivoting (A is symmetric positive semi-definite, or within O(h |u|)
+of it).  Blocks per point j (rows of j against the impulses of j - 1, j or j + 1):
+
+  D_j = J1_j W J0_j^T,   U_j = J1_j^(c) W_j J0_{j+1}^(a)T,   L_j = J1_j^(a) W_{j-1} J0_{j-1}^(c)T
+  D'_j = D_j - L_j X_{j-1} = l_j u_j (in place: l_j below the diagonal, 1 / pivots on it),
+  X_j = D'_j^{-1} U_j,   z_j = D'_j^{-1} (b_j - L_j z_{j-1}),   x_j = z_j - X_j x_{j+1}
+
+A *dropped* row has unknown 0 and its equation left out: a row the factorisation of
+J W J^T finds redundant (its pivot below DROP_RTOL of its diagonal: a chain folded
+between anchors, two limits that say the same), and in stage 1 the rows dropped by the
+symmetric factors it is given.  A pivot of A below PIVOT_RTOL of its diagonal that was
+not dropped makes A singular to round-off: ``factor_blocks`` returns -1.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ...core.dynamics import DROP_RTOL, _weights
+from ...core.jit import njit
+from .rows import K_ANCHOR_LOWER, K_ANCHOR_UPPER, K_AXIS, K_BEND, K_JOINT
+
+PIVOT_RTOL = 1e-12  # stage 1: a pivot of A below this fraction of its diagonal (not dropped): A is singular
+
+# The factors of one matrix: D (l, u and the inverse pivots), L (the lower blocks, kept for
+# the solves), X, which rows are dropped, and the diagonal before the elimination (scratch).
+Factors = namedtuple("Factors", ["D", "L", "X", "drop", "d0"])
+
+
+def new_factors(points: int, rmax: int) -> Factors:
+    """Room for the factors of ``points`` blocks of up to rmax rows."""
+    return Factors(
+        np.zeros((points, rmax, rmax)),
+        np.zeros((points, rmax, rmax)),
+        np.zeros((points, rmax, rmax)),
+        np.zeros((points, rmax), np.uint8),
+        np.zeros(rmax),
+    )
+
+
+@njit(cache=True, inline="always")
+def _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww):
+    """J1[j1, r] W J0[j0, s]^T over one segment: its columns g1 in row r, g0 in row s (0: the
+    segment above the point, 6: below), weights wv (centre) and ww (axis)."""
+    ac, ae = 0.0, 0.0
+    for q in range(3):
+        ac += J1[j1, r, g1 + q] * J0[j0, s, g0 + q]
+        ae += J1[j1, r, g1 + 3 + q] * J0[j0, s, g0 + 3 + q]
+    return wv * ac + ww * ae
+
+
+@njit(cache=True, inline="always")
+def _end_signs(k, below):
+    """An end row (kind k < K_AXIS: joint, lower or upper anchor) on one of its segments
+    (below: the one below its point, else above): the signs (centre, axis) of its
+    component's columns, (0, 0) if it has none there (``rows``)."""
+    if k < K_ANCHOR_LOWER:
+        return (-1.0, -1.0) if below else (1.0, -1.0)
+    if k < K_ANCHOR_UPPER:
+        return (0.0, 0.0) if below else (1.0, -1.0)
+    return (1.0, 1.0) if below else (0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def _on(k, below):
+    """Has a row of kind k columns on the segment below its point (below) or above it?"""
+    if k == K_BEND or (K_JOINT <= k < K_ANCHOR_LOWER):
+        return True
+    if K_ANCHOR_LOWER <= k < K_ANCHOR_UPPER:
+        return not below
+    return below  # an upper anchor, the axis, the floor: on the segment below only
+
+
+@njit(cache=True, inline="always")
+def _entry(J1, J0, kind, j1, r, j0, s, b1, b0, wv, ww):
+    """J1[j1, r] W J0[j0, s]^T over one segment: the one below point j1 if b1 (else above),
+    below point j0 if b0.  An end row's gradient there is a signed unit vector (``rows``):
+    its products are taken in closed form; a row with no columns there gives 0."""
+    k1, k0 = kind[j1, r], kind[j0, s]
+    if not (_on(k1, b1) and _on(k0, b0)):
+        return 0.0
+    g1, g0 = (6 if b1 else 0), (6 if b0 else 0)
+    if k1 < K_AXIS:
+        c1, e1 = _end_signs(k1, b1)
+        q = k1 % 3
+        if k0 < K_AXIS:
+            if k0 % 3 != q:
+                return 0.0
+            c0, e0 = _end_signs(k0, b0)
+            return wv * c1 * c0 + ww * e1 * e0
+        return wv * c1 * J0[j0, s, g0 + q] + ww * e1 * J0[j0, s, g0 + 3 + q]
+    if k0 < K_AXIS:
+        c0, e0 = _end_signs(k0, b0)
+        q = k0 % 3
+        return wv * c0 * J1[j1, r, g1 + q] + ww * e0 * J1[j1, r, g1 + 3 + q]
+    return _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww)
+
+
+@njit(cache=True)
+def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
+    """Block LU of J1 W J0^T into F (rows of the kinds ``kind``: ``_entry``), from point
+    j_from on: F holds the factors of the points before it, whose rows (and those of point
+    j_from) are the same.  ``symmetric`` (J1 is J0): rows found redundant are dropped
+    (F.drop); otherwise the rows dropped in ``drops`` are.  Returns the number of dropped
+    rows from j_from on, or -1 if the matrix is singular to round-off (not symmetric only)."""
+    D, L, X, drop, d0 = F.D, F.L, F.X, F.drop, F.d0
+    npts = nrow.shape[0]
+    n = npts - 1
+    ndrop = 0
+    for j in range(j_from, npts):
+        nr = nrow[j]
+        av, aw = _weights(anchored, j - 1, n)
+        cv, cw = _weights(anchored, j, n)
+        for r in range(nr):
+            for s in range(nr):
+                D[j, r, s] = _entry(J1, J0, kind, j, r, j, s, False, False, av, aw) + _entry(
+                    J1, J0, kind, j, r, j, s, True, True, cv, cw
+                )
+        if j >= 1 and av + aw > 0.0:
+            npv = nrow[j - 1]
+            for r in range(nr):
+                for p in range(npv):
+                    L[j, r, p] = _entry(J1, J0, kind, j, r, j - 1, p, False, True, av, aw)
+            for r in range(nr):
+                for s in range(nr):
+                    acc = 0.0
+                    for p in range(npv):
+                        acc += L[j, r, p] * X[j - 1, p, s]
+                    D[j, r, s] -= acc
+        elif j >= 1:
+            for r in range(nr):
+                for p in range(nrow[j - 1]):
+                    L[j, r, p] = 0.0
+        for k in range(nr):
+            d0[k] = abs(D[j, k, k])
+        for k in range(nr):  # LU of D'_j in place, no pivoting
+            d = D[j, k, k]
+            if symmetric:
+                out = d <= DROP_RTOL * max(d0[k], 1e-300)
+            else:
+                out = drops[j, k] != 0
+                if not out and not abs(d) > PIVOT_RTOL * d0[k]:
+                    return -1
+            if out:
+                drop[j, k] = 1
+                ndrop += 1
+                D[j, k, k] = 1.0
+                continue
+            drop[j, k] = 0
+            inv = 1.0 / d
+            D[j, k, k] = inv
+            for i in range(k + 1, nr):
+                f = D[j, i, k] * inv
+                D[j, i, k] = f
+                if f != 0.0:
+                    for s in range(k + 1, nr):
+                        D[j, i, s] -= f * D[j, k, s]
+        if j < n:
+            nn = nrow[j + 1]
+            for r in range(nr):
+                for s in range(nn):
+                    X[j, r, s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
+            _lu_solve_columns(D, drop, j, nr, X, nn)
+    return ndrop
+
+
+@njit(cache=True, inline="always")
+def _lu_solve_columns(D, drop, j, nr, X, nn):
+    """X[j] <- D'_j^{-1} X[j] (nn columns), dropped rows 0."""
+    for k in range(nr):
+        if drop[j, k]:
+            for s in range(nn):
+                X[j, k, s] = 0.0
+            continue
+        for i in range(k + 1, nr):
+            f = D[j, i, k]
+            if f != 0.0 and not drop[j, i]:
+                for s in range(nn):
+                    X[j, i, s] -= f * X[j, k, s]
+    for k in range(nr - 1, -1, -1):
+        if drop[j, k]:
+            continue
+        for c in range(k + 1, nr):
+            f = D[j, k, c]
+            if f != 0.0 and not drop[j, c]:
+                for s in range(nn):
+                    X[j, k, s] -= f * X[j, c, s]
+        inv = D[j, k, k]
+        for s in range(nn):
+            X[j, k, s] *= inv
+
+
+@njit(cache=True)
+def solve_blocks(nrow, F, b, x):
+    """x = A^{-1} b with the factors of ``factor_blocks`` (dropped rows: x = 0)."""
+    D, L, X, drop = F.D, F.L, F.X, F.drop
+    npts = nrow.shape[0]
+    for j in range(npts):
+        nr = nrow[j]
+        for r in range(nr):
+            v = b[j, r]
+            if j >= 1:
+                for p in range(nrow[j - 1]):
+                    v -= L[j, r, p] * x[j - 1, p]
+            x[j, r] = v
+        for k in range(nr):
+            if drop[j, k]:
+                x[j, k] = 0.0
+                continue
+            xk = x[j, k]
+            for i in range(k + 1, nr):
+                x[j, i] -= D[j, i, k] * xk
+        for k in range(nr - 1, -1, -1):
+            if drop[j, k]:
+                continue
+            s = x[j, k]
+            for c in range(k + 1, nr):
+                s -= D[j, k, c] * x[j, c]
+            x[j, k] = s * D[j, k, k]
+    for j in range(npts - 2, -1, -1):
+        for r in range(nrow[j]):
+            acc = 0.0
+            for s in range(nrow[j + 1]):
+                acc += X[j, r, s] * x[j + 1, s]
+            x[j, r] -= acc

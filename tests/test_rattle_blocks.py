@@ -1,0 +1,171 @@
+"""The RATTLE method's block LU (``methods.rattle.blocks``) against dense linear algebra:
+the matrix J1 W J0^T assembled in full from the rows and solved by numpy, for random rows
+and for the chain's own rows (whose end rows' products the factorisation takes in closed
+form), with and without redundant rows."""
+
+import numpy as np
+import pytest
+
+from ballchain.methods.rattle.blocks import factor_blocks, new_factors, solve_blocks
+from ballchain.methods.rattle.rows import K_BEND, layout, row_gradients
+
+RMAX = 8
+
+
+def _chain(seed, n=12):
+    """Rows of an n-segment chain, up to 6 a point, random entries; points 0 and n free
+    ends with fewer rows; segment 4 landed (points 4 and 5 anchored: no columns)."""
+    rng = np.random.default_rng(seed)
+    anchored = np.zeros(n + 1, np.uint8)
+    anchored[[4, 5]] = 1
+    nrow = rng.integers(3, 7, size=n + 1)
+    nrow[0], nrow[n] = 1, 2
+    J = np.zeros((n + 1, RMAX, 12))
+    for j in range(n + 1):
+        J[j, : nrow[j]] = rng.standard_normal((nrow[j], 12))
+    J[0, :, :6] = 0.0  # no segment above point 0, none below point n
+    J[n, :, 6:] = 0.0
+    kind = np.full((n + 1, RMAX), K_BEND, np.int8)  # (a kind with columns on both segments, products taken from J)
+    return anchored, nrow, J, kind, rng
+
+
+def _dense(anchored, nrow, J1, J0):
+    """J1 W J0^T assembled in full: the columns of segment i are 6 i .. 6 i + 5."""
+    n = anchored.shape[0] - 1
+    idx = [(j, r) for j in range(n + 1) for r in range(nrow[j])]
+    G1, G0 = np.zeros((len(idx), 6 * n)), np.zeros((len(idx), 6 * n))
+    for k, (j, r) in enumerate(idx):
+        for G, J in ((G1, J1), (G0, J0)):
+            if j >= 1:
+                G[k, 6 * (j - 1) : 6 * j] = J[j, r, :6]
+            if j < n:
+                G[k, 6 * j : 6 * j + 6] = J[j, r, 6:]
+    w = np.zeros(6 * n)
+    for i in range(n):
+        if not (anchored[i] == 1 and anchored[i + 1] == 1):
+            w[6 * i : 6 * i + 6] = (1, 1, 1, 3, 3, 3)
+    return G1 @ np.diag(w) @ G0.T, idx
+
+
+def _packed(idx, v, n):
+    out = np.zeros((n + 1, RMAX))
+    for k, (j, r) in enumerate(idx):
+        out[j, r] = v[k]
+    return out
+
+
+def _flat(idx, x):
+    return np.array([x[j, r] for j, r in idx])
+
+
+def _assert_solves_as_dense(anchored, J1, J0, kind, nrow, symmetric, rng):
+    """Factored (nothing dropped) and solved, J1 W J0^T x = b as numpy solves it."""
+    A, idx = _dense(anchored, nrow, J1, J0)
+    b = rng.standard_normal(len(idx))
+    n = anchored.shape[0] - 1
+    F = new_factors(n + 1, RMAX)
+    none = np.zeros((n + 1, RMAX), np.uint8)
+    assert factor_blocks(anchored, J1, J0, kind, nrow, none, F, symmetric, 0) == 0
+    x = np.zeros((n + 1, RMAX))
+    solve_blocks(nrow, F, _packed(idx, b, n), x)
+    truth = np.linalg.solve(A, b)
+    assert np.max(np.abs(_flat(idx, x) - truth)) < 1e-9 * np.max(np.abs(truth))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_block_lu_solves_as_dense_algebra(seed, symmetric):
+    anchored, nrow, J0, kind, rng = _chain(seed)
+    J1 = J0 if symmetric else J0 + 0.05 * rng.standard_normal(J0.shape) * (J0 != 0)
+    _assert_solves_as_dense(anchored, J1, J0, kind, nrow, symmetric, rng)
+
+
+@pytest.mark.parametrize("seed", [4, 5])
+def test_a_redundant_row_is_dropped_and_the_system_still_met(seed):
+    """Row 1 of point 7 a copy of row 0 (a constraint stated twice): J W J^T is singular,
+    the factorisation drops one of them, and a consistent right-hand side is met by all."""
+    anchored, nrow, J, kind, rng = _chain(seed)
+    nrow[7] = max(nrow[7], 3)
+    J[7, 1] = J[7, 0]
+    A, idx = _dense(anchored, nrow, J, J)
+    b = A @ rng.standard_normal(len(idx))  # consistent
+    n = anchored.shape[0] - 1
+    F = new_factors(n + 1, RMAX)
+    assert factor_blocks(anchored, J, J, kind, nrow, F.drop, F, True, 0) == 1
+    assert F.drop[7, 1] == 1
+    x = np.zeros((n + 1, RMAX))
+    solve_blocks(nrow, F, _packed(idx, b, n), x)
+    assert x[7, 1] == 0.0
+    assert np.max(np.abs(A @ _flat(idx, x) - b)) < 1e-9 * np.max(np.abs(b))
+
+
+def test_the_newton_matrix_takes_the_symmetric_drops_or_says_it_is_singular():
+    anchored, nrow, J0, kind, rng = _chain(6)
+    nrow[7] = max(nrow[7], 3)
+    J0[7, 1] = J0[7, 0]
+    J1 = J0 + 0.01 * rng.standard_normal(J0.shape) * (J0 != 0)
+    J1[7, 1] = J1[7, 0]  # the rows at q+ stay the same constraint: A is singular
+    n = anchored.shape[0] - 1
+    sym, newt = new_factors(n + 1, RMAX), new_factors(n + 1, RMAX)
+    none = np.zeros((n + 1, RMAX), np.uint8)
+    assert factor_blocks(anchored, J1, J0, kind, nrow, none, newt, False, 0) == -1
+    assert factor_blocks(anchored, J0, J0, kind, nrow, sym.drop, sym, True, 0) == 1
+    assert factor_blocks(anchored, J1, J0, kind, nrow, sym.drop, newt, False, 0) == 1
+    # with the row dropped: the other equations of A met, the dropped unknown 0
+    A, idx = _dense(anchored, nrow, J1, J0)
+    keep = [k for k, (j, r) in enumerate(idx) if (j, r) != (7, 1)]
+    b = rng.standard_normal(len(idx))
+    x = np.zeros((n + 1, RMAX))
+    solve_blocks(nrow, newt, _packed(idx, b, n), x)
+    truth = np.linalg.solve(A[np.ix_(keep, keep)], b[keep])
+    assert x[7, 1] == 0.0
+    assert np.max(np.abs(_flat(idx, x)[keep] - truth)) < 1e-9 * np.max(np.abs(truth))
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_the_chains_own_rows(seed, symmetric):
+    """The rows of a 10-segment chain (``layout``, ``row_gradients``) at random axes, with
+    free points, an anchored pile top, an anchor between two airborne segments, bend and
+    floor rows: every kind, the end rows' products in closed form."""
+    n = 10
+    rng = np.random.default_rng(seed)
+    anchored = np.zeros(n + 1, np.uint8)
+    anchored[[0, 1, 5, 10]] = 1  # segment 0 landed; 5 between airborne 4 and 5; the bottom
+    bend = (rng.random(n - 1) < 0.5).astype(np.uint8)
+    bend[4] = 1  # (the hinge at point 5)
+    floor_on = np.zeros(n + 1, np.uint8)
+    floor_on[[3, 7]] = 1
+    kind, nrow = np.zeros((n + 1, RMAX), np.int8), np.zeros(n + 1, np.int64)
+    layout(anchored, bend, floor_on, kind, nrow)
+    assert nrow[5] == 8 and set(nrow) >= {3, 4, 5}
+    e0 = rng.standard_normal((n, 3))
+    e1 = e0 if symmetric else e0 + 0.05 * rng.standard_normal((n, 3))
+    J0, J1 = np.zeros((n + 1, RMAX, 12)), np.zeros((n + 1, RMAX, 12))
+    row_gradients(e0, kind, nrow, J0, 0)
+    row_gradients(e1, kind, nrow, J1, 0)
+    _assert_solves_as_dense(anchored, J1, J0, kind, nrow, symmetric, rng)
+
+
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_factors_done_again_from_a_changed_point_on(symmetric):
+    """Factors of one set of rows, then the rows of points 7 and 9 changed (a row switched
+    off, another's values) and the factors done again from point 6 on only: they solve the
+    new matrix as dense algebra does."""
+    anchored, nrow, J0, kind, rng = _chain(10)
+    J1 = J0 if symmetric else J0 + 0.05 * rng.standard_normal(J0.shape) * (J0 != 0)
+    n = anchored.shape[0] - 1
+    F = new_factors(n + 1, RMAX)
+    none = np.zeros((n + 1, RMAX), np.uint8)
+    assert factor_blocks(anchored, J1, J0, kind, nrow, none, F, symmetric, 0) == 0
+    nrow[7] -= 1
+    J0[9, 0] = rng.standard_normal(12)
+    if not symmetric:
+        J1[9, 0] = J0[9, 0] + 0.05 * rng.standard_normal(12)
+    assert factor_blocks(anchored, J1, J0, kind, nrow, none, F, symmetric, 6) == 0
+    A, idx = _dense(anchored, nrow, J1, J0)
+    b = rng.standard_normal(len(idx))
+    x = np.zeros((n + 1, RMAX))
+    solve_blocks(nrow, F, _packed(idx, b, n), x)
+    truth = np.linalg.solve(A, b)
+    assert np.max(np.abs(_flat(idx, x) - truth)) < 1e-9 * np.max(np.abs(truth))
