@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ballchain.methods.rattle.blocks import factor_blocks, new_factors, solve_blocks
-from ballchain.methods.rattle.rows import K_BEND, layout, row_gradients
+from ballchain.methods.rattle.rows import K_BEND, layout, row_forces, row_gradients, row_rates
 
 RMAX = 8
 
@@ -32,19 +32,26 @@ def _chain(seed, n=12):
 def _dense(anchored, nrow, J1, J0):
     """J1 W J0^T assembled in full: the columns of segment i are 6 i .. 6 i + 5."""
     n = anchored.shape[0] - 1
-    idx = [(j, r) for j in range(n + 1) for r in range(nrow[j])]
-    G1, G0 = np.zeros((len(idx), 6 * n)), np.zeros((len(idx), 6 * n))
-    for k, (j, r) in enumerate(idx):
-        for G, J in ((G1, J1), (G0, J0)):
-            if j >= 1:
-                G[k, 6 * (j - 1) : 6 * j] = J[j, r, :6]
-            if j < n:
-                G[k, 6 * j : 6 * j + 6] = J[j, r, 6:]
+    (G1, idx), (G0, _) = _gradients(nrow, J1), _gradients(nrow, J0)
     w = np.zeros(6 * n)
     for i in range(n):
         if not (anchored[i] == 1 and anchored[i + 1] == 1):
             w[6 * i : 6 * i + 6] = (1, 1, 1, 3, 3, 3)
     return G1 @ np.diag(w) @ G0.T, idx
+
+
+def _gradients(nrow, J):
+    """The rows' gradients as one matrix (a row per (point, row), the columns of segment i
+    at 6 i .. 6 i + 5: its centre, then its axis), and the (point, row) of each."""
+    n = nrow.shape[0] - 1
+    idx = [(j, r) for j in range(n + 1) for r in range(nrow[j])]
+    G = np.zeros((len(idx), 6 * n))
+    for k, (j, r) in enumerate(idx):
+        if j >= 1:
+            G[k, 6 * (j - 1) : 6 * j] = J[j, r, :6]
+        if j < n:
+            G[k, 6 * j : 6 * j + 6] = J[j, r, 6:]
+    return G, idx
 
 
 def _packed(idx, v, n):
@@ -122,13 +129,9 @@ def test_the_newton_matrix_takes_the_symmetric_drops_or_says_it_is_singular():
     assert np.max(np.abs(_flat(idx, x)[keep] - truth)) < 1e-9 * np.max(np.abs(truth))
 
 
-@pytest.mark.parametrize("seed", [7, 8, 9])
-@pytest.mark.parametrize("symmetric", [True, False])
-def test_the_chains_own_rows(seed, symmetric):
-    """The rows of a 10-segment chain (``layout``, ``row_gradients``) at random axes, with
-    free points, an anchored pile top, an anchor between two airborne segments, bend and
-    floor rows: every kind, the end rows' products in closed form."""
-    n = 10
+def _own_rows(seed, n=10):
+    """The layout of an n-segment chain with free points, an anchored pile top, an anchor
+    between two airborne segments (8 rows), bend and floor rows: every kind of row."""
     rng = np.random.default_rng(seed)
     anchored = np.zeros(n + 1, np.uint8)
     anchored[[0, 1, 5, 10]] = 1  # segment 0 landed; 5 between airborne 4 and 5; the bottom
@@ -139,6 +142,17 @@ def test_the_chains_own_rows(seed, symmetric):
     kind, nrow = np.zeros((n + 1, RMAX), np.int8), np.zeros(n + 1, np.int64)
     layout(anchored, bend, floor_on, kind, nrow)
     assert nrow[5] == 8 and set(nrow) >= {3, 4, 5}
+    return anchored, kind, nrow, rng
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_the_chains_own_rows(seed, symmetric):
+    """The rows of a 10-segment chain (``layout``, ``row_gradients``) at random axes, with
+    free points, an anchored pile top, an anchor between two airborne segments, bend and
+    floor rows: every kind, the end rows' products in closed form."""
+    anchored, kind, nrow, rng = _own_rows(seed)
+    n = anchored.shape[0] - 1
     e0 = rng.standard_normal((n, 3))
     e1 = e0 if symmetric else e0 + 0.05 * rng.standard_normal((n, 3))
     J0, J1 = np.zeros((n + 1, RMAX, 12)), np.zeros((n + 1, RMAX, 12))
@@ -169,3 +183,23 @@ def test_factors_done_again_from_a_changed_point_on(symmetric):
     solve_blocks(nrow, F, _packed(idx, b, n), x)
     truth = np.linalg.solve(A, b)
     assert np.max(np.abs(_flat(idx, x) - truth)) < 1e-9 * np.max(np.abs(truth))
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_the_rows_forces_and_rates_are_the_gradients_products(seed):
+    """``row_forces`` (J^T x per segment) and ``row_rates`` (J u per row), which take the
+    end rows' signed components from their kinds, against the dense gradient matrix."""
+    anchored, kind, nrow, rng = _own_rows(seed)
+    n = anchored.shape[0] - 1
+    J = np.zeros((n + 1, RMAX, 12))
+    row_gradients(rng.standard_normal((n, 3)), kind, nrow, J, 0)
+    G, idx = _gradients(nrow, J)
+    x = _packed(idx, rng.standard_normal(len(idx)), n)
+    gf = np.full((n, 6), np.nan)
+    row_forces(J, kind, nrow, x, gf)
+    assert np.allclose(gf.reshape(-1), G.T @ _flat(idx, x), rtol=0, atol=1e-13)
+    vc, ve = rng.standard_normal((n, 3)), rng.standard_normal((n, 3))
+    rate = np.zeros((n + 1, RMAX))
+    row_rates(J, kind, nrow, vc, ve, rate)
+    u = np.hstack([vc, ve]).reshape(-1)
+    assert np.allclose(_flat(idx, rate), G @ u, rtol=0, atol=1e-13)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ...core.dynamics import DROP_RTOL, _weights
 from ...core.jit import njit
-from .rows import K_ANCHOR_LOWER, K_ANCHOR_UPPER, K_AXIS, K_BEND, K_JOINT
+from .rows import K_AXIS, end_signs, has_columns
 
 PIVOT_RTOL = 1e-12  # stage 1: a pivot of A below this fraction of its diagonal (not dropped): A is singular
 
@@ -60,47 +60,25 @@ def _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww):
 
 
 @njit(cache=True, inline="always")
-def _end_signs(k, below):
-    """An end row (kind k < K_AXIS: joint, lower or upper anchor) on one of its segments
-    (below: the one below its point, else above): the signs (centre, axis) of its
-    component's columns, (0, 0) if it has none there (``rows``)."""
-    if k < K_ANCHOR_LOWER:
-        return (-1.0, -1.0) if below else (1.0, -1.0)
-    if k < K_ANCHOR_UPPER:
-        return (0.0, 0.0) if below else (1.0, -1.0)
-    return (1.0, 1.0) if below else (0.0, 0.0)
-
-
-@njit(cache=True, inline="always")
-def _on(k, below):
-    """Has a row of kind k columns on the segment below its point (below) or above it?"""
-    if k == K_BEND or (K_JOINT <= k < K_ANCHOR_LOWER):
-        return True
-    if K_ANCHOR_LOWER <= k < K_ANCHOR_UPPER:
-        return not below
-    return below  # an upper anchor, the axis, the floor: on the segment below only
-
-
-@njit(cache=True, inline="always")
 def _entry(J1, J0, kind, j1, r, j0, s, b1, b0, wv, ww):
     """J1[j1, r] W J0[j0, s]^T over one segment: the one below point j1 if b1 (else above),
     below point j0 if b0.  An end row's gradient there is a signed unit vector (``rows``):
     its products are taken in closed form; a row with no columns there gives 0."""
     k1, k0 = kind[j1, r], kind[j0, s]
-    if not (_on(k1, b1) and _on(k0, b0)):
+    if not (has_columns(k1, b1) and has_columns(k0, b0)):
         return 0.0
     g1, g0 = (6 if b1 else 0), (6 if b0 else 0)
     if k1 < K_AXIS:
-        c1, e1 = _end_signs(k1, b1)
+        c1, e1 = end_signs(k1, b1)
         q = k1 % 3
         if k0 < K_AXIS:
             if k0 % 3 != q:
                 return 0.0
-            c0, e0 = _end_signs(k0, b0)
+            c0, e0 = end_signs(k0, b0)
             return wv * c1 * c0 + ww * e1 * e0
         return wv * c1 * J0[j0, s, g0 + q] + ww * e1 * J0[j0, s, g0 + 3 + q]
     if k0 < K_AXIS:
-        c0, e0 = _end_signs(k0, b0)
+        c0, e0 = end_signs(k0, b0)
         q = k0 % 3
         return wv * c0 * J1[j1, r, g1 + q] + ww * e0 * J1[j1, r, g1 + 3 + q]
     return _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww)

@@ -72,6 +72,28 @@ def layout(anchored, bend, floor_on, kind, nrow):
         nrow[j] = r
 
 
+@njit(cache=True, inline="always")
+def end_signs(k, below):
+    """An end row (kind k < K_AXIS: joint, lower or upper anchor) on one of its segments
+    (below: the one below its point, else above): the signs (centre, axis) of its
+    component's columns, (0, 0) if it has none there (``rows``)."""
+    if k < K_ANCHOR_LOWER:
+        return (-1.0, -1.0) if below else (1.0, -1.0)
+    if k < K_ANCHOR_UPPER:
+        return (0.0, 0.0) if below else (1.0, -1.0)
+    return (1.0, 1.0) if below else (0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def has_columns(k, below):
+    """Has a row of kind k columns on the segment below its point (below) or above it?"""
+    if k == K_BEND or (K_JOINT <= k < K_ANCHOR_LOWER):
+        return True
+    if K_ANCHOR_LOWER <= k < K_ANCHOR_UPPER:
+        return not below
+    return below  # an upper anchor, the axis, the floor: on the segment below only
+
+
 @njit(cache=True)
 def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
     """out[j, r] = the constraint function of row r of point j at (c, e); returns the
@@ -139,19 +161,63 @@ def row_gradients(e, kind, nrow, J, j_from):
 
 
 @njit(cache=True)
-def row_rates(J, nrow, vc, ve, out):
-    """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve)."""
+def row_rates(J, kind, nrow, vc, ve, out):
+    """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve) (an end
+    row's: its signed component, ``end_signs``)."""
     n = vc.shape[0]
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
+            k = kind[j, r]
             acc = 0.0
-            if j >= 1:
-                for q in range(3):
-                    acc += J[j, r, q] * vc[j - 1, q] + J[j, r, 3 + q] * ve[j - 1, q]
-            if j < n:
-                for q in range(3):
-                    acc += J[j, r, 6 + q] * vc[j, q] + J[j, r, 9 + q] * ve[j, q]
+            if k < K_AXIS:
+                q = k % 3
+                if j >= 1 and has_columns(k, False):
+                    sc, se = end_signs(k, False)
+                    acc += sc * vc[j - 1, q] + se * ve[j - 1, q]
+                if j < n and has_columns(k, True):
+                    sc, se = end_signs(k, True)
+                    acc += sc * vc[j, q] + se * ve[j, q]
+            else:
+                if j >= 1 and has_columns(k, False):
+                    for q in range(3):
+                        acc += J[j, r, q] * vc[j - 1, q] + J[j, r, 3 + q] * ve[j - 1, q]
+                if j < n:
+                    for q in range(3):
+                        acc += J[j, r, 6 + q] * vc[j, q] + J[j, r, 9 + q] * ve[j, q]
             out[j, r] = acc
+
+
+@njit(cache=True)
+def row_forces(J, kind, nrow, x, gf):
+    """gf[i] = (J^T x) on segment i, its (centre, axis) columns: what impulses x on the rows
+    do to each segment (an end row's: its signed component, ``end_signs``)."""
+    n = gf.shape[0]
+    for i in range(n):
+        for q in range(6):
+            gf[i, q] = 0.0
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            v = x[j, r]
+            if v == 0.0:
+                continue
+            k = kind[j, r]
+            if k < K_AXIS:
+                q = k % 3
+                if j >= 1 and has_columns(k, False):
+                    sc, se = end_signs(k, False)
+                    gf[j - 1, q] += sc * v
+                    gf[j - 1, 3 + q] += se * v
+                if j < n and has_columns(k, True):
+                    sc, se = end_signs(k, True)
+                    gf[j, q] += sc * v
+                    gf[j, 3 + q] += se * v
+            else:
+                if j >= 1 and has_columns(k, False):
+                    for q in range(6):
+                        gf[j - 1, q] += J[j, r, q] * v
+                if j < n:
+                    for q in range(6):
+                        gf[j, q] += J[j, r, 6 + q] * v
 
 
 @njit(cache=True)

@@ -42,7 +42,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.books import log_row, lowest_point
-from ...core.dynamics import generalized_forces, potential_energy, rates_for_axes
+from ...core.dynamics import potential_energy, rates_for_axes
 from ...core.jit import entry, njit
 from ...core.rules import (
     LOG_LANDING,
@@ -65,6 +65,7 @@ from .rows import (
     carry_over,
     copy_layout,
     layout,
+    row_forces,
     row_gradients,
     row_rates,
     row_values,
@@ -336,9 +337,9 @@ def switch_on_violated(model, mo, sc, margin):
     anchored, locked, e, c = mo.anchored, mo.locked, mo.e, mo.c
     changed = False
     for k in range(locked.shape[0]):
-        if locked[k] == 0 and limit_in_force(anchored, k, model.cone, model.alpha):
+        if locked[k] == 0:
             g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
-            if g < -margin:
+            if g < -margin and limit_in_force(anchored, k, model.cone, model.alpha):
                 locked[k] = 1
                 changed = True
     for j in range(e.shape[0]):
@@ -436,7 +437,7 @@ def stage1(h, model, mo, ws, sc):
         switched = False  # rows switched on before the iteration met its rows
         last = math.inf
         for it in range(NEWTON_MAX):
-            generalized_forces(mo.anchored, ws.J, ws.nrow, ws.x, ws.gf)
+            row_forces(ws.J, ws.kind, ws.nrow, ws.x, ws.gf)
             add_impulses(mo.anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
             drift(h, mo.anchored, sc.start.c, sc.start.e, mo.vc, mo.ve, mo.c, mo.e)
             res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
@@ -494,8 +495,8 @@ def stage1(h, model, mo, ws, sc):
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
         if not _switch_stage1(model, mo, ws, sc, tol):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
-            row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.rb1)
-            row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.ra1)
+            row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.rb1)
+            row_rates(ws.J, ws.kind, ws.nrow, mo.vc, mo.ve, sc.ra1)
             return 0
     return ERR_ACTIVE_SET
 
@@ -589,25 +590,23 @@ def stage2(h, model, mo, ws, sc):
     tol = position_tol(e.shape[0])
     half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
     for k in range(locked.shape[0]):
-        cand = False
-        if limit_in_force(anchored, k, model.cone, model.alpha):
-            g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
-            cand = locked[k] != 0 or g <= tol
+        g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
+        cand = (locked[k] != 0 or g <= tol) and limit_in_force(anchored, k, model.cone, model.alpha)
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
     for rnd in range(ROUNDS_MAX):
         _factor(mo, ws, sc, e, False, True, rnd > 0)  # (sc.floor_on is all 0 after ``land``: no floor rows)
-        row_rates(ws.J, ws.nrow, sc.ukc, sc.uke, sc.val)
+        row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
                 ws.rhs[j, r] = -sc.val[j, r]
         solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
-        generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
+        row_forces(ws.J, ws.kind, ws.nrow, ws.x, ws.gf)
         add_impulses(anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
         if not math.isfinite(np.sum(mo.vc) + np.sum(mo.ve)):
             return ERR_STEP_NAN
         if not _switch_stage2(mo, ws, sc):
-            row_rates(ws.J, ws.nrow, mo.vc, mo.ve, sc.rate)
+            row_rates(ws.J, ws.kind, ws.nrow, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_w, sc.nrow_w, sc.x_w)
             sc.h_last[0] = h
