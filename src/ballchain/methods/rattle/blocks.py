@@ -10,7 +10,8 @@ one block LU without pivoting (A is symmetric positive semi-definite, or within 
 of it).  Blocks per point j (rows of j against the impulses of j - 1, j or j + 1):
 
   D_j = J1_j W J0_j^T,   U_j = J1_j^(c) W_j J0_{j+1}^(a)T,   L_j = J1_j^(a) W_{j-1} J0_{j-1}^(c)T
-  D'_j = D_j - L_j X_{j-1} = l_j u_j (in place: l_j below the diagonal, 1 / pivots on it),
+  D'_j = D_j - L_j X_{j-1} = l_j u_j (in place: l_j below the diagonal, 1 / pivots on it,
+  0 for a dropped row, whose column of l is 0: its unknown comes out 0),
   X_j = D'_j^{-1} U_j,   z_j = D'_j^{-1} (b_j - L_j z_{j-1}),   x_j = z_j - X_j x_{j+1}
 
 A *dropped* row has unknown 0 and its equation left out: a row the factorisation of
@@ -129,10 +130,12 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
                 out = drops[j, k] != 0
                 if not out and not abs(d) > PIVOT_RTOL * d0[k]:
                     return -1
-            if out:
+            if out:  # its unknown 0: no multipliers, inverse pivot 0 (the solves need not ask)
                 drop[j, k] = 1
                 ndrop += 1
-                D[j, k, k] = 1.0
+                D[j, k, k] = 0.0
+                for i in range(k + 1, nr):
+                    D[j, i, k] = 0.0
                 continue
             drop[j, k] = 0
             inv = 1.0 / d
@@ -148,29 +151,24 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
             for r in range(nr):
                 for s in range(nn):
                     X[j, r, s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
-            _lu_solve_columns(D, drop, j, nr, X, nn)
+            _lu_solve_columns(D, j, nr, X, nn)
     return ndrop
 
 
 @njit(cache=True, inline="always")
-def _lu_solve_columns(D, drop, j, nr, X, nn):
-    """X[j] <- D'_j^{-1} X[j] (nn columns), dropped rows 0."""
+def _lu_solve_columns(D, j, nr, X, nn):
+    """X[j] <- D'_j^{-1} X[j] (nn columns; a dropped row comes out 0: its inverse pivot is
+    0 and its column of l is 0)."""
     for k in range(nr):
-        if drop[j, k]:
-            for s in range(nn):
-                X[j, k, s] = 0.0
-            continue
         for i in range(k + 1, nr):
             f = D[j, i, k]
-            if f != 0.0 and not drop[j, i]:
+            if f != 0.0:
                 for s in range(nn):
                     X[j, i, s] -= f * X[j, k, s]
     for k in range(nr - 1, -1, -1):
-        if drop[j, k]:
-            continue
         for c in range(k + 1, nr):
             f = D[j, k, c]
-            if f != 0.0 and not drop[j, c]:
+            if f != 0.0:
                 for s in range(nn):
                     X[j, k, s] -= f * X[j, c, s]
         inv = D[j, k, k]
@@ -181,7 +179,7 @@ def _lu_solve_columns(D, drop, j, nr, X, nn):
 @njit(cache=True)
 def solve_blocks(nrow, F, b, x):
     """x = A^{-1} b with the factors of ``factor_blocks`` (dropped rows: x = 0)."""
-    D, L, X, drop = F.D, F.L, F.X, F.drop
+    D, L, X = F.D, F.L, F.X
     npts = nrow.shape[0]
     for j in range(npts):
         nr = nrow[j]
@@ -192,15 +190,10 @@ def solve_blocks(nrow, F, b, x):
                     v -= L[j, r, p] * x[j - 1, p]
             x[j, r] = v
         for k in range(nr):
-            if drop[j, k]:
-                x[j, k] = 0.0
-                continue
             xk = x[j, k]
             for i in range(k + 1, nr):
                 x[j, i] -= D[j, i, k] * xk
         for k in range(nr - 1, -1, -1):
-            if drop[j, k]:
-                continue
             s = x[j, k]
             for c in range(k + 1, nr):
                 s -= D[j, k, c] * x[j, c]
