@@ -225,17 +225,12 @@ def _print_json(obj: dict) -> None:
 
 
 def _method_text(s: dict) -> str:
-    """The method and its accuracy setting, from a run's summary."""
-    if s.get("method") == "timestep":
-        return (
-            f"time-stepping (Moreau-Jean), dt = {_fmt(s.get('dt'))} t_ff/N, theta = {_fmt(s.get('theta'))}, "
-            f"steps {s.get('dt_rule') or 'fixed'}"
-        )
-    if s.get("method") == "event":
-        return f"event-driven, rtol {_fmt(s.get('rtol'), '.3g')}"
-    if s.get("method") == "rattle":
-        return f"nonsmooth RATTLE (experimental), dt = {_fmt(s.get('dt'))} t_ff/N at most"
-    return str(s.get("method"))
+    """The method and its accuracy setting, from a run's summary (each method's package
+    says it: ``summary``)."""
+    from .methods import METHODS, method_package
+
+    name = s.get("method")
+    return method_package(name).summary(s) if name in METHODS else str(name)
 
 
 def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tuple[dict, tuple | None]:

@@ -187,3 +187,8 @@ def options_dataclass(base: type, name: str, module: str, names=None) -> type:
         + "\n"
     )
     return cls
+
+
+def number_text(x, spec: str = ".6g") -> str:
+    """A number of a run's summary as text ("n/a" if missing or not finite)."""
+    return "n/a" if not isinstance(x, (int, float)) or not math.isfinite(x) else format(x, spec)

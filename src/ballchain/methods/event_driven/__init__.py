@@ -14,7 +14,7 @@ import math
 
 from ...errors import ParameterError
 from ..bounds import AuditBounds
-from ..options import MethodOption, positive
+from ..options import MethodOption, number_text, positive
 
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
 
@@ -78,3 +78,8 @@ OPTIONS = (
         positive(at_least=1e-12, why="the round-off band of the bend function"),
     ),
 )
+
+
+def summary(s: dict) -> str:
+    """The method and its accuracy setting, from a run's summary (the command line's line)."""
+    return f"event-driven, rtol {number_text(s.get('rtol'), '.3g')}"

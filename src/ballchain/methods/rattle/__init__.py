@@ -9,7 +9,7 @@ package's option) and the bounds its runs are audited against (``records.audit``
 from __future__ import annotations
 
 from ..bounds import AuditBounds
-from ..options import MethodOption, non_negative
+from ..options import MethodOption, non_negative, number_text
 
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
 STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is taken again, shorter)
@@ -46,3 +46,14 @@ OPTIONS = (
         run_key=_etol_key,
     ),
 )
+
+
+def summary(s: dict) -> str:
+    """The method and its accuracy setting, from a run's summary (the command line's line)."""
+    dt, etol = s.get("dt"), s.get("step_energy_tol")
+    bound = STEP_ENERGY_TOL if etol is None else etol
+    return f"nonsmooth RATTLE (experimental), dt = {number_text(dt)} t_ff/N at most, " + (
+        f"a step changes U + T by at most {number_text(bound, '.3g')} E0"
+        if bound
+        else "no bound on a step's change of U + T"
+    )

@@ -17,7 +17,7 @@ N = 1024, dt 0.02, the worst of 16 starts; 0.09 at dt 0.04), so the bound is per
 from __future__ import annotations
 
 from ..bounds import AuditBounds
-from ..options import MethodOption, in_range, one_of, positive
+from ..options import MethodOption, in_range, number_text, one_of, positive
 
 AUDIT = AuditBounds(energy_rtol=0.1, depth_tol=0.1, hinge_tol=0.0, hinge_per_dt=15.0, warn_near=True)
 
@@ -109,3 +109,11 @@ OPTIONS = (
         run_key=_dt_rule_key,
     ),
 )
+
+
+def summary(s: dict) -> str:
+    """The method and its accuracy setting, from a run's summary (the command line's line)."""
+    return (
+        f"time-stepping (Moreau-Jean), dt = {number_text(s.get('dt'))} t_ff/N, theta = {number_text(s.get('theta'))}, "
+        f"steps {s.get('dt_rule') or 'fixed'}"
+    )
