@@ -4,6 +4,7 @@ event instants, and the cost per evaluation.
     python benchmarks/compare_revisions.py --base HEAD~1 --segments 64,128 --seeds 0-7
     python benchmarks/compare_revisions.py --base HEAD~1 --segments 512 --seeds 0-1
     python benchmarks/compare_revisions.py --base HEAD~1 --segments 128 --helix --reps 5
+    python benchmarks/compare_revisions.py --base 3d40ceb --segments 512 --seeds 0-3 --method rattle
 
 ``--base`` is checked out as a git worktree (in a temporary directory, removed at the
 end); the other side is this checkout.  Each revision compiles its kernels once (a
@@ -88,6 +89,7 @@ def main() -> None:
     ap.add_argument("--seeds", default="0-7", help="random starts: 0-7 or 1,4,9")
     ap.add_argument("--helix", action="store_true", help="the default helix start instead of random starts")
     ap.add_argument("--reps", type=int, default=1, help="runs of each fall; the shortest wall time is kept")
+    ap.add_argument("--method", default="event", help="the method of both sides (a time-stepper: steps, not instants)")
     args = ap.parse_args()
     if args.reps < 1:
         ap.error("--reps must be >= 1")
@@ -109,7 +111,7 @@ def main() -> None:
     with base_worktree(args.base) as wt:
         sides = {"base": wt / "src", "head": ROOT / "src"}
         for src in sides.values():  # compile (or load) each side's kernels, untimed
-            fall(src, ["-N", "8"])
+            fall(src, ["-N", "8", "--method", args.method])
         rows = []
         for n in [int(s) for s in args.segments.split(",")]:
             res = {"base": [], "head": []}
@@ -118,7 +120,20 @@ def main() -> None:
                 best = {}
                 for _ in range(args.reps):
                     for side, src in sides.items():
-                        r = fall(src, ["-N", str(n), "--alpha", args.alpha, "--floor", args.floor, *start])
+                        r = fall(
+                            src,
+                            [
+                                "-N",
+                                str(n),
+                                "--alpha",
+                                args.alpha,
+                                "--floor",
+                                args.floor,
+                                "--method",
+                                args.method,
+                                *start,
+                            ],
+                        )
                         if side not in best or r["wall_seconds"] < best[side]["wall_seconds"]:
                             best[side] = r
                 for side, r in best.items():
@@ -130,6 +145,9 @@ def main() -> None:
                     )
             rows.append((n, res))
         print()
+        if args.method != "event":
+            _steps_table(rows)
+            return
         print(
             "| N | starts | median wall base (s) | median wall head (s) | head / base | "
             "median us per evaluation base / head | median instants base / head | "
@@ -155,6 +173,26 @@ def main() -> None:
                 f"{ib:.0f} / {ih:.0f} | {per['base'][0]:.0f} / {per['head'][0]:.0f} | "
                 f"{per['base'][1]:.1f} / {per['head'][1]:.1f} |"
             )
+
+
+def _steps_table(rows) -> None:
+    """A time-stepper's table: walls, steps and ns per segment and step (medians)."""
+    print(
+        "| N | starts | median wall base (s) | median wall head (s) | head / base | median steps base / head | "
+        "ns per segment and step base / head |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for n, res in rows:
+        med = {side: statistics.median(r["wall_seconds"] for r in res[side]) for side in res}
+        steps = {side: statistics.median(r["n_steps"] for r in res[side]) for side in res}
+        per = {
+            side: sum(r["wall_seconds"] for r in res[side]) / sum(r["n_steps"] for r in res[side]) / n * 1e9
+            for side in res
+        }
+        print(
+            f"| {n} | {len(res['base'])} | {med['base']:.2f} | {med['head']:.2f} | {med['head'] / med['base']:.2f} | "
+            f"{steps['base']:.0f} / {steps['head']:.0f} | {per['base']:.0f} / {per['head']:.0f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -82,6 +82,7 @@ EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual 
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
 SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
 SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
+ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
@@ -116,14 +117,14 @@ Scratch = namedtuple(
         "cand",  # (N-1,) uint8: stage 2's candidates, the hinges at their limit after stage 1
         "kind1", "nrow1", "x1", "rb1", "ra1",  # stage 1's layout, impulses, rates before/after
         "kind_old", "nrow_old", "x_old",  # a layout before the last switch (carry-over)
-        "kind_w", "nrow_w", "x_w",  # the last stage 2's impulses: the next stage 1's warm start
+        "kind_w", "nrow_w", "x_w",  # the last accepted step's stage 2 impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
         "acc",  # (10,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
         #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
         #   step's start minus at its end, [9] 1 if the step had an impact
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
-        "h_last",  # (1,): the step of the last stage 2 (its impulses, the warm start, scale with it)
+        "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
     ],
 )  # fmt: skip
@@ -608,10 +609,19 @@ def stage2(h, model, mo, ws, sc):
         if not _switch_stage2(mo, ws, sc):
             row_rates(ws.J, ws.kind, ws.nrow, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
-            copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_w, sc.nrow_w, sc.x_w)
-            sc.h_last[0] = h
             return 0
     return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def keep_warm_start(h, ws, sc):
+    """After a step of size h is accepted: its stage 2's layout and impulses are the next
+    stage 1's warm start (scaled to that step).  Not after a step that is refused: its
+    stage 2 may hold an impact's impulses (a landing, a lock), far from h/2 times the
+    forces, and from there the next stage 1's Newton can reach another assembly of a
+    stretch closed between anchors (two segments' axes swapped) with huge impulses."""
+    copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_w, sc.nrow_w, sc.x_w)
+    sc.h_last[0] = h
 
 
 @njit(cache=True)
@@ -653,6 +663,8 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split):
     copy_motion(mo, sc.start)
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
     code = stage1(h, model, mo, ws, sc)
+    if code == 0 and _largest_turn(sc.start.e, mo.e) > ROOT_TURN:
+        code = ERR_NEWTON  # another root of stage 1's equations, not this step's: taken again halved
     if code < 0:
         return code, 0
     lock_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_BEND)
@@ -717,6 +729,15 @@ def _lock_beside_landing(locked0, locked, kind1, nrow1, x1, new_anchor, na):
                 if kind1[k + 1, q] == K_BEND and x1[k + 1, q] > 0.0:
                     return True
     return False
+
+
+@njit(cache=True)
+def _largest_turn(e0, e1):
+    """max_i |e1_i - e0_i|: how far a step turned its most turned segment (about the angle, rad)."""
+    m = 0.0
+    for i in range(e0.shape[0]):
+        m = max(m, (e1[i, 0] - e0[i, 0]) ** 2 + (e1[i, 1] - e0[i, 1]) ** 2 + (e1[i, 2] - e0[i, 2]) ** 2)
+    return math.sqrt(m)
 
 
 @njit(cache=True)
@@ -895,6 +916,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False)
             if code < 0:
                 break
+            keep_warm_start(hf / m, fws, fsc)
             fb[0] += fsc.acc[0]
             fb[1] += fsc.acc[1]
             for q in range(3):
@@ -997,6 +1019,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         return 0, t
     if code < 0:
         return code, t
+    keep_warm_start(h, ws, sc)
     fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb))
     _books_now(books, fb)
     for q in range(5):
