@@ -29,7 +29,7 @@ import numpy as np
 
 from ...core.dynamics import DROP_RTOL, _weights
 from ...core.jit import njit
-from .rows import K_AXIS, end_signs, has_columns
+from .rows import K_AXIS, K_JOINT, end_signs, has_columns
 
 PIVOT_RTOL = 1e-12  # stage 1: a pivot of A below this fraction of its diagonal (not dropped): A is singular
 
@@ -100,14 +100,24 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
         nr = nrow[j]
         av, aw = _weights(anchored, j - 1, n)
         cv, cw = _weights(anchored, j, n)
+        if nr == 4 and kind[j, 0] == K_JOINT:  # most points: a free point without a bend or floor row
+            nd = _factor_free_point(J1, J0, nrow, j, n, F, av, aw, cv, cw, symmetric, drops)
+            if nd < 0:
+                return -1
+            ndrop += nd
+            continue
+        free = kind[j, 0] == K_JOINT  # the first 4 rows in closed form (``_free_point_blocks``)
+        r0 = 4 if free else 0
+        if free:
+            _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw)
         for r in range(nr):
-            for s in range(nr):
+            for s in range(r0 if r < r0 else 0, nr):
                 D[j, r, s] = _entry(J1, J0, kind, j, r, j, s, False, False, av, aw) + _entry(
                     J1, J0, kind, j, r, j, s, True, True, cv, cw
                 )
         if j >= 1 and av + aw > 0.0:
             npv = nrow[j - 1]
-            for r in range(nr):
+            for r in range(r0, nr):
                 for p in range(npv):
                     L[j, r, p] = _entry(J1, J0, kind, j, r, j - 1, p, False, True, av, aw)
             for r in range(nr):
@@ -148,10 +158,106 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
                         D[j, i, s] -= f * D[j, k, s]
         if j < n:
             nn = nrow[j + 1]
-            for r in range(nr):
+            if free:
+                _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
+            for r in range(r0, nr):
                 for s in range(nn):
                     X[j, r, s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
             _lu_solve_columns(D, j, nr, X, nn)
+    return ndrop
+
+
+@njit(cache=True, inline="always")
+def _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw):
+    """D_j's first 4 x 4 and L_j's first 4 rows at a free point j: its joint rows q (on the
+    segment above: +1 centre, -1 axis; below: -1, -1) and the axis row of the segment
+    below (E = J[j, 3, 9:12]):  D[q, q'] = delta (av + aw + cv + cw),  D[q, 3] = -cw E0_q,
+    D[3, q] = -cw E1_q,  D[3, 3] = cw E1 . E0;  L[q, p] = av J0[j-1, p, 6+q] - aw
+    J0[j-1, p, 9+q] (row p of point j - 1 on its segment below), L[3, p] = 0."""
+    dq = av + aw + cv + cw
+    e11, e12, e13 = J1[j, 3, 9], J1[j, 3, 10], J1[j, 3, 11]
+    e01, e02, e03 = J0[j, 3, 9], J0[j, 3, 10], J0[j, 3, 11]
+    for q in range(3):
+        for s in range(3):
+            D[j, q, s] = dq if q == s else 0.0
+    D[j, 0, 3], D[j, 1, 3], D[j, 2, 3] = -cw * e01, -cw * e02, -cw * e03
+    D[j, 3, 0], D[j, 3, 1], D[j, 3, 2] = -cw * e11, -cw * e12, -cw * e13
+    D[j, 3, 3] = cw * (e11 * e01 + e12 * e02 + e13 * e03)
+    if j >= 1:
+        for p in range(nrow[j - 1]):
+            for q in range(3):
+                L[j, q, p] = av * J0[j - 1, p, 6 + q] - aw * J0[j - 1, p, 9 + q]
+            L[j, 3, p] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _free_point_coupling(J1, J0, nrow, j, X, cv, cw):
+    """U_j's first 4 rows at a free point j (``_free_point_blocks``), against the rows s of
+    point j + 1 on their segment above (J0[j+1, s, 0:6]):  U[q, s] = -cv J0[j+1, s, q] - cw
+    J0[j+1, s, 3+q],  U[3, s] = cw E1 . J0[j+1, s, 3:6]."""
+    e11, e12, e13 = J1[j, 3, 9], J1[j, 3, 10], J1[j, 3, 11]
+    for s in range(nrow[j + 1]):
+        for q in range(3):
+            X[j, q, s] = -cv * J0[j + 1, s, q] - cw * J0[j + 1, s, 3 + q]
+        X[j, 3, s] = cw * (e11 * J0[j + 1, s, 3] + e12 * J0[j + 1, s, 4] + e13 * J0[j + 1, s, 5])
+
+
+@njit(cache=True)
+def _factor_free_point(J1, J0, nrow, j, n, F, av, aw, cv, cw, symmetric, drops):
+    """``factor_blocks`` at a free point j with its 4 rows only (joints, the axis below):
+    the blocks of ``_free_point_blocks`` and ``_free_point_coupling``, whose structure
+    leaves L_j X_{j-1} in the joints' 3 x 3 (L_j's axis row is 0; X_{j-1}'s axis column is
+    0: the axis below j has no columns on the segment above it), loops of fixed length.
+    Returns the number of dropped rows, or -1 (singular, not symmetric)."""
+    D, L, X, drop = F.D, F.L, F.X, F.drop
+    _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw)
+    if j >= 1 and av + aw > 0.0:
+        npv = nrow[j - 1]
+        for r in range(3):
+            for s in range(3):
+                acc = 0.0
+                for p in range(npv):
+                    acc += L[j, r, p] * X[j - 1, p, s]
+                D[j, r, s] -= acc
+    d00, d11, d22, d33 = abs(D[j, 0, 0]), abs(D[j, 1, 1]), abs(D[j, 2, 2]), abs(D[j, 3, 3])
+    ndrop = 0
+    for k in range(4):
+        d = D[j, k, k]
+        dk0 = d00 if k == 0 else (d11 if k == 1 else (d22 if k == 2 else d33))
+        if symmetric:
+            out = d <= DROP_RTOL * max(dk0, 1e-300)
+        else:
+            out = drops[j, k] != 0
+            if not out and not abs(d) > PIVOT_RTOL * dk0:
+                return -1
+        if out:
+            drop[j, k] = 1
+            ndrop += 1
+            D[j, k, k] = 0.0
+            for i in range(k + 1, 4):
+                D[j, i, k] = 0.0
+            continue
+        drop[j, k] = 0
+        inv = 1.0 / d
+        D[j, k, k] = inv
+        for i in range(k + 1, 4):
+            f = D[j, i, k] * inv
+            D[j, i, k] = f
+            for c in range(k + 1, 4):
+                D[j, i, c] -= f * D[j, k, c]
+    if j < n:
+        nn = nrow[j + 1]
+        _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
+        for s in range(nn):
+            x0, x1, x2, x3 = X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
+            x1 -= D[j, 1, 0] * x0
+            x2 -= D[j, 2, 0] * x0 + D[j, 2, 1] * x1
+            x3 -= D[j, 3, 0] * x0 + D[j, 3, 1] * x1 + D[j, 3, 2] * x2
+            x3 *= D[j, 3, 3]
+            x2 = (x2 - D[j, 2, 3] * x3) * D[j, 2, 2]
+            x1 = (x1 - D[j, 1, 2] * x2 - D[j, 1, 3] * x3) * D[j, 1, 1]
+            x0 = (x0 - D[j, 0, 1] * x1 - D[j, 0, 2] * x2 - D[j, 0, 3] * x3) * D[j, 0, 0]
+            X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = x0, x1, x2, x3
     return ndrop
 
 
