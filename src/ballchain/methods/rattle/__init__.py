@@ -14,7 +14,7 @@ from ..options import MethodOption, non_negative, number_text
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
 STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is taken again, shorter)
 # Audit bounds (records.audit): the method holds the floor and the limits at the position
-# level, to its solver's tolerance (stage 1 meets every row to about 1e-12 b), so the depth,
+# level, to its solver's tolerance (stage 1 meets every row to about 1e-10 b), so the depth,
 # anchors and bends are held to the event-driven method's bounds; its energy error is
 # second order in dt where the motion is smooth, and bounded, not drifting.
 AUDIT = AuditBounds(energy_rtol=1e-2, depth_tol=1e-8, hinge_tol=1e-7)

@@ -74,7 +74,8 @@ from .rows import (
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
 NEWTON_RATE = 0.05  # an iteration that cuts the residual less than this fold moves on to (a new) A
 ROUNDS_MAX = 60  # active-set rounds of a stage at most
-POS_TOL = 1e-12  # b: stage 1 meets every row to this, plus the round-off of the heights
+POS_TOL = 1e-10  # b: stage 1 meets every row to this, plus the round-off of the heights (1e-12 before:
+#   the convergence table and the top the same to the digits shown, 14% fewer iterations at N = 256)
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
 EARLY_ROUNDS = 4  # rounds of stage 1 in which rows found far past their limit are switched on within the iteration
 EARLY_MARGIN = 10.0  # ... "far": by more than this many times the iterate's residual
