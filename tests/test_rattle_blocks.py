@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ballchain.methods.rattle.blocks import factor_blocks, new_factors, solve_blocks
-from ballchain.methods.rattle.rows import K_BEND, layout, row_forces, row_gradients, row_rates
+from ballchain.methods.rattle.rows import K_BEND, booked_rates, layout, row_forces, row_gradients, row_rates
 
 RMAX = 8
 
@@ -203,3 +203,12 @@ def test_the_rows_forces_and_rates_are_the_gradients_products(seed):
     row_rates(J, kind, nrow, vc, ve, rate)
     u = np.hstack([vc, ve]).reshape(-1)
     assert np.allclose(_flat(idx, rate), G @ u, rtol=0, atol=1e-13)
+    # the rows the books take: bend and floor rows, and every row of a point being anchored
+    marked = anchored.copy()
+    marked[5] = 2
+    booked = np.full((n + 1, RMAX), np.nan)
+    booked_rates(J, kind, nrow, marked, vc, ve, booked)
+    want = [(j, r) for j, r in idx if j == 5 or kind[j, r] >= K_BEND]
+    assert len(want) > nrow[5] and np.isnan(_flat(idx, booked)).sum() == len(idx) - len(want)
+    for j, r in want:
+        assert booked[j, r] == pytest.approx(rate[j, r], abs=1e-13)

@@ -160,64 +160,100 @@ def row_gradients(e, kind, nrow, J, j_from):
                 J[j, r, 11] = 1.0
 
 
+@njit(cache=True, inline="always")
+def _row_rate(J, kind, j, r, n, vc, ve):
+    """J[j, r] . u: the rate of row r of point j at velocities (vc, ve) (an end row's: its
+    signed component, ``end_signs``)."""
+    k = kind[j, r]
+    acc = 0.0
+    if k < K_AXIS:
+        q = k % 3
+        if j >= 1 and has_columns(k, False):
+            sc, se = end_signs(k, False)
+            acc += sc * vc[j - 1, q] + se * ve[j - 1, q]
+        if j < n and has_columns(k, True):
+            sc, se = end_signs(k, True)
+            acc += sc * vc[j, q] + se * ve[j, q]
+    else:
+        if j >= 1 and has_columns(k, False):
+            for q in range(3):
+                acc += J[j, r, q] * vc[j - 1, q] + J[j, r, 3 + q] * ve[j - 1, q]
+        if j < n:
+            for q in range(3):
+                acc += J[j, r, 6 + q] * vc[j, q] + J[j, r, 9 + q] * ve[j, q]
+    return acc
+
+
 @njit(cache=True)
 def row_rates(J, kind, nrow, vc, ve, out):
-    """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve) (an end
-    row's: its signed component, ``end_signs``)."""
+    """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve)."""
     n = vc.shape[0]
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
-            k = kind[j, r]
-            acc = 0.0
-            if k < K_AXIS:
-                q = k % 3
-                if j >= 1 and has_columns(k, False):
-                    sc, se = end_signs(k, False)
-                    acc += sc * vc[j - 1, q] + se * ve[j - 1, q]
-                if j < n and has_columns(k, True):
-                    sc, se = end_signs(k, True)
-                    acc += sc * vc[j, q] + se * ve[j, q]
+            out[j, r] = _row_rate(J, kind, j, r, n, vc, ve)
+
+
+@njit(cache=True)
+def booked_rates(J, kind, nrow, anchored, vc, ve, out):
+    """``row_rates`` of the rows whose work the books take: the bend and floor rows, and
+    every row of a point being anchored (marked 2); the other entries of out are left as
+    they were."""
+    n = vc.shape[0]
+    for j in range(nrow.shape[0]):
+        every = anchored[j] == 2
+        for r in range(nrow[j]):
+            if every or kind[j, r] >= K_BEND:
+                out[j, r] = _row_rate(J, kind, j, r, n, vc, ve)
+
+
+@njit(cache=True, inline="always")
+def _point_force(J, kind, nrow, x, j, below):
+    """(J^T x) of the rows of point j on its segment below (below) or above: 6 values,
+    the segment's (centre, axis) columns (an end row's: its signed component)."""
+    f0 = f1 = f2 = f3 = f4 = f5 = 0.0
+    g = 6 if below else 0
+    for r in range(nrow[j]):
+        v = x[j, r]
+        k = kind[j, r]
+        if v == 0.0 or not has_columns(k, below):
+            continue
+        if k < K_AXIS:
+            sc, se = end_signs(k, below)
+            q = k % 3
+            if q == 0:
+                f0 += sc * v
+                f3 += se * v
+            elif q == 1:
+                f1 += sc * v
+                f4 += se * v
             else:
-                if j >= 1 and has_columns(k, False):
-                    for q in range(3):
-                        acc += J[j, r, q] * vc[j - 1, q] + J[j, r, 3 + q] * ve[j - 1, q]
-                if j < n:
-                    for q in range(3):
-                        acc += J[j, r, 6 + q] * vc[j, q] + J[j, r, 9 + q] * ve[j, q]
-            out[j, r] = acc
+                f2 += sc * v
+                f5 += se * v
+        else:
+            f0 += J[j, r, g] * v
+            f1 += J[j, r, g + 1] * v
+            f2 += J[j, r, g + 2] * v
+            f3 += J[j, r, g + 3] * v
+            f4 += J[j, r, g + 4] * v
+            f5 += J[j, r, g + 5] * v
+    return f0, f1, f2, f3, f4, f5
+
+
+@njit(cache=True, inline="always")
+def segment_force(J, kind, nrow, x, i):
+    """(J^T x) on segment i, its (centre, axis) columns: the rows of point i on the
+    segment below it and those of point i + 1 on the segment above it."""
+    a0, a1, a2, a3, a4, a5 = _point_force(J, kind, nrow, x, i, True)
+    b0, b1, b2, b3, b4, b5 = _point_force(J, kind, nrow, x, i + 1, False)
+    return a0 + b0, a1 + b1, a2 + b2, a3 + b3, a4 + b4, a5 + b5
 
 
 @njit(cache=True)
 def row_forces(J, kind, nrow, x, gf):
-    """gf[i] = (J^T x) on segment i, its (centre, axis) columns: what impulses x on the rows
-    do to each segment (an end row's: its signed component, ``end_signs``)."""
-    n = gf.shape[0]
-    for i in range(n):
-        for q in range(6):
-            gf[i, q] = 0.0
-    for j in range(nrow.shape[0]):
-        for r in range(nrow[j]):
-            v = x[j, r]
-            if v == 0.0:
-                continue
-            k = kind[j, r]
-            if k < K_AXIS:
-                q = k % 3
-                if j >= 1 and has_columns(k, False):
-                    sc, se = end_signs(k, False)
-                    gf[j - 1, q] += sc * v
-                    gf[j - 1, 3 + q] += se * v
-                if j < n and has_columns(k, True):
-                    sc, se = end_signs(k, True)
-                    gf[j, q] += sc * v
-                    gf[j, 3 + q] += se * v
-            else:
-                if j >= 1 and has_columns(k, False):
-                    for q in range(6):
-                        gf[j - 1, q] += J[j, r, q] * v
-                if j < n:
-                    for q in range(6):
-                        gf[j, q] += J[j, r, 6 + q] * v
+    """gf[i] = (J^T x) on segment i (``segment_force``): what impulses x on the rows do to
+    each segment."""
+    for i in range(gf.shape[0]):
+        gf[i, 0], gf[i, 1], gf[i, 2], gf[i, 3], gf[i, 4], gf[i, 5] = segment_force(J, kind, nrow, x, i)
 
 
 @njit(cache=True)
@@ -244,12 +280,12 @@ def copy_layout(kind, nrow, x, kind_to, nrow_to, x_to):
 
 
 # The rows and the solvers' workspace: the rows' gradients J (at q), kinds and counts,
-# right-hand side, impulses x and generalised forces gf (as the core's ``state.Work``), the
-# rows at q+ (J1, stage 1), the factors of J W J^T (``sym``, the last stage 2's: the next
+# right-hand side and impulses x (the forces they make are gathered per segment where they
+# are used: ``segment_force``), the rows at q+ (J1, stage 1), the factors of J W J^T (``sym``, the last stage 2's: the next
 # stage 1 starts from them, and gives its Newton matrix their redundant rows) and of stage
 # 1's Newton matrix J1 W J^T (``newt``; ``blocks``);
 # valid (1,): J, kind, nrow and ``sym`` are the last stage 2's, at the state's axes.
-Rows = namedtuple("Rows", ["J", "kind", "nrow", "rhs", "x", "gf", "J1", "sym", "newt", "valid"])
+Rows = namedtuple("Rows", ["J", "kind", "nrow", "rhs", "x", "J1", "sym", "newt", "valid"])
 
 
 def new_rows(n: int) -> Rows:
@@ -263,7 +299,6 @@ def new_rows(n: int) -> Rows:
         np.zeros(p, np.int64),
         np.zeros((p, RMAX)),
         np.zeros((p, RMAX)),
-        np.zeros((n, 6)),
         np.zeros((p, RMAX, 12)),
         new_factors(p, RMAX),
         new_factors(p, RMAX),

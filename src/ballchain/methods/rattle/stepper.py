@@ -62,13 +62,14 @@ from .rows import (
     K_AXIS,
     K_BEND,
     K_FLOOR,
+    booked_rates,
     carry_over,
     copy_layout,
     layout,
-    row_forces,
     row_gradients,
     row_rates,
     row_values,
+    segment_force,
 )
 
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
@@ -240,24 +241,23 @@ def half_kick(h, anchored, vc, ve, ukc, uke):
 
 
 @njit(cache=True)
-def add_impulses(anchored, gf, ukc, uke, vc, ve):
-    """u = u_kick + W G^T P (gf = G^T P per segment): (vc, ve) <- (ukc, uke) + W gf."""
+def add_impulses(h, anchored, J, kind, nrow, x, ukc, uke, vc, ve, c0, e0, c, e, move):
+    """u = u_kick + W J^T x on the segments not landed, W = diag(1, 3) (the forces of the
+    rows gathered per segment, ``rows.segment_force``), and with ``move`` the drift
+    q+ = q0 + h u in the same pass."""
     for i in range(vc.shape[0]):
-        landed = is_landed(anchored, i)
-        for q in range(3):
-            vc[i, q] = 0.0 if landed else ukc[i, q] + gf[i, q]
-            ve[i, q] = 0.0 if landed else uke[i, q] + 3.0 * gf[i, 3 + q]
-
-
-@njit(cache=True)
-def drift(h, anchored, c0, e0, vc, ve, c, e):
-    """q+ = q + h u_half on the segments not landed."""
-    for i in range(c0.shape[0]):
         if is_landed(anchored, i):
+            for q in range(3):
+                vc[i, q] = 0.0
+                ve[i, q] = 0.0
             continue
-        for q in range(3):
-            c[i, q] = c0[i, q] + h * vc[i, q]
-            e[i, q] = e0[i, q] + h * ve[i, q]
+        f0, f1, f2, f3, f4, f5 = segment_force(J, kind, nrow, x, i)
+        vc[i, 0], vc[i, 1], vc[i, 2] = ukc[i, 0] + f0, ukc[i, 1] + f1, ukc[i, 2] + f2
+        ve[i, 0], ve[i, 1], ve[i, 2] = uke[i, 0] + 3.0 * f3, uke[i, 1] + 3.0 * f4, uke[i, 2] + 3.0 * f5
+        if move:
+            for q in range(3):
+                c[i, q] = c0[i, q] + h * vc[i, q]
+                e[i, q] = e0[i, q] + h * ve[i, q]
 
 
 @njit(cache=True)
@@ -412,8 +412,8 @@ def first_change(kind_a, nrow_a, kind_b, nrow_b):
 @njit(cache=True)
 def stage1(h, model, mo, ws, sc):
     """Stage 1 (module docstring): q+ and u_half in mo, the impulses P1 in ws.x, their
-    layout kept in sc (kind1, nrow1, x1) with the rows' rates before and after.  Returns
-    0, ERR_NEWTON or ERR_ACTIVE_SET."""
+    layout kept in sc (kind1, nrow1, x1) with the rates before and after of the rows the
+    books take (rb1, ra1: ``booked_rates``).  Returns 0, ERR_NEWTON or ERR_ACTIVE_SET."""
     n = mo.e.shape[0]
     tol = position_tol(n)
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
@@ -442,9 +442,10 @@ def stage1(h, model, mo, ws, sc):
         switched = False  # rows switched on before the iteration met its rows
         last = math.inf
         for it in range(NEWTON_MAX):
-            row_forces(ws.J, ws.kind, ws.nrow, ws.x, ws.gf)
-            add_impulses(mo.anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
-            drift(h, mo.anchored, sc.start.c, sc.start.e, mo.vc, mo.ve, mo.c, mo.e)
+            add_impulses(
+                h, mo.anchored, ws.J, ws.kind, ws.nrow, ws.x, sc.ukc, sc.uke, mo.vc, mo.ve,
+                sc.start.c, sc.start.e, mo.c, mo.e, True,
+            )  # fmt: skip
             res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
             sc.acc[7] += 1.0
             if res <= tol:
@@ -500,8 +501,8 @@ def stage1(h, model, mo, ws, sc):
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
         if not _switch_stage1(model, mo, ws, sc, tol):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
-            row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.rb1)
-            row_rates(ws.J, ws.kind, ws.nrow, mo.vc, mo.ve, sc.ra1)
+            booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, sc.ukc, sc.uke, sc.rb1)
+            booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, mo.vc, mo.ve, sc.ra1)
             return 0
     return ERR_ACTIVE_SET
 
@@ -588,7 +589,7 @@ def _switch_stage2(mo, ws, sc):
 @njit(cache=True)
 def stage2(h, model, mo, ws, sc):
     """Stage 2 (module docstring): u+ in mo, P2 in ws.x, the rows' rates before (sc.val)
-    and after (sc.rate).  The candidates (hinges in force active in stage 1 or at their
+    and after (sc.rate: the rows the books take, ``booked_rates``).  The candidates (hinges in force active in stage 1 or at their
     limit within the position tolerance) start all locked.  Returns 0 or ERR_ACTIVE_SET (a
     singular solve leaves velocities that are not finite: ``rattle_step`` refuses the step)."""
     e, anchored, locked = mo.e, mo.anchored, mo.locked
@@ -606,10 +607,11 @@ def stage2(h, model, mo, ws, sc):
             for r in range(ws.nrow[j]):
                 ws.rhs[j, r] = -sc.val[j, r]
         solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
-        row_forces(ws.J, ws.kind, ws.nrow, ws.x, ws.gf)
-        add_impulses(anchored, ws.gf, sc.ukc, sc.uke, mo.vc, mo.ve)
+        add_impulses(
+            h, anchored, ws.J, ws.kind, ws.nrow, ws.x, sc.ukc, sc.uke, mo.vc, mo.ve, mo.c, mo.e, mo.c, mo.e, False
+        )
         if not _switch_stage2(mo, ws, sc):  # (a singular solve: U + T is not finite, ``rattle_step``)
-            row_rates(ws.J, ws.kind, ws.nrow, mo.vc, mo.ve, sc.rate)
+            booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
             return 0
     return ERR_ACTIVE_SET
