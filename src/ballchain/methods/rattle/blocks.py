@@ -49,6 +49,12 @@ def new_factors(points: int, rmax: int) -> Factors:
     )
 
 
+@njit(cache=True)
+def factors_view(F, p):
+    """The factors of the first p points: views (``d0``, scratch, whole)."""
+    return Factors(F.D[:p], F.L[:p], F.X[:p], F.drop[:p], F.d0)
+
+
 @njit(cache=True, inline="always")
 def _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww):
     """J1[j1, r] W J0[j0, s]^T over one segment: its columns g1 in row r, g0 in row s (0: the

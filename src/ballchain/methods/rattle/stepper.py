@@ -49,19 +49,21 @@ from ...core.rules import (
     LOG_LOCK,
     LOG_UNLOCK,
     all_anchored,
+    bottom_airborne,
     fall_ended,
     hold_at,
     is_landed,
     landed_count,
     limit_in_force,
 )
-from .blocks import factor_blocks, solve_blocks
+from .blocks import factor_blocks, factors_view, solve_blocks
 from .rows import (
     K_ANCHOR_LOWER,
     K_ANCHOR_UPPER,
     K_AXIS,
     K_BEND,
     K_FLOOR,
+    Rows,
     booked_rates,
     carry_over,
     copy_layout,
@@ -202,7 +204,8 @@ def kinetic_energy_rattle(vc, ve):
 
 @njit(cache=True)
 def position_tol(n):
-    """What stage 1 meets each row to (b): POS_TOL plus the round-off of heights up to 2N."""
+    """What stage 1 meets each row to (b): POS_TOL plus the round-off of heights up to 2n
+    (n: the segments a step works on, ``active_points``: the rest lie on the floor)."""
     return POS_TOL + POS_ROUNDOFF * 2.0 * n
 
 
@@ -659,12 +662,72 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split):
     frame's step, inside a step of the fall) a point stopped by the floor is not anchored:
     the fall anchors it, at its own step's end.  With ``split`` a step in which a point
     lands and a hinge beside it locks is refused (ERR_MERGED: ``_lock_beside_landing``).
-    Returns (code, new anchors)."""
+    Returns (code, new anchors).  The stages see the chain down to its landed part only
+    (``active_points``: views of the same arrays, its indices the chain's)."""
     for q in range(sc.acc.shape[0]):
         sc.acc[q] = 0.0
     for q in range(3):
         sc.pull[q] = 0.0
-    copy_motion(mo, sc.start)
+    copy_motion(mo, sc.start)  # (all of it: a refused step is undone from it)
+    p = active_points(mo.anchored)
+    _no_rows_from(p, ws, sc)
+    return _step_points(t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings, split)
+
+
+@njit(cache=True)
+def active_points(anchored):
+    """How many points, from the top, a step works on: down to the lower end of the segment
+    below the lowest one not landed (the hinge between them may bear a limit: the anchor
+    cone, ``rules.limit_in_force``).  Below them the chain has landed: no rows, no motion."""
+    n = anchored.shape[0] - 1
+    return min(bottom_airborne(anchored) + 3, n + 1)
+
+
+@njit(cache=True)
+def _no_rows_from(p, ws, sc):
+    """No point from p on has rows (their last rows, from before the segments there
+    landed, are not the layouts')."""
+    for j in range(p, ws.nrow.shape[0]):
+        ws.nrow[j] = 0
+        sc.nrow1[j] = 0
+        sc.nrow_old[j] = 0
+        sc.nrow_w[j] = 0
+
+
+@njit(cache=True)
+def motion_view(mo, p):
+    """The state of the chain's first p points (p - 1 segments): views."""
+    s = p - 1
+    return Motion(
+        mo.c[:s], mo.e[:s], mo.vc[:s], mo.ve[:s], mo.anchored[:p], mo.anchor_pos[:p], mo.anchor_t[:p],
+        mo.locked[: max(s - 1, 0)],
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def rows_view(ws, p):
+    """The rows of the first p points and their factors: views."""
+    return Rows(
+        ws.J[:p], ws.kind[:p], ws.nrow[:p], ws.rhs[:p], ws.x[:p], ws.J1[:p],
+        factors_view(ws.sym, p), factors_view(ws.newt, p), ws.valid,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def scratch_view(sc, p):
+    """A step's scratch for the first p points: views (the counters whole)."""
+    s, k = p - 1, max(p - 2, 0)
+    return Scratch(
+        motion_view(sc.start, p), sc.ukc[:s], sc.uke[:s], sc.val[:p], sc.rate[:p], sc.floor_on[:p], sc.cand[:k],
+        sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
+        sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
+        sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _step_points(t, h, model, mo, ws, sc, etol, landings, split):
+    """``rattle_step`` on the points of the views (sc.start holds the step's start)."""
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
     code = stage1(h, model, mo, ws, sc)
     if code == 0 and _largest_turn(sc.start.e, mo.e) > ROOT_TURN:
