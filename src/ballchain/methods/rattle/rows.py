@@ -212,7 +212,18 @@ def _point_force(J, kind, nrow, x, j, below):
     the segment's (centre, axis) columns (an end row's: its signed component)."""
     f0 = f1 = f2 = f3 = f4 = f5 = 0.0
     g = 6 if below else 0
-    for r in range(nrow[j]):
+    r0 = 0
+    if nrow[j] >= 4 and kind[j, 0] == K_JOINT:  # a free point: its joints and the axis below in closed form
+        r0 = 4
+        x0, x1, x2 = x[j, 0], x[j, 1], x[j, 2]
+        if below:  # (joint: -1 on the centre and the axis below; axis row: e)
+            x3 = x[j, 3]
+            f0, f1, f2 = -x0, -x1, -x2
+            f3, f4, f5 = -x0 + J[j, 3, 9] * x3, -x1 + J[j, 3, 10] * x3, -x2 + J[j, 3, 11] * x3
+        else:  # (joint: +1 on the centre above, -1 on its axis)
+            f0, f1, f2 = x0, x1, x2
+            f3, f4, f5 = -x0, -x1, -x2
+    for r in range(r0, nrow[j]):
         v = x[j, r]
         k = kind[j, r]
         if v == 0.0 or not has_columns(k, below):
