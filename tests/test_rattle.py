@@ -94,3 +94,63 @@ def test_frames_do_not_change_the_fall():
 def test_the_pivot_floor_is_refused():
     with pytest.raises(ParameterError, match="--floor all only"):
         simulate(ChainParams(segments=4, floor="pivot"), options=SolverOptions(method="rattle"))
+
+
+def _pile_and_hanging_part(n=12, landed=4, seed=3):
+    """A chain whose last ``landed`` segments lie on the floor (their points anchored) and
+    whose upper part hangs above them, bent within the limit, moving: points P_j (j = 0 the
+    top), velocities V_j built from the anchored point up (lengths and joints kept)."""
+    from ballchain.methods.rattle.stepper import Motion
+
+    rng = np.random.default_rng(seed)
+    k = n - landed  # the first anchored point
+    P, V = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+    for j in range(k, n + 1):
+        P[j] = (2.0 * (j - k), 0.0, 0.0)
+    for j in range(k - 1, -1, -1):
+        u = np.array([0.0, 0.0, 1.0]) + 0.2 * rng.standard_normal(3)
+        u /= np.linalg.norm(u)
+        P[j] = P[j + 1] + 2.0 * u
+        V[j] = V[j + 1] + 2.0 * np.cross(rng.standard_normal(3), u)
+    c, e = 0.5 * (P[:-1] + P[1:]), 0.5 * (P[:-1] - P[1:])
+    vc, ve = 0.5 * (V[:-1] + V[1:]), 0.5 * (V[:-1] - V[1:])
+    anchored = np.zeros(n + 1, np.uint8)
+    anchored[k:] = 1
+    return Motion(c, e, vc, ve, anchored, P.copy(), np.zeros(n + 1), np.zeros(n - 1, np.uint8))
+
+
+def test_the_landed_part_takes_no_part_in_a_step():
+    """A step works on the points down to the landed part only (``active_points``): the
+    segments lying on the floor have no rows and do not move, so 40 steps on that part and
+    the same steps on the whole chain leave the same state (up to the solver's tolerance,
+    whose round-off term counts the segments it works on)."""
+    from ballchain.core.state import new_model
+    from ballchain.methods.rattle import stepper as S
+    from ballchain.methods.rattle.rows import new_rows
+
+    n = 12
+    model = new_model(math.pi / 4, 0, False, SolverOptions(method="rattle").for_segments(n), 1e9, 0.0, 1)
+    runs = []
+    for whole in (False, True):
+        mo, ws, sc = _pile_and_hanging_part(n), new_rows(n), S.new_scratch(n)
+        assert S.active_points(mo.anchored) == n - 4 + 2  # down to the lower end of the first landed segment
+        t, h, locks = 0.0, 0.01, 0
+        for _ in range(40):
+            if whole:  # (rattle_step's preamble, on every point)
+                sc.acc[:], sc.pull[:] = 0.0, 0.0
+                S.copy_motion(mo, sc.start)
+                code, na = S._step_points(t, h, model, mo, ws, sc, 0.0, True, False)
+            else:
+                code, na = S.rattle_step(t, h, model, mo, ws, sc, 0.0, True, False)
+            assert code == 0 and na == 0
+            S.keep_warm_start(h, ws, sc)
+            locks += int(mo.locked.sum())
+            t += h
+        runs.append(mo)
+    part, whole = runs
+    assert locks > 0  # (the hanging part's limits took part)
+    assert np.all(part.anchored == whole.anchored) and np.all(part.locked == whole.locked)
+    for name in ("c", "e", "vc", "ve"):
+        assert np.allclose(getattr(part, name), getattr(whole, name), rtol=0, atol=1e-9), name
+    assert np.all(part.c[n - 4 :] == _pile_and_hanging_part(n).c[n - 4 :])  # the pile did not move
+    assert np.all(part.vc[n - 4 :] == 0.0) and np.all(part.ve[n - 4 :] == 0.0)
