@@ -255,15 +255,9 @@ def _factor_free_point(J1, J0, nrow, j, n, F, av, aw, cv, cw, symmetric, drops):
         nn = nrow[j + 1]
         _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
         for s in range(nn):
-            x0, x1, x2, x3 = X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
-            x1 -= D[j, 1, 0] * x0
-            x2 -= D[j, 2, 0] * x0 + D[j, 2, 1] * x1
-            x3 -= D[j, 3, 0] * x0 + D[j, 3, 1] * x1 + D[j, 3, 2] * x2
-            x3 *= D[j, 3, 3]
-            x2 = (x2 - D[j, 2, 3] * x3) * D[j, 2, 2]
-            x1 = (x1 - D[j, 1, 2] * x2 - D[j, 1, 3] * x3) * D[j, 1, 1]
-            x0 = (x0 - D[j, 0, 1] * x1 - D[j, 0, 2] * x2 - D[j, 0, 3] * x3) * D[j, 0, 0]
-            X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = x0, x1, x2, x3
+            X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = _lu4_solve(
+                D, j, X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
+            )
     return ndrop
 
 
@@ -342,6 +336,13 @@ def _solve_point4(nrow, D, L, j, b, x):
             x1 -= L[j, 1, p] * xp
             x2 -= L[j, 2, p] * xp
             x3 -= L[j, 3, p] * xp
+    x[j, 0], x[j, 1], x[j, 2], x[j, 3] = _lu4_solve(D, j, x0, x1, x2, x3)
+
+
+@njit(cache=True, inline="always")
+def _lu4_solve(D, j, x0, x1, x2, x3):
+    """D'_j^{-1} (x0, x1, x2, x3) for a point of 4 rows: l (unit lower) then u (its
+    inverse pivots on the diagonal), as ``factor_blocks`` left them in D[j]."""
     x1 -= D[j, 1, 0] * x0
     x2 -= D[j, 2, 0] * x0 + D[j, 2, 1] * x1
     x3 -= D[j, 3, 0] * x0 + D[j, 3, 1] * x1 + D[j, 3, 2] * x2
@@ -349,4 +350,4 @@ def _solve_point4(nrow, D, L, j, b, x):
     x2 = (x2 - D[j, 2, 3] * x3) * D[j, 2, 2]
     x1 = (x1 - D[j, 1, 2] * x2 - D[j, 1, 3] * x3) * D[j, 1, 1]
     x0 = (x0 - D[j, 0, 1] * x1 - D[j, 0, 2] * x2 - D[j, 0, 3] * x3) * D[j, 0, 0]
-    x[j, 0], x[j, 1], x[j, 2], x[j, 3] = x0, x1, x2, x3
+    return x0, x1, x2, x3

@@ -244,10 +244,13 @@ def half_kick(h, anchored, vc, ve, ukc, uke):
 
 
 @njit(cache=True)
-def add_impulses(h, anchored, J, kind, nrow, x, ukc, uke, vc, ve, c0, e0, c, e, move):
-    """u = u_kick + W J^T x on the segments not landed, W = diag(1, 3) (the forces of the
-    rows gathered per segment, ``rows.segment_force``), and with ``move`` the drift
-    q+ = q0 + h u in the same pass."""
+def add_impulses(h, mo, ws, sc, move):
+    """u = u_kick + W J^T x on the segments not landed, W = diag(1, 3) (u_kick: sc.ukc,
+    sc.uke; the forces of ws's rows and impulses gathered per segment,
+    ``rows.segment_force``), and with ``move`` the drift q+ = q0 + h u (q0: sc.start) in
+    the same pass."""
+    anchored, J, kind, nrow, x = mo.anchored, ws.J, ws.kind, ws.nrow, ws.x
+    ukc, uke, vc, ve, c0, e0, c, e = sc.ukc, sc.uke, mo.vc, mo.ve, sc.start.c, sc.start.e, mo.c, mo.e
     for i in range(vc.shape[0]):
         if is_landed(anchored, i):
             for q in range(3):
@@ -445,10 +448,7 @@ def stage1(h, model, mo, ws, sc):
         switched = False  # rows switched on before the iteration met its rows
         last = math.inf
         for it in range(NEWTON_MAX):
-            add_impulses(
-                h, mo.anchored, ws.J, ws.kind, ws.nrow, ws.x, sc.ukc, sc.uke, mo.vc, mo.ve,
-                sc.start.c, sc.start.e, mo.c, mo.e, True,
-            )  # fmt: skip
+            add_impulses(h, mo, ws, sc, True)
             res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
             sc.acc[7] += 1.0
             if res <= tol:
@@ -610,9 +610,7 @@ def stage2(h, model, mo, ws, sc):
             for r in range(ws.nrow[j]):
                 ws.rhs[j, r] = -sc.val[j, r]
         solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
-        add_impulses(
-            h, anchored, ws.J, ws.kind, ws.nrow, ws.x, sc.ukc, sc.uke, mo.vc, mo.ve, mo.c, mo.e, mo.c, mo.e, False
-        )
+        add_impulses(h, mo, ws, sc, False)
         if not _switch_stage2(mo, ws, sc):  # (a singular solve: U + T is not finite, ``rattle_step``)
             booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
