@@ -212,3 +212,52 @@ def test_the_rows_forces_and_rates_are_the_gradients_products(seed):
     assert len(want) > nrow[5] and np.isnan(_flat(idx, booked)).sum() == len(idx) - len(want)
     for j, r in want:
         assert booked[j, r] == pytest.approx(rate[j, r], abs=1e-13)
+
+
+def test_the_locks_share_of_a_landing_step_is_what_they_dissipate_after_the_landing():
+    """``lock_loss_after_landing`` against the impacts taken one after the other by dense
+    algebra: an inelastic impact is the M-orthogonal projection of u onto the velocities
+    its rows allow.  The landing (point 6 anchored anew, the lock of hinge 1 held from
+    before) and then hinges 3 and 4 locking anew: the locks dissipate T(u_landed) - T(u+),
+    where u+ comes from all rows at once, as the step solves them (their impulses split
+    between the step's two stages)."""
+    from ballchain.methods.rattle import stepper as S
+    from ballchain.methods.rattle.rows import new_rows
+
+    n = 8
+    rng = np.random.default_rng(21)
+    mo, ws, sc = S.new_motion(n), new_rows(n), S.new_scratch(n)
+    mo.e[:] = rng.standard_normal((n, 3))
+    mo.anchored[[6, 7, 8]] = (2, 1, 1)  # segment 7 landed before; segment 6 lands now (point 6: its impact)
+    sc.start.locked[1] = 1
+    mo.locked[[1, 3, 4]] = 1
+    floor_on = np.zeros(n + 1, np.uint8)
+    layout(mo.anchored, mo.locked, floor_on, ws.kind, ws.nrow)
+    row_gradients(mo.e, ws.kind, ws.nrow, ws.J, 0)
+    G, idx = _gradients(ws.nrow, ws.J)
+    w = np.zeros(6 * n)
+    for i in range(6):  # (segments 6 and 7 have landed: no motion)
+        w[6 * i : 6 * i + 6] = (1, 1, 1, 3, 3, 3)
+    W, M = np.diag(w), np.diag(np.where(w > 0, 1.0 / np.where(w > 0, w, 1.0), 0.0))
+
+    def project(rows, u):  # the inelastic impact of the given rows of G on u
+        Gr = G[rows]
+        return u - W @ Gr.T @ np.linalg.lstsq(Gr @ W @ Gr.T, Gr @ u, rcond=None)[0]
+
+    u0 = rng.standard_normal(6 * n) * (w > 0)
+    every = list(range(len(idx)))
+    new_bend = [k for k, (j, r) in enumerate(idx) if ws.kind[j, r] == K_BEND and j - 1 in (3, 4)]
+    u_plus, u_landed = project(every, u0), project([k for k in every if k not in new_bend], u0)
+    truth = 0.5 * u_landed @ M @ u_landed - 0.5 * u_plus @ M @ u_plus
+    P = np.linalg.lstsq(G @ W @ G.T, -(G @ u0), rcond=None)[0]  # u+ = u0 + W G^T P
+    assert np.allclose(u0 + W @ G.T @ P, u_plus, atol=1e-10)
+    ws.x[:] = _packed(idx, P, n)
+    # a third of hinge 3's impulse taken in stage 1 (its row among stage 1's), the rest in stage 2
+    j3 = 4
+    r3 = [r for r in range(ws.nrow[j3]) if ws.kind[j3, r] == K_BEND][0]
+    sc.kind1[j3, 0], sc.nrow1[j3], sc.x1[j3, 0] = K_BEND, 1, ws.x[j3, r3] / 3.0
+    ws.x[j3, r3] *= 2.0 / 3.0
+    got = S.lock_loss_after_landing(mo, ws, sc)
+    assert truth > 1e-3 * (0.5 * u0 @ M @ u0)  # (the locks do dissipate)
+    assert abs(got - truth) < 1e-10 * truth
+    assert list(mo.locked) == [0, 1, 0, 1, 1, 0, 0]  # (the step's locks as they were)

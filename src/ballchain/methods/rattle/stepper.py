@@ -25,11 +25,10 @@ impulse P on row r does to T is P (rate before + rate after) / 2 (exact for impu
 applied together); the bend rows' share is booked to the hinges, the floor rows' and new
 anchors' share to the landings, the equalities' share is the method's own error
 (the imbalance, second order).  A hinge is *locked* while it takes impulse in stage 2.
-A landing and a new lock beside it (``_lock_beside_landing``) are not resolved in one
-step: such a step is taken again halved (down to h / 2^SPLIT_CUTS) until they fall in
-steps of their own.  In one step they would be one simultaneous impact, whose rows'
-work books to the landing what the exact method, resolving the landing and then the
-lock it makes close, books to the lock (docs/rattle.md).
+A step with a landing and a new lock resolves them as one simultaneous impact; the books
+take them in the exact method's order, the landing first and then the lock it made close
+(``lock_loss_after_landing``): the rows' own work would book the lock's loss to the
+landing, the bend row's rate before being the one before the landing.
 Frames come from a second step from the step's start to the frame's time, on a copy of
 the state (``frame_substep``): the fall does not depend on when frames are taken.
 """
@@ -42,7 +41,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.books import log_row, lowest_point
-from ...core.dynamics import potential_energy, rates_for_axes
+from ...core.dynamics import _weights, potential_energy, rates_for_axes
 from ...core.jit import entry, njit
 from ...core.rules import (
     LOG_LANDING,
@@ -87,14 +86,11 @@ EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual 
 #   residual) is not switched on again by its own gap (that flip left the set as it was, round
 #   after round: 8% of the steps at N = 256 took 5 rounds or more, 1% with the margin)
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
-SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
-SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
 ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
 ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_STEP_NAN, ERR_NAN = -1, -2, -3, -4, -6
-ERR_MERGED = -7  # a landing and a lock beside it in one step: taken again halved (not returned by run_steps)
 
 # The state a step advances: the centres and their velocities beside the chain's axes,
 # anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
@@ -651,15 +647,14 @@ def settle(model, mo):
 
 
 @njit(cache=True)
-def rattle_step(t, h, model, mo, ws, sc, etol, landings, split):
+def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
     what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
     rates; stage 2's in ws, sc.val, sc.rate).  With etol > 0 a step is refused
     (ERR_STEP_ENERGY) that changes U + T by more than etol without an impact, or raises
     it by more than etol with one (an impact removes energy).  Without ``landings`` (a
     frame's step, inside a step of the fall) a point stopped by the floor is not anchored:
-    the fall anchors it, at its own step's end.  With ``split`` a step in which a point
-    lands and a hinge beside it locks is refused (ERR_MERGED: ``_lock_beside_landing``).
+    the fall anchors it, at its own step's end.
     Returns (code, new anchors).  The stages see the chain down to its landed part only
     (``active_points``: views of the same arrays, its indices the chain's)."""
     for q in range(sc.acc.shape[0]):
@@ -669,7 +664,7 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split):
     copy_motion(mo, sc.start)  # (all of it: a refused step is undone from it)
     p = active_points(mo.anchored)
     _no_rows_from(p, ws, sc)
-    return _step_points(t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings, split)
+    return _step_points(t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings)
 
 
 @njit(cache=True)
@@ -724,7 +719,7 @@ def scratch_view(sc, p):
 
 
 @njit(cache=True)
-def _step_points(t, h, model, mo, ws, sc, etol, landings, split):
+def _step_points(t, h, model, mo, ws, sc, etol, landings):
     """``rattle_step`` on the points of the views (sc.start holds the step's start)."""
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
     code = stage1(h, model, mo, ws, sc)
@@ -747,14 +742,9 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split):
     code = stage2(h, model, mo, ws, sc)
     if code < 0:
         return code, na
-    if (
-        split
-        and na > 0
-        and _lock_beside_landing(sc.start.locked, mo.locked, sc.kind1, sc.nrow1, sc.x1, sc.new_anchor, na)
-    ):
-        return ERR_MERGED, na
     lock_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_BEND)
     land_work -= _new_anchor_work(mo.anchored, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
+    lock_after = lock_loss_after_landing(mo, ws, sc) if na > 0 else -1.0
     _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
     _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, sc.pull)
     if na > 0:  # (landed segments do not move: nothing else to settle)
@@ -768,32 +758,10 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split):
         sc.acc[9] = 1.0
         if etol > 0.0 and lost < -etol:
             return ERR_STEP_ENERGY, na
-        _book_impact(lost, lock_work, land_work, na + touched, sc.acc)
+        _book_impact(lost, lock_work, land_work, lock_after, na + touched, sc.acc)
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
     return 0, na
-
-
-@njit(cache=True)
-def _lock_beside_landing(locked0, locked, kind1, nrow1, x1, new_anchor, na):
-    """Did a hinge not locked at the step's start, its point within SPLIT_REACH points of a
-    point anchored in this step, lock in it (impulse in stage 1, or locked after stage 2)?
-    The exact method lands the point first and then locks the hinge, which the landing
-    made close fast (the lock a few 1e-3 to 0.5 steps later, at about 3e-4 E0 each at
-    N = 512): resolved together, the bend row's rate before is the one before the landing,
-    its work small, and the landing's rows take the lock's loss."""
-    nh = locked0.shape[0]
-    for r in range(na):
-        j = new_anchor[r]
-        for k in range(max(j - 1 - SPLIT_REACH, 0), min(j - 1 + SPLIT_REACH, nh - 1) + 1):
-            if locked0[k] != 0:
-                continue
-            if locked[k] != 0:
-                return True
-            for q in range(nrow1[k + 1]):
-                if kind1[k + 1, q] == K_BEND and x1[k + 1, q] > 0.0:
-                    return True
-    return False
 
 
 @njit(cache=True)
@@ -825,12 +793,75 @@ def _new_lock(locked0, kind1, nrow1, x1):
 
 
 @njit(cache=True)
-def _book_impact(lost, lock_work, land_work, na, acc):
+def lock_loss_after_landing(mo, ws, sc):
+    """What a step's new locks dissipated after its landings, the impacts taken in the
+    exact method's order: the landings first (with the locks held from the step's start),
+    then the new locks.  Inelastic impacts are projections of u in the metric of M onto
+    the velocities the rows allow, and those of all rows lie within those the landing's
+    allow, so u+ is the same in either order and the locks' share is
+    1/2 |Pi_land W G_b^T P_b|_M^2  (P_b: the new locks' impulses over both stages, G_b
+    their rows at q+, Pi_land = 1 - W G_L^T (G_L W G_L^T)^{-1} G_L over the landing's
+    rows G_L).  One more factorisation; ws.J1 and ws.newt (stage 1's) and the scratch
+    that stage 2 is done with hold the work.  Returns -1 if no hinge locked anew."""
+    e, anchored, locked = mo.e, mo.anchored, mo.locked
+    n = e.shape[0]
+    dc, de = sc.ukc, sc.uke
+    for i in range(n):
+        for q in range(3):
+            dc[i, q] = 0.0
+            de[i, q] = 0.0
+    new = False
+    for k in range(locked.shape[0]):
+        sc.cand[k] = 0
+        if sc.start.locked[k] != 0:
+            continue
+        p, _ = _hinge_impulse(k, sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
+        if p == 0.0:
+            continue
+        new = True
+        wa = _weights(anchored, k, n)[1]
+        wc = _weights(anchored, k + 1, n)[1]
+        for q in range(3):  # (the bend row's gradient: e_c on e_a, e_a on e_c)
+            de[k, q] += wa * p * e[k + 1, q]
+            de[k + 1, q] += wc * p * e[k, q]
+        if locked[k] != 0:
+            sc.cand[k] = 1
+            locked[k] = 0
+    if not new:
+        return -1.0
+    layout(anchored, locked, sc.floor_on, sc.kind_old, sc.nrow_old)  # (no floor rows after ``land``)
+    for k in range(locked.shape[0]):
+        if sc.cand[k] != 0:
+            locked[k] = 1
+    row_gradients(e, sc.kind_old, sc.nrow_old, ws.J1, 0)
+    factor_blocks(anchored, ws.J1, ws.J1, sc.kind_old, sc.nrow_old, ws.newt.drop, ws.newt, True, 0)
+    sc.acc[5] += 1.0
+    row_rates(ws.J1, sc.kind_old, sc.nrow_old, dc, de, ws.rhs)
+    solve_blocks(sc.nrow_old, ws.newt, ws.rhs, sc.x_old)
+    loss = 0.0
+    for i in range(n):
+        wv, ww = _weights(anchored, i, n)
+        if wv + ww == 0.0:
+            continue
+        f0, f1, f2, f3, f4, f5 = segment_force(ws.J1, sc.kind_old, sc.nrow_old, sc.x_old, i)
+        loss += 0.5 * ((dc[i, 0] - wv * f0) ** 2 + (dc[i, 1] - wv * f1) ** 2 + (dc[i, 2] - wv * f2) ** 2)
+        loss += ((de[i, 0] - ww * f3) ** 2 + (de[i, 1] - ww * f4) ** 2 + (de[i, 2] - ww * f5) ** 2) / 6.0
+    return loss
+
+
+@njit(cache=True)
+def _book_impact(lost, lock_work, land_work, lock_after, na, acc):
     """A step with an impact (a new lock, a landing): what it removed from U + T (``lost``)
-    is what the impact dissipated, shared between the hinges and the landings as their
+    is what the impact dissipated.  With a landing and a new lock, the locks take what
+    they dissipate after the landing (``lock_after``, ``lock_loss_after_landing``), the
+    landing the rest; otherwise it is shared between the hinges and the landings as their
     impulses' work.  The step's impact is resolved at the step's end, not at its instant,
     so gravity's work over the step is not the change of U: that O(h) error is the
     impact's, and the imbalance keeps only the smooth steps' error (second order)."""
+    if na > 0 and lock_after >= 0.0:
+        acc[0] = min(lock_after, max(lost, 0.0))
+        acc[1] = lost - acc[0]
+        return
     lw = max(lock_work, 0.0)
     dw = max(land_work, 0.0) if na > 0 else 0.0
     share = lw / (lw + dw) if lw + dw > 0.0 else (0.0 if na > 0 else 1.0)
@@ -978,7 +1009,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             fb[q] = fb[11 + q]
         code = 0
         for _ in range(m):
-            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False)
+            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False)
             if code < 0:
                 break
             keep_warm_start(hf / m, fws, fsc)
@@ -1074,7 +1105,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     etol = fb[21]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS)
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True)
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
         copy_motion(sc.start, mo)
         ws.valid[0] = 0
