@@ -76,6 +76,9 @@ from .rows import (
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
 NEWTON_RATE = 0.05  # an iteration that cuts the residual less than this fold moves on to (a new) A
 ROUNDS_MAX = 60  # active-set rounds of a stage at most
+ITER_BUDGET = 60  # Newton iterations of stage 1 over all its rounds in a step that may still be halved: past
+#   them it is (at N = 512, accepted steps took at most 45, 99.99% of them 30 or fewer; the attempts that
+#   failed, 200-1500, 8% of the factorisations of a fall)
 POS_TOL = 1e-10  # b: stage 1 meets every row to this, plus the round-off of the heights (1e-12 before:
 #   the convergence table and the top the same to the digits shown, 14% fewer iterations at N = 256)
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
@@ -412,10 +415,11 @@ def first_change(kind_a, nrow_a, kind_b, nrow_b):
 
 
 @njit(cache=True)
-def stage1(h, model, mo, ws, sc):
+def stage1(h, model, mo, ws, sc, budget):
     """Stage 1 (module docstring): q+ and u_half in mo, the impulses P1 in ws.x, their
     layout kept in sc (kind1, nrow1, x1) with the rates before and after of the rows the
-    books take (rb1, ra1: ``booked_rates``).  Returns 0, ERR_NEWTON or ERR_ACTIVE_SET."""
+    books take (rb1, ra1: ``booked_rates``).  Returns 0, ERR_NEWTON (also after ``budget``
+    Newton iterations over all rounds) or ERR_ACTIVE_SET."""
     n = mo.e.shape[0]
     tol = position_tol(n)
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
@@ -444,6 +448,9 @@ def stage1(h, model, mo, ws, sc):
         switched = False  # rows switched on before the iteration met its rows
         last = math.inf
         for it in range(NEWTON_MAX):
+            if sc.acc[7] >= budget:
+                _record_unmet(ws, sc)
+                return ERR_NEWTON
             add_impulses(h, mo, ws, sc, True)
             res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
             sc.acc[7] += 1.0
@@ -647,14 +654,15 @@ def settle(model, mo):
 
 
 @njit(cache=True)
-def rattle_step(t, h, model, mo, ws, sc, etol, landings):
+def rattle_step(t, h, model, mo, ws, sc, etol, landings, budget):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
     what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
     rates; stage 2's in ws, sc.val, sc.rate).  With etol > 0 a step is refused
     (ERR_STEP_ENERGY) that changes U + T by more than etol without an impact, or raises
     it by more than etol with one (an impact removes energy).  Without ``landings`` (a
     frame's step, inside a step of the fall) a point stopped by the floor is not anchored:
-    the fall anchors it, at its own step's end.
+    the fall anchors it, at its own step's end.  ``budget``: stage 1's Newton iterations
+    at most.
     Returns (code, new anchors).  The stages see the chain down to its landed part only
     (``active_points``: views of the same arrays, its indices the chain's)."""
     for q in range(sc.acc.shape[0]):
@@ -664,7 +672,7 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings):
     copy_motion(mo, sc.start)  # (all of it: a refused step is undone from it)
     p = active_points(mo.anchored)
     _no_rows_from(p, ws, sc)
-    return _step_points(t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings)
+    return _step_points(t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings, budget)
 
 
 @njit(cache=True)
@@ -719,10 +727,10 @@ def scratch_view(sc, p):
 
 
 @njit(cache=True)
-def _step_points(t, h, model, mo, ws, sc, etol, landings):
+def _step_points(t, h, model, mo, ws, sc, etol, landings, budget):
     """``rattle_step`` on the points of the views (sc.start holds the step's start)."""
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
-    code = stage1(h, model, mo, ws, sc)
+    code = stage1(h, model, mo, ws, sc, budget)
     if code == 0 and _largest_turn(sc.start.e, mo.e) > ROOT_TURN:
         code = ERR_NEWTON  # another root of stage 1's equations, not this step's: taken again halved
     if code < 0:
@@ -942,6 +950,13 @@ TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w|
 
 
 @njit(cache=True)
+def _budget(level):
+    """Stage 1's Newton iterations at most in a step at this level: ITER_BUDGET while it
+    may still be halved, else every round's."""
+    return ITER_BUDGET if level < CUTS_MAX else NEWTON_MAX * ROUNDS_MAX
+
+
+@njit(cache=True)
 def _fastest_turn(ve):
     """max_i |e_i'| = max_i |w_i| (rad per sqrt(b/g))."""
     m = 0.0
@@ -1009,7 +1024,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             fb[q] = fb[11 + q]
         code = 0
         for _ in range(m):
-            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False)
+            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, _budget(cuts))
             if code < 0:
                 break
             keep_warm_start(hf / m, fws, fsc)
@@ -1105,7 +1120,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     etol = fb[21]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True)
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, _budget(level))
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
         copy_motion(sc.start, mo)
         ws.valid[0] = 0
