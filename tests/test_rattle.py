@@ -139,9 +139,9 @@ def test_the_landed_part_takes_no_part_in_a_step():
             if whole:  # (rattle_step's preamble, on every point)
                 sc.acc[:], sc.pull[:] = 0.0, 0.0
                 S.copy_motion(mo, sc.start)
-                code, na = S._step_points(t, h, model, mo, ws, sc, 0.0, True, S.ITER_BUDGET)
+                code, na = S._step_points(t, h, model, mo, ws, sc, 0.0, True, False, S.ITER_BUDGET)
             else:
-                code, na = S.rattle_step(t, h, model, mo, ws, sc, 0.0, True, S.ITER_BUDGET)
+                code, na = S.rattle_step(t, h, model, mo, ws, sc, 0.0, True, False, S.ITER_BUDGET)
             assert code == 0 and na == 0
             S.keep_warm_start(h, ws, sc)
             locks += int(mo.locked.sum())

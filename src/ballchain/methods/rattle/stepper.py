@@ -25,10 +25,15 @@ impulse P on row r does to T is P (rate before + rate after) / 2 (exact for impu
 applied together); the bend rows' share is booked to the hinges, the floor rows' and new
 anchors' share to the landings, the equalities' share is the method's own error
 (the imbalance, second order).  A hinge is *locked* while it takes impulse in stage 2.
-A step with a landing and a new lock resolves them as one simultaneous impact; the books
-take them in the exact method's order, the landing first and then the lock it made close
-(``lock_loss_after_landing``): the rows' own work would book the lock's loss to the
-landing, the bend row's rate before being the one before the landing.
+A landing and a new lock beside it (``_lock_beside_landing``) are not resolved in one
+step: such a step is taken again halved (down to h / 2^SPLIT_CUTS) until they fall in
+steps of their own.  The exact method lands the point and then locks the hinge that the
+landing made close; in one step, stage 1 would hold the hinge from the step's start,
+before the landing (without the split, t_fall/t_ff came out 0.009 [0.003, 0.016] long at
+N = 1024, paired on 63 starts).  Where a step still holds both (the split gave up, or the
+hinge was further away), the books take them in the exact method's order, the landing
+first and then the lock (``lock_loss_after_landing``): the rows' own work would book the
+lock's loss to the landing, the bend row's rate before being the one before the landing.
 Frames come from a second step from the step's start to the frame's time, on a copy of
 the state (``frame_substep``): the fall does not depend on when frames are taken.
 """
@@ -76,6 +81,8 @@ from .rows import (
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
 NEWTON_RATE = 0.05  # an iteration that cuts the residual less than this fold moves on to (a new) A
 ROUNDS_MAX = 60  # active-set rounds of a stage at most
+SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
+SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
 ITER_BUDGET = 60  # Newton iterations of stage 1 over all its rounds in a step that may still be halved: past
 #   them it is (at N = 512, accepted steps took at most 45, 99.99% of them 30 or fewer; the attempts that
 #   failed, 200-1500, 8% of the factorisations of a fall)
@@ -94,6 +101,7 @@ ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) f
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
 ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_STEP_NAN, ERR_NAN = -1, -2, -3, -4, -6
+ERR_MERGED = -7  # a landing and a lock beside it in one step: taken again halved (not returned by run_steps)
 
 # The state a step advances: the centres and their velocities beside the chain's axes,
 # anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
@@ -654,15 +662,16 @@ def settle(model, mo):
 
 
 @njit(cache=True)
-def rattle_step(t, h, model, mo, ws, sc, etol, landings, budget):
+def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
     what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
     rates; stage 2's in ws, sc.val, sc.rate).  With etol > 0 a step is refused
     (ERR_STEP_ENERGY) that changes U + T by more than etol without an impact, or raises
     it by more than etol with one (an impact removes energy).  Without ``landings`` (a
     frame's step, inside a step of the fall) a point stopped by the floor is not anchored:
-    the fall anchors it, at its own step's end.  ``budget``: stage 1's Newton iterations
-    at most.
+    the fall anchors it, at its own step's end.  With ``split`` a step in which a point
+    lands and a hinge beside it locks is refused (ERR_MERGED: ``_lock_beside_landing``).
+    ``budget``: stage 1's Newton iterations at most.
     Returns (code, new anchors).  The stages see the chain down to its landed part only
     (``active_points``: views of the same arrays, its indices the chain's)."""
     for q in range(sc.acc.shape[0]):
@@ -672,7 +681,9 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, budget):
     copy_motion(mo, sc.start)  # (all of it: a refused step is undone from it)
     p = active_points(mo.anchored)
     _no_rows_from(p, ws, sc)
-    return _step_points(t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings, budget)
+    return _step_points(
+        t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings, split, budget
+    )
 
 
 @njit(cache=True)
@@ -727,7 +738,7 @@ def scratch_view(sc, p):
 
 
 @njit(cache=True)
-def _step_points(t, h, model, mo, ws, sc, etol, landings, budget):
+def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     """``rattle_step`` on the points of the views (sc.start holds the step's start)."""
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
     code = stage1(h, model, mo, ws, sc, budget)
@@ -750,6 +761,12 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, budget):
     code = stage2(h, model, mo, ws, sc)
     if code < 0:
         return code, na
+    if (
+        split
+        and na > 0
+        and _lock_beside_landing(sc.start.locked, mo.locked, sc.kind1, sc.nrow1, sc.x1, sc.new_anchor, na)
+    ):
+        return ERR_MERGED, na
     lock_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_BEND)
     land_work -= _new_anchor_work(mo.anchored, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
     lock_after = lock_loss_after_landing(mo, ws, sc) if na > 0 else -1.0
@@ -770,6 +787,27 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, budget):
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
     return 0, na
+
+
+@njit(cache=True)
+def _lock_beside_landing(locked0, locked, kind1, nrow1, x1, new_anchor, na):
+    """Did a hinge not locked at the step's start, its point within SPLIT_REACH points of a
+    point anchored in this step, lock in it (impulse in stage 1, or locked after stage 2)?
+    The exact method lands the point first and then locks the hinge, which the landing
+    made close fast (the lock a few 1e-3 to 0.5 steps later, at about 3e-4 E0 each at
+    N = 512): resolved together, stage 1 holds the hinge from the step's start."""
+    nh = locked0.shape[0]
+    for r in range(na):
+        j = new_anchor[r]
+        for k in range(max(j - 1 - SPLIT_REACH, 0), min(j - 1 + SPLIT_REACH, nh - 1) + 1):
+            if locked0[k] != 0:
+                continue
+            if locked[k] != 0:
+                return True
+            for q in range(nrow1[k + 1]):
+                if kind1[k + 1, q] == K_BEND and x1[k + 1, q] > 0.0:
+                    return True
+    return False
 
 
 @njit(cache=True)
@@ -1024,7 +1062,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             fb[q] = fb[11 + q]
         code = 0
         for _ in range(m):
-            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, _budget(cuts))
+            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False, _budget(cuts))
             if code < 0:
                 break
             keep_warm_start(hf / m, fws, fsc)
@@ -1120,7 +1158,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     etol = fb[21]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, _budget(level))
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
         copy_motion(sc.start, mo)
         ws.valid[0] = 0
