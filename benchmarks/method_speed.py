@@ -4,6 +4,10 @@ docs/rattle.md and the README's "Which method when".
     python benchmarks/method_speed.py                                  # N = 128 and 1024, 3 starts
     python benchmarks/method_speed.py --segments 1024 --starts 5
     python benchmarks/method_speed.py --segments 4096 --methods rattle,timestep --starts 1
+    python benchmarks/method_speed.py --methods event,rattle,rattle:dt=0.1:step_energy_tol=1e-6
+
+A method may carry options (``method:option=value:...``, SolverOptions' names): a row of
+its own, beside the same method at its defaults.
 
 Random starts of seed 2026 (spawn keys 0, 1, ...), alpha = pi/4, floor all, one frame per
 t_ff (frames do not change a fall), every method at its defaults.  The methods take turns
@@ -31,9 +35,18 @@ from ballchain.model import ChainParams, InitialCondition, SolverOptions  # noqa
 METHODS = ("event", "timestep", "rattle")
 
 
-def _fall(n: int, key: int, method: str):
+def _setting(spec: str) -> tuple[str, dict]:
+    """'rattle:dt=0.1:step_energy_tol=1e-6' -> ('rattle', {'dt': 0.1, 'step_energy_tol': 1e-6})."""
+    method, *options = spec.split(":")
+    return method, {k: float(v) for k, v in (o.split("=", 1) for o in options)}
+
+
+def _fall(n: int, key: int, spec: str):
+    method, options = _setting(spec)
     start = InitialCondition(kind="random", seed=2026, spawn_key=(key,))
-    return simulate(ChainParams(segments=n, alpha=math.pi / 4), start, SolverOptions(method=method, frames_per_tff=1))
+    return simulate(
+        ChainParams(segments=n, alpha=math.pi / 4), start, SolverOptions(method=method, frames_per_tff=1, **options)
+    )
 
 
 def _ratio(runs: dict, other: str, m: str) -> str:
@@ -52,7 +65,7 @@ def main() -> None:
     methods = a.methods.split(",")
     print(machine_info())
     for m in methods:
-        load_kernels(m)
+        load_kernels(_setting(m)[0])
         _fall(8, 0, m)  # compiled (or loaded) before any fall is timed
     print(
         "\n| N | method | starts | wall per fall (s) | steps per fall | ns / segment / step | status | event wall / its | timestep wall / its |"
