@@ -551,3 +551,52 @@ def test_the_json_keys_page_lists_the_keys_of_stats(tmp_path):
     s = json.loads(runner.invoke(app, ["stats", path, "--json", "--plot", str(png), "--plot-n", str(png)]).stdout)
     assert set(s) == set(json_keys.STATS)
     assert {k for p in s["points"] for k in p} == set(json_keys.STATS_POINT)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "reproduction.parquet",  # the event method at rtol 1e-11 (the option in the key's middle)
+        "largeN-timestep2048.parquet",  # the time-stepper before its theta column (then 0.5)
+        "largeN-timestep1024-theta1-landing.parquet",  # ... with its step rule
+        "rattle1024-dt01-64starts.parquet",  # RATTLE with its own options set
+    ],
+)
+def test_committed_tables_keep_their_run_ids(name):
+    """The keys written by the versions that ran the committed tables are what today's
+    run_id makes of their rows (a sweep resumed into such a table skips its runs)."""
+    from pathlib import Path
+
+    from ballchain.sweeps.table import OPTION_COLUMNS
+
+    rows = read_table(Path(__file__).resolve().parents[1] / "docs" / "data" / name)
+    for r in rows:
+        params = ChainParams(segments=r["segments"], alpha=r["alpha"], floor=r["floor"], anchor_cone=r["anchor_cone"])
+        spawn = tuple(int(k) for k in r["spawn_key"].split(",")) if r["spawn_key"] else ()
+        ic = InitialCondition(
+            kind=r["ic"], eps=r["eps"], turns=r["turns"], phase=r["phase"], seed=r["seed"], spawn_key=spawn
+        )
+        given = {k: r[k] for k in OPTION_COLUMNS if r[k] == r[k] and r[k] != ""}  # (NaN, '': not in the table)
+        if r["method"] == "timestep":
+            given.setdefault("theta", 0.5)  # the only position update before the column
+        until = None if math.isnan(r["until"]) else r["until"]
+        options = SolverOptions(method=r["method"], until=until, frames_per_tff=r["frames_per_tff"], **given)
+        assert run_id(params, ic, options.for_segments(r["segments"])) == r["run_id"]
+
+
+def test_runs_of_two_methods_or_two_steps_are_two_points(tmp_path):
+    """One table holding the same starts by two methods (or one method at two steps) gives
+    a point each: their statistics are never pooled."""
+    path = _synthetic(tmp_path, {(45, k): 0.9 + 0.01 * k for k in range(6)})
+    rows = read_table(path)
+    other = [dict(r, run_id=r["run_id"] + "_rattle", method="rattle", dt=0.05, ratio=1.0) for r in rows]
+    third = [dict(r, run_id=r["run_id"] + "_rattle01", method="rattle", dt=0.1, ratio=1.1) for r in rows]
+    write_table(path, rows + other + third)
+    points = table_stats(path)["points"]
+    assert sorted((p["method"], p["dt"] if p["dt"] == p["dt"] else None) for p in points) == [
+        ("event", None),
+        ("rattle", 0.05),
+        ("rattle", 0.1),
+    ]
+    means = sorted(p["ratio"]["mean"] for p in points)
+    assert means == pytest.approx([0.925, 1.0, 1.1])

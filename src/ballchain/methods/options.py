@@ -107,6 +107,10 @@ class MethodOption:
     run_key: ``run_key(options)`` -> its part of a sweep run's key (``sweeps.spec.run_id``);
         None: ``_NAME VALUE`` when it differs from its default, else nothing (a new option
         leaves the keys of the runs that do not set it as they were).
+    key_among_inputs: its part of the key comes among the run's own inputs, before
+        ``_until``, not at the key's end: the place of the options that were in every run's
+        key before the methods stated their own (so that old tables' run ids, and with them
+        resumption, stay as they were).  New options leave it False.
     """
 
     name: str
@@ -120,6 +124,7 @@ class MethodOption:
     by_segments: Callable[[int], Any] | None = None
     unused: Any = None
     run_key: Callable[[Any], str] | None = None
+    key_among_inputs: bool = False
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():

@@ -83,7 +83,9 @@ STATS_POINT = {
     "anchor_cone": "the anchor cone setting",
     "ic": "the start's family",
     "eps": "the start's tilt",
-    "rtol": "the integrator's tolerance",
+    "method": "the integration method",
+    # the methods' own options with a sweep column (methods.all_options), in the registry's order
+    **{name: opt.column for name, opt in all_options().items() if opt.column is not None},
     "until": "the stop time asked for, if any",
     "n_runs": "rows of the point",
     "n_error": "rows with status error",

@@ -233,14 +233,17 @@ SweepSpec = options_dataclass(_SweepGrid, "SweepSpec", __name__, sweep_options()
 def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
     """A run's key in the table: every input that changes the run, readable (``options``
     with dt and theta filled in: ``SolverOptions.for_segments``); the methods' options
-    each add their part (``MethodOption.key``: nothing when not set, as before they existed)."""
+    each add their part (``MethodOption.key``: nothing when not set, as before they existed;
+    among the inputs those with ``key_among_inputs``, at the end the others)."""
     until = "end" if options.until is None else f"{options.until:.12g}"
     key = "-".join(str(k) for k in ic.spawn_key) or "none"
+    opts = all_options().values()
+    among_inputs = "".join(opt.key(options) for opt in opts if opt.key_among_inputs)
     return (
         f"N{params.segments}_a{math.degrees(params.alpha):.10g}deg_{params.floor}"
         f"{'_cone' if params.anchor_cone else ''}_{ic.kind}_eps{ic.eps:.12g}_q{ic.turns:.12g}"
-        f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}_rtol{options.rtol:.6g}_until{until}"
+        f"_ph{ic.phase:.12g}_seed{ic.seed}_key{key}{among_inputs}_until{until}"
         f"_fr{options.frames_per_tff:.12g}"
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
-        + "".join(opt.key(options) for opt in all_options().values())
+        + "".join(opt.key(options) for opt in opts if not opt.key_among_inputs)
     )

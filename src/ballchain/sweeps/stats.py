@@ -18,11 +18,11 @@ import warnings
 import numpy as np
 
 from ..floors.registry import WATCHES_EVERY_POINT
+from .table import POINT_KEYS as GROUP_KEYS  # what tells a point of the grid apart
 
 CONFIDENCE = 0.95
 N_RESAMPLES = 9999
 SEED = 20261123
-GROUP_KEYS = ("segments", "alpha", "floor", "anchor_cone", "ic", "eps", "rtol", "until")
 FAST = 1.0  # "faster than free fall": t_fall / t_ff < 1
 # no bootstrap interval of a mean from fewer runs: below it the interval's coverage is far
 # from its nominal 95% (with 2 runs the resamples see at most 3 distinct means)

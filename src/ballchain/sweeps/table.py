@@ -86,6 +86,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "n_evals": ("int64", "right-hand-side evaluations"),
     "worker": ("string", "where it ran"),
 }
+# the methods' options with a column (``methods.all_options``), in the registry's order
+OPTION_COLUMNS = tuple(name for name, opt in all_options().items() if opt.column is not None)
+# the columns every sweep table has had (a file without one of them is not a sweep table;
+# the methods' own columns came and come later, and are filled in when missing)
 INPUT_COLUMNS = (
     "segments",
     "alpha",
@@ -97,13 +101,13 @@ INPUT_COLUMNS = (
     "phase",
     "seed",
     "spawn_key",
-    "rtol",
     "method",
-    "dt",
     "until",
     "frames_per_tff",
 )
-SORT_KEYS = ("segments", "alpha", "floor", "ic", "eps", "rtol", "until", "seed", "run_index", "run_id")
+# what tells a table's points apart (its inputs but the start), then the start
+POINT_KEYS = ("segments", "alpha", "floor", "anchor_cone", "ic", "eps", "method", *OPTION_COLUMNS, "until")
+SORT_KEYS = (*POINT_KEYS, "seed", "run_index", "run_id")
 # columns that differ between two executions of the same sweep (the rest must not)
 VOLATILE = ("wall_seconds", "worker")
 CONVENTIONS = (

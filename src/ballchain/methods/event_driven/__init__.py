@@ -48,8 +48,9 @@ OPTIONS = (
         flag="--rtol",
         json="the event-driven integrator's relative tolerance",
         column="integrator tolerance",
-        # in every run's key since the first tables, at its own place (sweeps.spec.run_id)
-        run_key=lambda options: "",
+        # in every run's key since the first tables, whatever its method, at its own place
+        run_key=lambda options: f"_rtol{options.rtol:.6g}",
+        key_among_inputs=True,
     ),
     MethodOption(
         "event_xtol",
