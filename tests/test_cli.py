@@ -587,6 +587,7 @@ def test_the_compile_notice_counts_the_seconds(monkeypatch):
         ("paper", "--alpha"),
         ("paper", "--alphas"),
         ("theory", "pivot-rod", "--theta0"),
+        ("theory", "rod-on-floor", "--theta0"),
     ],
 )
 def test_bad_angle_is_one_line(engine, tmp_path, command, text):
@@ -636,3 +637,22 @@ def test_the_json_keys_page_lists_exactly_the_keys_printed(engine, tmp_path):
     cli_only = {k for k, v in json_keys.RUN.items() if v.startswith("(runs of the command line)")}
     assert cli_only and set(json_keys.RUN) - cli_only <= set(json.loads(info.stdout)) <= set(json_keys.RUN)
     assert {f.name for f in dataclasses.fields(SweepReport)} == set(json_keys.SWEEP)
+
+
+def test_theory_rod_on_floor_prints_the_closed_forms_and_null_for_a_rod_that_never_falls():
+    """``ballchain theory rod-on-floor``: the numbers of ballchain.theory, in JSON; an
+    upright rod (never falls) and a slip that never comes are null, not a traceback."""
+    from ballchain import theory
+
+    out = json.loads(run(*["theory", "rod-on-floor", "--theta0", "30deg", "--mu", "0.4", "--json"]).stdout)
+    th0 = math.radians(30)
+    assert out["frictionless_fall_time"] == theory.sliding_rod_fall_time(th0)
+    assert out["pivot_fall_time"] == theory.rod_fall_time(th0)
+    assert out["slip_angle"] == theory.pivot_rod_slip_angle(th0, 0.4) and th0 < out["slip_angle"] < math.pi / 2
+    assert out["slip_time"] == theory.pivot_rod_time(out["slip_angle"], th0)
+    up = json.loads(run(*["theory", "rod-on-floor", "--theta0", "0", "--json"]).stdout)
+    assert up["frictionless_fall_time"] is None and up["pivot_fall_time"] is None
+    never = json.loads(run(*["theory", "rod-on-floor", "--theta0", "0.3", "--mu", "1e9", "--json"]).stdout)
+    assert never["slip_angle"] is None and never["slip_time"] is None
+    bad = run(*["theory", "rod-on-floor", "--theta0", "0.3", "--mu", "-1"])
+    assert bad.exit_code == 2 and "mu must be >= 0" in bad.stderr

@@ -360,3 +360,114 @@ def test_critical_s_is_where_the_momentum_balance_changes_sign(theta0):
 
     assert abs(impulse(s_star)) < 1e-8
     assert impulse(0.9 * s_star) > 0 > impulse(1.1 * s_star)
+
+
+# ------------------------------------------- a rod on the floor: the constrained body
+
+
+def constrained_rod(held_x: bool, b=1.0, g=1.0, m=1.0):
+    """The rod as a free body in the plane, q = (x_c, z_c, phi) (phi from the upward
+    vertical, leaning to +x), M = diag(m, m, m b^2 / 3), its lower end held on z = 0
+    (and, with ``held_x``, at x = 0) by multipliers: M qdd = f + G^T lam,
+    G qdd = -(dG/dt) qd.  Returns rhs(t, y) and forces(y) -> (F_x, F_z) at the foot.
+    The foot is at (x_c - b sin phi, z_c - b cos phi)."""
+    mass = np.diag([m, m, m * b * b / 3.0])
+
+    def solve(y):
+        x, z, ph, vx, vz, w = y
+        s, c = math.sin(ph), math.cos(ph)
+        rows = [[0.0, 1.0, b * s]]  # d/dq (z_c - b cos phi)
+        bias = [b * c * w * w]  # (dG/dt) qd
+        if held_x:
+            rows.append([1.0, 0.0, -b * c])  # d/dq (x_c - b sin phi)
+            bias.append(b * s * w * w)
+        gm = np.array(rows)
+        k = len(rows)
+        a = np.zeros((3 + k, 3 + k))
+        a[:3, :3] = mass
+        a[:3, 3:] = -gm.T
+        a[3:, :3] = gm
+        rhs = np.concatenate([[0.0, -m * g, 0.0], -np.array(bias)])
+        sol = np.linalg.solve(a, rhs)
+        return sol[:3], sol[3:]
+
+    def rhs(t, y):
+        acc, _ = solve(y)
+        return [y[3], y[4], y[5], *acc]
+
+    def forces(y):
+        _, lam = solve(y)
+        return (lam[1] if held_x else 0.0), lam[0]
+
+    return rhs, forces
+
+
+def rod_start(theta0, b=1.0):
+    return [b * math.sin(theta0), b * math.cos(theta0), theta0, 0.0, 0.0, 0.0]
+
+
+def flat(t, y):
+    return y[2] - 0.5 * math.pi
+
+
+flat.terminal = True
+
+
+@pytest.mark.parametrize("theta0", [0.05, math.radians(20), math.pi / 4, 1.2])
+def test_a_rod_on_a_frictionless_floor_falls_when_the_quadrature_says(theta0):
+    from ballchain.theory import sliding_rod_fall_time
+
+    rhs, _ = constrained_rod(held_x=False)
+    sol = integrate.solve_ivp(rhs, (0, 100), rod_start(theta0), rtol=1e-12, atol=1e-13, events=flat, method="DOP853")
+    assert sol.t_events[0].size == 1
+    assert sliding_rod_fall_time(theta0) == pytest.approx(sol.t_events[0][0], rel=1e-8)
+    xc = sol.y[0]
+    assert np.ptp(xc) < 1e-9  # its centre falls on a vertical line
+    # and 2^2 in time for a floor of 4 g (the scaling with b and g)
+    assert sliding_rod_fall_time(theta0, b=2.0, g=4.0) == pytest.approx(sliding_rod_fall_time(theta0) / math.sqrt(2.0))
+
+
+@pytest.mark.parametrize("theta0", [math.radians(20), 1.0])
+def test_the_frictionless_floor_pushes_what_the_closed_form_says_and_never_pulls(theta0):
+    from ballchain.theory import sliding_rod_angular_velocity, sliding_rod_normal_force
+
+    rhs, forces = constrained_rod(held_x=False)
+    sol = integrate.solve_ivp(
+        rhs, (0, 100), rod_start(theta0), rtol=1e-12, atol=1e-13, events=flat, method="DOP853", dense_output=True
+    )
+    for t in np.linspace(0.0, sol.t_events[0][0], 9)[1:-1]:
+        y = sol.sol(t)
+        n_z = forces(y)[1]
+        assert sliding_rod_normal_force(y[2], theta0) == pytest.approx(n_z, rel=1e-7, abs=1e-9)
+        assert sliding_rod_angular_velocity(y[2], theta0) == pytest.approx(y[5], rel=1e-7)
+    th = np.linspace(theta0, 0.5 * math.pi, 2001)
+    assert np.all(sliding_rod_normal_force(th, theta0) > 0.0)  # the foot stays on the floor
+    assert sliding_rod_normal_force(0.5 * math.pi, theta0) == pytest.approx(0.25, abs=1e-15)
+
+
+@pytest.mark.parametrize("theta0", [math.radians(10), math.radians(30), 1.0])
+def test_the_pivoting_rods_friction_ratio_and_where_it_reaches_mu(theta0):
+    from ballchain.theory import pivot_rod_friction_ratio, pivot_rod_slip_angle, pivot_rod_time
+
+    rhs, forces = constrained_rod(held_x=True)
+    sol = integrate.solve_ivp(
+        rhs, (0, 100), rod_start(theta0), rtol=1e-12, atol=1e-13, events=flat, method="DOP853", dense_output=True
+    )
+    ts = np.linspace(0.0, sol.t_events[0][0], 401)[1:-1]
+    phis = np.array([sol.sol(t)[2] for t in ts])
+    ratio = np.array([(lambda f: f[0] / f[1])(forces(sol.sol(t))) for t in ts])
+    # the foot's force by the multipliers, against the closed form; F_x along +x, the lean
+    assert pivot_rod_friction_ratio(phis, theta0) == pytest.approx(ratio, rel=1e-6, abs=1e-9)
+    assert pivot_rod_time(0.5 * math.pi, theta0) == pytest.approx(sol.t_events[0][0], rel=1e-8)
+    for mu in (0.1, 0.3, 1.0):
+        th = pivot_rod_slip_angle(theta0, mu)
+        # the first sample of the integration at which |F_x| >= mu F_z lies just past it
+        first = int(np.flatnonzero(np.abs(ratio) >= mu)[0]) if np.any(np.abs(ratio) >= mu) else None
+        if first is None or first == 0:
+            assert th == theta0 or (first == 0 and th <= phis[0])
+            continue
+        assert phis[first - 1] <= th <= phis[first]
+        t_slip = pivot_rod_time(th, theta0)
+        assert ts[first - 1] <= t_slip <= ts[first]
+    assert pivot_rod_slip_angle(theta0, 0.0) == theta0
+    assert math.isnan(pivot_rod_slip_angle(theta0, 1e9))

@@ -1103,8 +1103,8 @@ app.add_typer(theory_app, name="theory")
 
 
 def _theory_out(values: dict, json_out: bool) -> None:
-    if json_out:
-        _print_json(values)
+    if json_out:  # (inf, nan: null: an upright rod never falls, a slip that never comes)
+        _print_json({k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in values.items()})
     else:
         for k, v in values.items():
             typer.echo(f"{k:<24} {v:.12g}" if isinstance(v, float) else f"{k:<24} {v}")
@@ -1168,6 +1168,43 @@ def theory_pivot_rod(
         out["theta"] = th
         out["force_z"] = float(pivot_rod_vertical_force(th, th0, s))
         out["force_x"] = float(pivot_rod_horizontal_force(th, th0, s))
+    _theory_out(out, json_out)
+
+
+@theory_app.command("rod-on-floor")
+def theory_rod_on_floor(
+    theta0: str = typer.Option(..., "--theta0", help="Start angle from the vertical (rad, or 30deg), at rest."),
+    mu: float | None = typer.Option(None, "--mu", help="Coulomb friction coefficient of the floor (>= 0)."),
+    json_out: bool = typer.Option(False, "--json"),
+) -> None:
+    """A single rod (N = 1) standing on the floor, released at rest: the time to lie flat
+    on a frictionless floor (its centre falls on a vertical line) and pivoting about its
+    foot (units sqrt(b/g)); with --mu, the friction ratio F_x / F_z the pivoting asks at
+    release and the angle and time at which it first reaches MU (where the foot slips)."""
+    from .theory import (
+        pivot_rod_friction_ratio,
+        pivot_rod_slip_angle,
+        pivot_rod_time,
+        rod_fall_time,
+        sliding_rod_fall_time,
+    )
+
+    try:
+        th0 = _parse_angle("--theta0", theta0)
+    except ParameterError as e:
+        _error(str(e))
+        raise typer.Exit(EXIT_USAGE)
+    out = {
+        "theta0": th0,
+        "frictionless_fall_time": _theory_call(sliding_rod_fall_time, th0),
+        "pivot_fall_time": _theory_call(rod_fall_time, th0),
+    }
+    if mu is not None:
+        out["mu"] = mu
+        out["ratio_at_release"] = float(pivot_rod_friction_ratio(th0, th0))
+        th = _theory_call(pivot_rod_slip_angle, th0, mu)
+        out["slip_angle"] = th
+        out["slip_time"] = math.nan if math.isnan(th) else _theory_call(pivot_rod_time, th, th0)
     _theory_out(out, json_out)
 
 

@@ -12,6 +12,13 @@ Contents
   at rest at ``theta0`` from the vertical, until it is horizontal.
 * :func:`hamm_geminard_time_ratio`, :func:`hamm_geminard_height_time` -- the
   Hamm-Geminard model of the paper's Discussion (Fig. 6), re-derived below.
+* :func:`sliding_rod_fall_time`, :func:`sliding_rod_angular_velocity`,
+  :func:`sliding_rod_normal_force` -- a single rod standing on a frictionless floor,
+  released at rest at ``theta0``: its centre falls on a vertical line.
+* :func:`pivot_rod_time`, :func:`pivot_rod_friction_ratio`, :func:`pivot_rod_slip_angle`
+  -- the rod pivoting about its lower end on a rough floor: how long it takes to reach an
+  angle, the friction it asks of the floor (F_x / F_z), and where that first exceeds a
+  Coulomb coefficient ``mu`` (where it would start to slip).
 * :func:`gamma_from_time_ratio` -- its inverse: the gamma whose fall takes a given
   ``t_fall / t_ff`` (ratios in (0, sqrt(pi/2))).
 * :func:`pivot_rod_horizontal_force`, :func:`pivot_rod_critical_s` -- the horizontal
@@ -47,6 +54,16 @@ the rod is ``F = m d2R_c/dt2 + m g e_z``; its vertical component, with
 Checks: at release (``theta = theta0``, ``s = 0``) the
 rod's centre accelerates only tangentially, ``F_z = m g (1 - (3/4) sin^2 theta0)``;
 from the upright (``theta0 = 0, s = 0``) the textbook ``(m g / 4)(1 - 3 cos theta)^2``.
+
+*Rod on a frictionless floor.*  The floor pushes only vertically, so the centre of a
+rod released at rest keeps its x: ``x_c = const``, ``z_c = b cos(theta)``, and
+
+    (1/2) m (b sin(theta) thetadot)^2 + (1/2) (m b^2 / 3) thetadot^2 + m g b cos(theta) = m g b cos(theta0),
+
+i.e. ``thetadot^2 = (6 g / b) (cos theta0 - cos theta) / (1 + 3 sin^2 theta)``;
+differentiating, ``thetaddot = 3 sin(theta) (g / b - cos(theta) thetadot^2) / (1 + 3 sin^2 theta)``.
+The floor's force is ``N = m g + m d2z_c/dt2 = m g - m b (cos(theta) thetadot^2 + sin(theta) thetaddot)``.
+The rod lies flat (its top end reaches the floor) at ``theta = pi/2``.
 
 *Hamm-Geminard.*  The falling part of the chain (linear density ``mu``, height ``z``,
 velocity ``zdot``; the pile is at rest) has momentum ``mu z zdot``.  The floor holds
@@ -89,6 +106,12 @@ __all__ = [
     "pivot_rod_horizontal_force",
     "pivot_rod_critical_s",
     "gamma_from_time_ratio",
+    "sliding_rod_angular_velocity",
+    "sliding_rod_normal_force",
+    "sliding_rod_fall_time",
+    "pivot_rod_time",
+    "pivot_rod_friction_ratio",
+    "pivot_rod_slip_angle",
 ]
 
 _QUAD_EPSREL = 1e-13  # asks quad for better than the promised 1e-12
@@ -134,10 +157,10 @@ def _check_theta0(theta0: float) -> None:
         raise ValueError(f"theta0 must be in [0, pi/2), got {theta0!r}")
 
 
-def _quad_u(f, theta0: float, epsabs: float = 0.0) -> float:
-    """int_0^umax f(u) du, umax = sqrt(pi/2 - theta0), to _QUAD_EPSREL relative or
+def _quad_u(f, theta0: float, epsabs: float = 0.0, theta_end: float = 0.5 * math.pi) -> float:
+    """int_0^umax f(u) du, umax = sqrt(theta_end - theta0), to _QUAD_EPSREL relative or
     ``epsabs`` absolute, whichever is larger."""
-    umax = math.sqrt(0.5 * math.pi - theta0)
+    umax = math.sqrt(theta_end - theta0)
     # a break point where the (theta0 + u^2/2) factor turns over, for small theta0
     pts = [min(math.sqrt(2.0 * theta0), 0.5 * umax)] if theta0 > 0 else None
     val, err = integrate.quad(f, 0.0, umax, epsabs=epsabs, epsrel=_QUAD_EPSREL, limit=400, points=pts)
@@ -237,6 +260,112 @@ def pivot_rod_impulse(theta0: float, s: float, m: float = 1.0, b: float = 1.0, g
         return fz * _inv_thetadot_sub(u, theta0, s)
 
     return m * math.sqrt(g * b) * _quad_u(f, theta0, _QUAD_EPSABS_SIGNED)
+
+
+def pivot_rod_time(theta: float, theta0: float, b: float = 1.0, g: float = 1.0) -> float:
+    """Time for the rod of :func:`rod_fall_time` (pivoting about its lower end, released at
+    rest at ``theta0``) to reach ``theta`` (radians, theta0 <= theta <= pi/2):
+    ``int_{theta0}^{theta} dtheta / thetadot``.  Units of ``sqrt(b/g)`` scaled by ``b, g``."""
+    _check_theta0(theta0)
+    if not (theta0 <= theta <= 0.5 * math.pi):
+        raise ValueError(f"theta must be in [theta0, pi/2] = [{theta0!r}, {0.5 * math.pi!r}], got {theta!r}")
+    if theta == theta0:
+        return 0.0
+    if theta0 == 0.0:
+        return math.inf
+    return math.sqrt(b / g) * _quad_u(lambda u: _inv_thetadot_sub(u, theta0, 0.0), theta0, theta_end=theta)
+
+
+def pivot_rod_friction_ratio(theta, theta0: float):
+    """F_x / F_z: the friction the floor must give the rod pivoting about its lower end
+    (released at rest at ``theta0``), per unit of its normal force, at ``theta``
+    (:func:`pivot_rod_horizontal_force` over :func:`pivot_rod_vertical_force`, s = 0):
+
+        F_x / F_z = sin(theta) (9 cos(theta) - 6 cos(theta0)) / (1 + 9 cos^2(theta) - 6 cos(theta0) cos(theta)),
+
+    3 sin(theta0) cos(theta0) / (1 + 3 cos^2(theta0)) at release and 6 cos(theta0) when
+    the rod lies flat.  F_z = (m g / 4) ((3 cos(theta) - cos(theta0))^2 + sin^2(theta0))
+    > 0 for theta0 > 0: the foot does not lift off before it slips."""
+    th = np.asarray(theta, dtype=float)
+    c, c0 = np.cos(th), math.cos(theta0)
+    return np.sin(th) * (9.0 * c - 6.0 * c0) / (1.0 + 9.0 * c * c - 6.0 * c0 * c)
+
+
+def pivot_rod_slip_angle(theta0: float, mu: float) -> float:
+    """The angle at which a rod pivoting about its lower end on a floor with Coulomb
+    friction ``mu`` (released at rest at ``theta0``) starts to slip: the first theta in
+    [theta0, pi/2] at which |F_x / F_z| (:func:`pivot_rod_friction_ratio`) reaches
+    ``mu``; ``theta0`` if it exceeds ``mu`` at release, NaN if it never reaches it (the
+    rod pivots until it lies flat: ``mu`` above the ratio's largest value on the way).
+    Radians."""
+    _check_theta0(theta0)
+    mu = float(mu)
+    if not (mu >= 0.0):
+        raise ValueError(f"mu must be >= 0, got {mu!r}")
+    if theta0 == 0.0:
+        raise ValueError("theta0 = 0: the upright rod is an equilibrium and never starts to turn")
+
+    def excess(th: float) -> float:
+        return abs(float(pivot_rod_friction_ratio(th, theta0))) - mu
+
+    if excess(theta0) >= 0.0:
+        return theta0
+    grid = np.linspace(theta0, 0.5 * math.pi, 4001)  # |ratio| has at most two humps: fine enough
+    vals = np.abs(pivot_rod_friction_ratio(grid, theta0)) - mu
+    hit = np.flatnonzero(vals >= 0.0)
+    if hit.size == 0:
+        return math.nan
+    from scipy.optimize import brentq
+
+    k = int(hit[0])
+    return float(brentq(excess, float(grid[k - 1]), float(grid[k]), xtol=1e-15, rtol=1e-14))
+
+
+# ------------------------------------------------------ rod on a frictionless floor
+
+
+def sliding_rod_angular_velocity(theta, theta0: float, b: float = 1.0, g: float = 1.0):
+    """thetadot(theta) of a rod (length 2b) standing on a frictionless floor, released at
+    rest at ``theta0`` from the vertical (module docstring):
+    ``thetadot^2 = (6 g / b) (cos theta0 - cos theta) / (1 + 3 sin^2 theta)``.
+    Radians per unit time."""
+    th = np.asarray(theta, dtype=float)
+    val = (6.0 * g / b) * (math.cos(theta0) - np.cos(th)) / (1.0 + 3.0 * np.sin(th) ** 2)
+    return np.sqrt(np.maximum(val, 0.0))
+
+
+def sliding_rod_normal_force(theta, theta0: float, m: float = 1.0, g: float = 1.0):
+    """The frictionless floor's (vertical) force on the rod of
+    :func:`sliding_rod_angular_velocity` at ``theta``:
+    ``N = m g - m b (cos(theta) thetadot^2 + sin(theta) thetaddot)``,
+    ``thetaddot = 3 sin(theta) (g / b - cos(theta) thetadot^2) / (1 + 3 sin^2 theta)``.
+    Units of ``m g`` (``b`` cancels)."""
+    th = np.asarray(theta, dtype=float)
+    sn, c = np.sin(th), np.cos(th)
+    w2 = 6.0 * (math.cos(theta0) - c) / (1.0 + 3.0 * sn * sn)  # b thetadot^2 / g
+    acc = 3.0 * sn * (1.0 - c * w2) / (1.0 + 3.0 * sn * sn)  # b thetaddot / g
+    return m * g * (1.0 - c * w2 - sn * acc)
+
+
+def sliding_rod_fall_time(theta0: float, b: float = 1.0, g: float = 1.0) -> float:
+    """Time for a rod (length ``2b``) standing on a frictionless floor, released at rest at
+    ``theta0`` (radians from the upward vertical), to lie flat (its top end reaches the
+    floor, theta = pi/2): ``int_{theta0}^{pi/2} dtheta / thetadot`` with thetadot from
+    :func:`sliding_rod_angular_velocity`, by ``scipy.integrate.quad`` after the
+    substitution ``theta = theta0 + u^2``; relative accuracy better than 1e-12.  Units of
+    ``sqrt(b/g)`` scaled by ``b, g``; ``inf`` for ``theta0 = 0``."""
+    _check_theta0(theta0)
+    if b <= 0 or g <= 0:
+        raise ValueError("b and g must be > 0")
+    if theta0 == 0.0:
+        return math.inf
+
+    def f(u: float) -> float:  # 2 u / thetadot(theta0 + u^2)
+        th = theta0 + u * u
+        q = 12.0 * math.sin(theta0 + 0.5 * u * u) * _sin_half_sq_over(u)  # 6 (cos theta0 - cos theta) / u^2
+        return 2.0 / math.sqrt(q / (1.0 + 3.0 * math.sin(th) ** 2))
+
+    return math.sqrt(b / g) * _quad_u(f, theta0)
 
 
 # --------------------------------------------------------------- Hamm-Geminard
