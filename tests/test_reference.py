@@ -11,7 +11,7 @@ from conftest import chain_directions
 from oracle import reference as ref
 
 from ballchain.core import dynamics as dyn
-from ballchain.core.impacts import new_impact_work, velocity_impact
+from ballchain.core.impacts import hinge_rates, new_impact_work, velocity_impact
 from ballchain.core.rules import limit_in_force
 from ballchain.core.state import new_work
 
@@ -43,9 +43,9 @@ def fast_accelerations(e, w, anchored, locked):
     return {"dde": np.cross(dw, e) + np.cross(w, de), "dw": dw, "lam": lam, "anchor_force": af}
 
 
-def fast_impact(e, w, anchored_u8, cand):
+def fast_impact(e, w, anchored_u8, cand, restitution=0.0):
     """``anchored_u8``: 1 for old anchors, 2 for the points anchored by this impact
-    (the engine's convention)."""
+    (the engine's convention); ``restitution``: Newton's at the limits."""
     n = e.shape[0]
     ws = new_work(n)
     nh = max(n - 1, 0)
@@ -64,7 +64,10 @@ def fast_impact(e, w, anchored_u8, cand):
         "energy_split": iw.split,
     }
     T0 = dyn.kinetic_energy(e, w, pv, vel)
-    it = velocity_impact(e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active, ws, iw)
+    hinge_rates(e, w_after, iw.rates_before)
+    it = velocity_impact(
+        e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active, restitution, ws, iw
+    )
     out["T0"] = T0
     out["T1"] = dyn.kinetic_energy(e, w_after, pv, vel)
     dyn.velocities(e, w_after, pv, vel)
@@ -501,3 +504,55 @@ def test_split_anchor_on_the_fixed_size_path(n, split, locked_hinges):
         rng = np.random.default_rng(seed)
         w_minus = ref.project_velocity(e, rng.normal(size=(n, 3)), anchored, np.zeros(n - 1, bool))
         check_impact(e, w_minus, a8, locked, alpha)
+
+
+@pytest.mark.parametrize("restitution", [0.3, 0.7, 1.0])
+@pytest.mark.parametrize("n", [2, 3, 4, 6])
+def test_newton_impacts_against_the_dense_enumeration(n, restitution):
+    """Newton's restitution at the limits (``contacts.newton``) by the O(N) pivoting
+    against the dense enumeration of active sets (``reference_newton_impact``): the
+    velocities after, the impulses and the energy lost; the loss is never negative and is
+    zero at e = 1 when no hinge needed the second, inelastic pass."""
+    rng = np.random.default_rng(7000 + n + int(10 * restitution))
+    done = twice = inelastic = 0
+    while done < 30:
+        e, w, anchored, cand, alpha = random_impact_state(rng, n)
+        if np.abs(w).max() == 0.0 or n < 2:
+            continue
+        f = fast_impact(e, w, anchored, cand, restitution)
+        r = ref.reference_newton_impact(e, w, anchored != 0, cand, restitution)
+        scale = max(np.abs(w).max(), np.abs(f["impulse"]).max(initial=0.0))
+        assert np.abs(r["w_plus"] - f["w"]).max() < IMP_TOL * scale
+        mL = r["Lambda_determined"]
+        assert np.abs(r["Lambda"] - f["impulse"])[mL].max(initial=0.0) < IMP_TOL * scale
+        lost = f["T0"] - f["T1"]
+        assert lost == pytest.approx(r["lost_energy"], abs=1e-10 * f["T0"])
+        assert lost == pytest.approx(f["energy_split"].sum(), abs=1e-10 * f["T0"])  # the books
+        assert lost >= -1e-12 * f["T0"]
+        if restitution == 1.0 and not r["two_passes"] and not np.any(anchored == 2):
+            assert abs(lost) <= 1e-12 * f["T0"]
+        twice += r["two_passes"]
+        inelastic += r["inelastic"]
+        done += 1
+    assert done == 30
+
+
+def test_a_single_hinge_rebounds_at_e_times_its_rate_and_loses_one_minus_e_squared():
+    """Two rods on the pivot, the hinge closing onto its limit at rate v: it leaves at
+    -e v, and the energy lost is (1 - e^2) times the inelastic impact's (closed form of
+    Newton's law for one row: T lost = (1 - e^2) v^2 / (2 G))."""
+    rng = np.random.default_rng(31)
+    alpha = 0.6
+    for _ in range(5):
+        e = chain_directions(rng, 2, "tilted", [True], alpha)
+        while True:
+            w = ref.project_velocity(e, rng.normal(size=(2, 3)), [0, 0, 1], [False])
+            v = ref.hinge_rates(e, w)[0]
+            if v < -0.1:
+                break
+        inelastic = fast_impact(e, w, np.array([0, 0, 1], np.uint8), np.array([True]))
+        lost0 = inelastic["T0"] - inelastic["T1"]
+        for r in (0.25, 0.5, 0.9, 1.0):
+            f = fast_impact(e, w, np.array([0, 0, 1], np.uint8), np.array([True]), r)
+            assert ref.hinge_rates(e, f["w"])[0] == pytest.approx(-r * v, rel=1e-12)
+            assert f["T0"] - f["T1"] == pytest.approx((1 - r * r) * lost0, rel=1e-10, abs=1e-14 * f["T0"])

@@ -18,13 +18,16 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
+from .contacts.registry import all_params as contact_params
 from .inputs import build_inputs
 from .methods import option_names
 from .methods.checkpoint import DEFAULT_EVERY
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
 
 SIMULATE_KEYWORDS = (
-    "segments", "alpha", "floor", "anchor_cone", "ic", "eps", "turns", "phase", "seed", "spawn_key",
+    "segments", "alpha", "floor", "anchor_cone",
+    *contact_params(),  # the contact laws' parameters (contacts.registry)
+    "ic", "eps", "turns", "phase", "seed", "spawn_key",
     "until", "max_time", "max_events", "frames_per_tff", "method",
     *option_names("simulate"),  # the methods' own options (methods.all_options)
     "length", "mass", "gravity", "initial",
@@ -93,7 +96,9 @@ def simulate(
     if "spawn_key" in keywords:
         keywords["spawn_key"] = _spawn_text(keywords["spawn_key"])
     kw_params, kw_ic, kw_options = build_inputs(keywords)
-    if params is not None and any(k in keywords for k in ("segments", "alpha", "floor", "anchor_cone")):
+    if params is not None and any(
+        k in keywords for k in ("segments", "alpha", "floor", "anchor_cone", *contact_params())
+    ):
         raise TypeError("give the chain either as params=ChainParams(...) or as keywords, not both")
     return run(
         params if params is not None else kw_params,
@@ -142,6 +147,7 @@ SWEEP_KEYWORDS = {  # the grid and the per-run options, as ``ballchain sweep`` t
     "segments": (64,),
     "alpha": ("45deg",),
     "floor": ("all",),
+    **{name: prm.default for name, prm in contact_params().items()},  # the contact laws' parameters
     "ic": ("random",),
     "runs": 1,
     "seed": 0,

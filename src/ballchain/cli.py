@@ -25,6 +25,7 @@ import typer
 from typer.core import TyperGroup
 
 from . import __version__
+from .contacts.registry import all_params as contact_params
 from .inputs import _CHAIN, _SOLVER, _START, _parse_angle, build_inputs  # noqa: F401  (build_inputs: part of the CLI)
 from .methods import METHODS, all_options, option_help, option_names
 from .methods.checkpoint import DEFAULT_EVERY
@@ -242,6 +243,7 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
     r = load_result(path)
     p, o = r.params, r.options
     base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone,
+                **{name: getattr(p, name) for name in contact_params()},
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
                 method=o.method, **{name: getattr(o, name) for name in option_names("simulate")})  # fmt: skip
     if p.is_si:
@@ -387,39 +389,52 @@ def _simulate_with_progress(simulate, params, init, options, show_progress: bool
 
 
 # --------------------------------------------------------------------------- commands
-def _method_option_parameters(command: str) -> list[inspect.Parameter]:
-    """A typer option for each of the methods' options ``command`` takes (``option_names``):
-    flag, default, type and help from its ``MethodOption``."""
-    opts = all_options()
+def _typer_parameters(opts: dict, names, helptext) -> list[inspect.Parameter]:
+    """A typer option for each of ``names`` of ``opts`` (``MethodOption`` data): flag,
+    default, type and help (``helptext(name)``)."""
     return [
         inspect.Parameter(
             name,
             inspect.Parameter.POSITIONAL_OR_KEYWORD,
             default=typer.Option(
-                opts[name].default, opts[name].flag, help=option_help(name), show_default=opts[name].default is not None
+                opts[name].default, opts[name].flag, help=helptext(name), show_default=opts[name].default is not None
             ),
             annotation=opts[name].annotation,
         )
-        for name in option_names(command)
+        for name in names
     ]
 
 
-def _with_method_options(command: str):
+def _method_option_parameters(command: str) -> list[inspect.Parameter]:
+    """A typer option for each of the methods' options ``command`` takes (``option_names``)."""
+    return _typer_parameters(all_options(), option_names(command), option_help)
+
+
+def _contact_parameters() -> list[inspect.Parameter]:
+    """A typer option for each of the contact laws' parameters (``contacts.registry``)."""
+    prms = contact_params()
+    return _typer_parameters(prms, [n for n, p in prms.items() if p.flag], lambda n: prms[n].help)
+
+
+def _with_method_options(command: str, contacts_after: str):
     """Give the command (whose ``**method_options`` receives them) the methods' options as
-    typer options after its ``--method`` (typer reads the function's ``__signature__``)."""
+    typer options after its ``--method``, and the contact laws' parameters after its
+    option ``contacts_after`` (typer reads the function's ``__signature__``)."""
 
     def decorate(func):
         sig = inspect.signature(func)
         params = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
         at = next(i for i, p in enumerate(params) if p.name == "method") + 1
-        func.__signature__ = sig.replace(parameters=params[:at] + _method_option_parameters(command) + params[at:])
+        params = params[:at] + _method_option_parameters(command) + params[at:]
+        at = next(i for i, p in enumerate(params) if p.name == contacts_after) + 1
+        func.__signature__ = sig.replace(parameters=params[:at] + _contact_parameters() + params[at:])
         return func
 
     return decorate
 
 
 @app.command()
-@_with_method_options("simulate")
+@_with_method_options("simulate", "anchor_cone")
 def simulate(
     ctx: typer.Context,
     segments: int | None = typer.Option(
@@ -870,7 +885,7 @@ def export(
 
 
 @app.command()
-@_with_method_options("sweep")
+@_with_method_options("sweep", "floor")
 def sweep(
     segments: str = typer.Option("64", "--segments", "-N", help="N values: a list (64,128) or range start:stop:step."),
     alpha: str = typer.Option(

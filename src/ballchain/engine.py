@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .contacts.registry import check_honoured
 from .core.books import PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS
 from .core.dynamics import kinetic_energy, potential_energy
 from .core.kinds import EVENT_KINDS
@@ -271,6 +272,7 @@ def simulate(
     file is left in place (``Checkpoint.discard`` it once the result is saved).
     Returns a Result in the run's units."""
     options = (options or SolverOptions()).for_segments(params.segments)
+    check_honoured(params, options.method)
     check_memory(params, options)
     wall0 = _time.perf_counter()
     setup = _setup(params, ic, options, state)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .contacts.registry import all_params as contact_params
+from .contacts.registry import check_honoured
 from .methods import all_options
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
@@ -44,6 +46,8 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         alpha=_parse_angle("alpha", v.get("alpha", _CHAIN.alpha)),
         floor=v.get("floor", _CHAIN.floor),
         anchor_cone=v.get("anchor_cone", _CHAIN.anchor_cone),
+        # the contact laws' parameters (contacts.registry)
+        **{name: v[name] for name in contact_params() if v.get(name) is not None},
     )
     segments = v.get("segments", _CHAIN.segments)
     length, mass, gravity = v.get("length"), v.get("mass"), v.get("gravity")
@@ -75,4 +79,5 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         method=v.get("method", _SOLVER.method),
         **{name: v[name] for name in all_options() if name in v},  # the methods' own (methods.all_options)
     )
+    check_honoured(params, options.method)  # (before anything compiles)
     return params, init, options

@@ -19,6 +19,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from .contacts.registry import all_params as contact_params  # (one registry of contact laws)
+from .contacts.registry import law_of
 from .errors import ParameterError  # noqa: F401  (re-exported: the model's validation raises it)
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
 from .methods import METHOD_NAMES, all_options, method_default  # noqa: E402  (one registry of methods)
@@ -60,7 +62,7 @@ def parse_angle(text: str | float) -> float:
 
 
 @dataclass(frozen=True)
-class ChainParams:
+class _Chain:
     """Physical parameters of the chain.
 
     segments: number of rods N (>= 1).
@@ -73,6 +75,9 @@ class ChainParams:
     segment_mass: m in kg (or 1, nondimensional).
     half_length: b in m (or 1); a segment is 2b long.
     gravity: g in m/s^2 (or 1).
+
+    The fields that follow are the contact laws' parameters, stated by their registry
+    (``contacts.registry``: name, default, help and check in one place):
     """
 
     segments: int = 128
@@ -103,11 +108,11 @@ class ChainParams:
         object.__setattr__(self, "anchor_cone", bool(self.anchor_cone))
         for name in ("segment_mass", "half_length", "gravity"):
             object.__setattr__(self, name, _finite_positive(name, getattr(self, name)))
+        for name, p in contact_params().items():  # the contact laws' (contacts.registry)
+            object.__setattr__(self, name, p.validated(getattr(self, name)))
 
     @classmethod
-    def from_chain(
-        cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81, **kw
-    ) -> ChainParams:
+    def from_chain(cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81, **kw):
         """A real chain: total length (m), total mass (kg), gravity (m/s^2)."""
         length_m = _finite_positive("length", length_m)
         mass_kg = _finite_positive("mass", mass_kg)
@@ -137,6 +142,11 @@ class ChainParams:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+ChainParams = options_dataclass(
+    _Chain, "ChainParams", __name__, registry=(contact_params(), law_of, lambda n: contact_params()[n].help)
+)
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Where a number comes from: a fingerprint of the engine that computed it.
 
 The fingerprint hashes the source of every module whose code decides a run's numbers (the
-compiled core, the methods, the floor models, the parameters, the starts and the run itself),
+compiled core, the methods, the floor models, the contact laws, the parameters, the starts and the run itself),
 so it changes with any edit of the engine, whether or not the package version does.
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 # the sub-packages and modules whose code decides a run's numbers
-ENGINE_PACKAGES = ("core", "methods", "floors")
+ENGINE_PACKAGES = ("core", "methods", "floors", "contacts")
 ENGINE_MODULES = ("model.py", "initial.py", "engine.py")
 
 

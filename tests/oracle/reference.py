@@ -412,3 +412,92 @@ def reference_impact(e, w_minus, anchored, candidates, alpha, m=1.0, b=1.0, g=1.
         "active": active,
         "kkt": kkt,
     }
+
+
+def reference_newton_impact(e, w_minus, anchored, candidates, restitution, m=1.0, b=1.0, tol=1e-10):
+    """Newton's restitution at the bend limits (Glocker's form: xi = gamma+ + e gamma- >= 0,
+    Lambda >= 0, complementary; the anchors inelastic), by enumeration of active sets:
+    for each set S, the velocity closest to u- (kinetic-energy metric) with the equality
+    rows' rates 0 and the rows of S at -e gamma-; the set whose impulses are >= 0 and whose
+    other candidates have xi >= 0.  Then, if a candidate comes out closing (one that was
+    leaving its limit, pushed back), Moreau's impact from there (``reference_impact``).
+    If the result has more kinetic energy than u- (possible when a landing's inelastic rows
+    act beside the elastic ones), the inelastic impact instead (``inelastic``).
+    Returns w_plus (N,3), Lambda (N-1,) summed over both, Lambda_determined (N-1,) (False
+    where an impulse is not unique), lost_energy, two_passes, inelastic."""
+    e = np.asarray(e, dtype=float)
+    w_minus = np.asarray(w_minus, dtype=float)
+    n = e.shape[0]
+    anc, cand = _masks(n, anchored, candidates)
+    cand = cand & limits_in_force(anc)
+    M = mass_matrix(n, m, b)
+    Minv = np.linalg.inv(M)
+    E, _, _ = constraint_rows(e, anc, np.zeros(max(n - 1, 0), dtype=bool))
+    G = np.zeros((max(n - 1, 0), 3 + 3 * n))
+    for k in range(n - 1):
+        G[k, 3 + 3 * k : 6 + 3 * k] = e[k + 1]
+        G[k, 6 + 3 * k : 9 + 3 * k] = e[k]
+    u_minus = np.concatenate([np.zeros(3), np.cross(w_minus, e).reshape(-1)])
+    g_minus = G @ u_minus
+    vscale = max(np.max(np.abs(u_minus)), 1e-300)
+    # a hinge whose rate the equality rows fix (two rods between two anchors) cannot take
+    # the law: its impulse is not determined and its rate after is theirs
+    rank_e = _svd_split(E, 3 + 3 * n)[2]
+    for k in np.flatnonzero(cand):
+        if _svd_split(np.vstack([E, G[k : k + 1]]), 3 + 3 * n)[2] == rank_e:
+            cand[k] = False
+    idx = np.flatnonzero(cand)
+    found = None
+    for mask in range(1 << idx.size):
+        S = idx[[(mask >> t) & 1 == 1 for t in range(idx.size)]]
+        R = np.vstack([E, G[S]])
+        target = np.concatenate([np.zeros(E.shape[0]), -restitution * g_minus[S]])
+        # u = u- + M^-1 R^T nu with R u = target (least squares for dependent rows)
+        nu = np.linalg.lstsq(R @ Minv @ R.T, target - R @ u_minus, rcond=1e-12)[0]
+        u = u_minus + Minv @ R.T @ nu
+        if np.abs(R @ u - target).max(initial=0.0) > tol * vscale:
+            continue
+        lam = nu[E.shape[0] :]
+        xi = G @ u + restitution * g_minus
+        others = np.setdiff1d(idx, S)
+        if np.all(lam >= -tol * vscale) and np.all(xi[others] >= -tol * vscale):
+            found = (u, S, lam)
+            break
+    assert found is not None
+    u, S, lam = found
+    Lam = np.zeros(max(n - 1, 0))
+    Lam[S] = lam
+    # an impulse is unique iff its row is not in the span of the other rows that act
+    det = np.ones(max(n - 1, 0), dtype=bool)
+    if S.size:
+        _, L, _ = _svd_split(np.vstack([E, G[S]]), 3 + 3 * n)
+        det[S] = _determined(L, E.shape[0] + S.size)[E.shape[0] :]
+    w_plus = np.cross(e, u[3:].reshape(n, 3))
+    rates = G @ u
+    two = bool(idx.size and np.min(rates[idx]) < -tol * vscale)
+    if two:
+        second = reference_impact(e, w_plus, anchored, candidates, 1.0, m=m, b=b, tol=tol)
+        w_plus = second["w_plus"]
+        Lam = Lam + second["Lambda"]
+        det &= second["Lambda_determined"]
+        u = np.concatenate([np.zeros(3), np.cross(w_plus, e).reshape(-1)])
+    T0 = 0.5 * u_minus @ M @ u_minus
+    T1 = 0.5 * u @ M @ u
+    if T1 > T0 * (1 + 1e-12):  # (mixed with a landing's inelastic rows): the inelastic impact
+        r = reference_impact(e, w_minus, anchored, candidates, 1.0, m=m, b=b, tol=tol)
+        return {
+            "w_plus": r["w_plus"],
+            "Lambda": r["Lambda"],
+            "Lambda_determined": r["Lambda_determined"],
+            "lost_energy": r["lost_energy"],
+            "two_passes": False,
+            "inelastic": True,
+        }
+    return {
+        "w_plus": w_plus,
+        "Lambda": Lam,
+        "Lambda_determined": det,
+        "lost_energy": T0 - T1,
+        "two_passes": two,
+        "inelastic": False,
+    }

@@ -29,6 +29,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from ..contacts.newton import impulse_rhs, law_rate
 from .dynamics import (
     ROW_ANCHOR_LOWER,
     ROW_ANCHOR_UPPER,
@@ -42,6 +43,7 @@ from .dynamics import (
     constraint_rows,
     constraint_velocities,
     factor,
+    kinetic_energy,
     solve,
     torque_jump,
     torques4,
@@ -53,6 +55,7 @@ from .state import MAXR
 
 MULT_TOL = 1e-11  # absolute floor of the complementarity tolerances
 MULT_RTOL = 1e-10  # tolerance relative to the largest multiplier / acceleration at stake
+ENERGY_RTOL = 1e-12  # an impact "creates" energy beyond this share of the kinetic energy (round-off)
 
 # What an impact computes besides the new velocities: the constraint rates before it (jv),
 # the post-impact w of a trial (w_plus), the hinge rates after it (rates_after), the lock
@@ -62,8 +65,30 @@ MULT_RTOL = 1e-10  # tolerance relative to the largest multiplier / acceleration
 # time-stepping method puts there gravity's kick and the centres' velocities of the
 # last step, so that the impact problem is Moreau-Jean's projection in maximal
 # coordinates).
+# rates_before: the hinge rates before the impact (Newton's law compares with them);
+# with restitution (e_lock > 0), an impact may take a second, inelastic pass
+# (``velocity_impact``): lost_hinge the energy each hinge's impulse took over both, from
+# the rates at each pass's start (rates_start), and keep the first pass's outputs.
 ImpactWork = namedtuple(
-    "ImpactWork", ["jv", "w_plus", "rates_after", "impulse", "anchor_impulse", "split", "pv", "vel", "dv"]
+    "ImpactWork",
+    [
+        "jv",
+        "w_plus",
+        "rates_after",
+        "impulse",
+        "anchor_impulse",
+        "split",
+        "pv",
+        "vel",
+        "dv",
+        "rates_before",
+        "rates_start",
+        "lost_hinge",
+        "keep_impulse",
+        "keep_anchor",
+        "w_start",
+        "active_start",
+    ],
 )
 
 
@@ -80,6 +105,13 @@ def new_impact_work(n: int) -> ImpactWork:
         np.zeros((n + 1, 3)),
         np.zeros((n, 3)),
         np.zeros((n, 3)),
+        np.zeros(nh),
+        np.zeros(nh),
+        np.zeros(nh),
+        np.zeros(nh),
+        np.zeros((n + 1, 3)),
+        np.zeros((n, 3)),
+        np.zeros(nh, dtype=np.uint8),
     )
 
 
@@ -225,9 +257,11 @@ def translation_rates(anchored, J, kind, nrow, fits, dv, jv):
 
 
 @njit(cache=True)
-def _impact_trial(e, w, anchored, active, ws, iw):
+def _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw):
     """Post-impact velocity iw.w_plus and hinge rates iw.rates_after for the lock set
-    ``active``: the impulses x solve (J W J^T) x = -J v-, and w+ = w- + W J^T x."""
+    ``active``: the impulses x solve (J W J^T) x = -J v- (a lock row not held by the
+    accumulation rule: -(J v- + e_lock gamma-), gamma- = iw.rates_before, Newton's law,
+    ``contacts.newton``), and w+ = w- + W J^T x."""
     n = e.shape[0]
     J, kind, nrow, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.rhs, ws.x, ws.gf
     jv_minus, w_plus = iw.jv, iw.w_plus
@@ -242,7 +276,10 @@ def _impact_trial(e, w, anchored, active, ws, iw):
     translation_rates(anchored, J, kind, nrow, fits, iw.dv, jv_minus)
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
-            rhs[j, r] = -jv_minus[j, r]
+            if kind[j, r] == ROW_LOCK and not forced[j - 1]:
+                rhs[j, r] = impulse_rhs(jv_minus[j, r], iw.rates_before[j - 1], e_lock)
+            else:
+                rhs[j, r] = -jv_minus[j, r]
     factor(e, anchored, J, kind, nrow, ws.S, ws.G, ws.drop)
     solve(nrow, ws.S, ws.G, ws.drop, rhs, x)
     if fits:
@@ -254,10 +291,11 @@ def _impact_trial(e, w, anchored, active, ws, iw):
 
 
 @njit(cache=True)
-def _impact_violations(cand, forced, active, ws, iw, viol):
+def _impact_violations(cand, forced, active, e_lock, ws, iw, viol):
     """Mark (viol) and count the complementarity violations of the last trial: an active
-    hinge pulled by its impulse (unless held) or an inactive candidate still approaching;
-    iw.impulse gets the lock impulses."""
+    hinge pulled by its impulse (unless held) or an inactive candidate whose law rate
+    (gamma+ + e gamma-, ``contacts.newton.law_rate``) is negative; iw.impulse gets the
+    lock impulses."""
     nh = cand.shape[0]
     impulse = iw.impulse
     for k in range(nh):
@@ -279,7 +317,7 @@ def _impact_violations(cand, forced, active, ws, iw, viol):
             if impulse[k] < -ltol and not forced[k]:
                 viol[k] = 1
                 nviol += 1
-        elif cand[k] and iw.rates_after[k] < -RATE_TOL:
+        elif cand[k] and law_rate(iw.rates_after[k], iw.rates_before[k], e_lock) < -RATE_TOL:
             viol[k] = 1
             nviol += 1
     return nviol
@@ -316,24 +354,14 @@ def _impact_books(w, ws, iw):
 
 
 @njit(cache=True)
-def velocity_impact(e, w, anchored, cand, forced, active, ws, iw):
-    """Moreau's inelastic impact.  ``cand[k]``: hinge k at its limit, its limit in force
-    (a candidate); ``forced[k]``: a candidate held at its limit whatever the sign of its
-    impulse (the accumulation rule, ``rules.must_hold``); ``active`` on entry: initial
-    guess (e.g. locked or approaching hinges), on exit: the hinges that carry an
-    impulse or stay at the limit.  ``anchored`` includes the points that just touched
-    the floor.  On exit ``w`` holds the post-impact angular velocities and ``iw``
-    (``ImpactWork``) the lock impulses, the floor impulses per point and the energy split
-    (lost to locking, lost to landing): their sum is the kinetic energy lost (>= 0); a
-    share alone can be negative when one impact both lands and locks (a hinge that was
-    opening is held at its limit).  Returns the number of trials (negative if the
-    pivoting did not converge)."""
+def _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
+    """One impact by principal pivoting on the lock set (``velocity_impact``)."""
     nh = e.shape[0] - 1
     piv = new_pivoting(nh)
     final = False  # the set came from the dense fallback: accept it
     for it in range(PIVOT_BUDGET + 3):
-        _impact_trial(e, w, anchored, active, ws, iw)
-        nviol = _impact_violations(cand, forced, active, ws, iw, piv.viol)
+        _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw)
+        nviol = _impact_violations(cand, forced, active, e_lock, ws, iw, piv.viol)
         if nviol == 0 or final:
             _impact_books(w, ws, iw)
             return it
@@ -343,7 +371,10 @@ def velocity_impact(e, w, anchored, cand, forced, active, ws, iw):
             c = candidates(cand, forced, idx)
             for k in range(nh):
                 active[k] = forced[k]
-            _impact_trial(e, w, anchored, active, ws, iw)
+            _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw)
+            for k in range(nh):  # the law's rate with no candidate acting: the LCP's q
+                if not forced[k]:
+                    iw.rates_after[k] = law_rate(iw.rates_after[k], iw.rates_before[k], e_lock)
             if _dense_fallback(e, w, anchored, forced, idx, c, iw.rates_after, RATE_TOL, ws, active) < 0:
                 return -1
             final = True
@@ -410,3 +441,84 @@ def lock_set(e, w, anchored, cand, active, ws, de, dw, ddg, lam):
                 return -1
             final = True
     return -1
+
+
+@njit(cache=True)
+def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
+    """Moreau's inelastic impact, or with ``e_lock`` > 0 Newton's restitution on the
+    hinges' lock rows (``contacts.newton``; anchors and held hinges stay inelastic), with
+    the hinge rates before the instant in iw.rates_before (the caller's: an instant
+    may solve its impact again from the last result, ``contacts.newton.impulse_rhs``).  ``cand[k]``: hinge k at its limit, its limit in force
+    (a candidate); ``forced[k]``: a candidate held at its limit whatever the sign of its
+    impulse (the accumulation rule, ``rules.must_hold``); ``active`` on entry: initial
+    guess (e.g. locked or approaching hinges), on exit: the hinges that carry an
+    impulse or stay at the limit.  ``anchored`` includes the points that just touched
+    the floor.  On exit ``w`` holds the post-impact angular velocities and ``iw``
+    (``ImpactWork``) the lock impulses, the floor impulses per point and the energy split
+    (lost to locking, lost to landing): their sum is the kinetic energy lost (>= 0); a
+    share alone can be negative when one impact both lands and locks (a hinge that was
+    opening is held at its limit).  Returns the number of trials (negative if the
+    pivoting did not converge).
+
+    With restitution, a hinge that was leaving its limit and is pushed back to it by the
+    others' impulses comes out closing (-e_lock times its rate before); a second,
+    inelastic pass from there stops it at its limit (both passes dissipate:
+    ``contacts.newton``), and iw.lost_hinge holds each hinge's share over both.  Where
+    a landing takes impulse in the same impact (its rows inelastic beside restitution at
+    the limits), Newton's law can create energy; such an impact is taken inelastic
+    (e_lock = 0) at every hinge instead."""
+    if e_lock == 0.0:
+        return _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+    nh = e.shape[0] - 1
+    for i in range(e.shape[0]):
+        for q in range(3):
+            iw.w_start[i, q] = w[i, q]
+    for k in range(nh):
+        iw.active_start[k] = active[k]  # (the initial guess, for a second try)
+    t_before = kinetic_energy(e, w, iw.pv, iw.vel)
+    it = _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+    if it < 0 or iw.split[0] + iw.split[1] >= -ENERGY_RTOL * t_before:
+        return it
+    # Newton's law with the landing's inelastic rows beside it created energy: inelastic
+    for i in range(e.shape[0]):
+        for q in range(3):
+            w[i, q] = iw.w_start[i, q]
+    for k in range(nh):
+        active[k] = iw.active_start[k]
+    return _newton_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
+
+
+@njit(cache=True)
+def _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
+    """Newton's restitution at the limits (``velocity_impact``), and the second, inelastic
+    pass if a hinge comes out closing; iw.lost_hinge: each hinge's share."""
+    nh = e.shape[0] - 1
+    hinge_rates(e, w, iw.rates_start)
+    it = _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+    closing = False
+    for k in range(nh):
+        iw.lost_hinge[k] = -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
+        if cand[k] and iw.rates_after[k] < -RATE_TOL:
+            closing = True
+            active[k] = 1
+    if it < 0 or not closing:
+        return it
+    lost_lock, lost_land = iw.split[0], iw.split[1]
+    for k in range(nh):
+        iw.keep_impulse[k] = iw.impulse[k]
+        iw.rates_start[k] = iw.rates_after[k]
+    for j in range(iw.anchor_impulse.shape[0]):
+        for q in range(3):
+            iw.keep_anchor[j, q] = iw.anchor_impulse[j, q]
+    it2 = _pivoted_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
+    if it2 < 0:
+        return it2
+    iw.split[0] += lost_lock
+    iw.split[1] += lost_land
+    for k in range(nh):
+        iw.lost_hinge[k] += -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
+        iw.impulse[k] += iw.keep_impulse[k]
+    for j in range(iw.anchor_impulse.shape[0]):
+        for q in range(3):
+            iw.anchor_impulse[j, q] += iw.keep_anchor[j, q]
+    return it + it2

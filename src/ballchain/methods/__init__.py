@@ -7,7 +7,8 @@ fills the shared outputs (frames, trace, event log, books) from which ``engine``
 builds the ``Result``.  To add one: a sub-package whose ``__init__`` (plain data, no
 kernels) states the bounds its runs are audited against (``AUDIT``: ``bounds.AuditBounds``)
 and the options it owns (``OPTIONS``: ``options.MethodOption``; ``DEFAULTS``, ``USES``: its
-defaults of other methods' options), ``summary(s)`` (the command line's line naming the
+defaults of other methods' options), the contact laws' parameters it honours away from their
+defaults (``CONTACTS``: ``contacts.registry``; others are refused in one line), ``summary(s)`` (the command line's line naming the
 method and its settings, from a run's summary), and a line here.  The command line, ``SolverOptions``,
 the sweeps and the JSON keys learn the options from ``all_options``.
 """

@@ -158,17 +158,21 @@ class MethodOption:
         return f"_{self.name}{value:.12g}" if isinstance(value, float) else f"_{self.name}{value}"
 
 
-def options_dataclass(base: type, name: str, module: str, names=None) -> type:
+def options_dataclass(base: type, name: str, module: str, names=None, registry=None) -> type:
     """The frozen dataclass ``name`` of ``module``: the fields of ``base`` (a frozen
     dataclass), then one per method option (``methods.all_options``; ``names``: only
     those) with its type and default, given by name only; its docstring is ``base``'s and
-    each option's help."""
+    each option's help.  ``registry``: (options by name, owner(name), help(name)) instead
+    of the methods' (the contact laws' parameters: ``contacts.registry``)."""
     import textwrap
     from dataclasses import field, make_dataclass
 
-    from . import all_options, option_help, option_owner  # (the registry imports this module)
+    if registry is None:
+        from . import all_options, option_help, option_owner  # (the registry imports this module)
 
-    opts = [o for o in all_options().values() if names is None or o.name in names]
+        registry = (all_options(), option_owner, option_help)
+    every, option_owner, option_help = registry
+    opts = [o for o in every.values() if names is None or o.name in names]
     cls = make_dataclass(
         name,
         [(o.name, o.annotation, field(default=o.default)) for o in opts],

@@ -5,6 +5,7 @@ print, so a key cannot appear or go without its line here."""
 
 from __future__ import annotations
 
+from ..contacts.registry import all_params as contact_params
 from ..methods import all_options
 
 # ``ballchain simulate --json`` and ``ballchain info --json``: Result.summary() and the
@@ -14,6 +15,8 @@ RUN = {
     "alpha": "the critical bend angle, radians",
     "floor": "the floor model: all or pivot",
     "anchor_cone": "whether the hinge limit is kept between a landed segment and the airborne one hinged to it",
+    # the contact laws' parameters (contacts.registry: those with a key)
+    **{name: prm.json for name, prm in contact_params().items() if prm.json is not None},
     "ic": "the initial condition (kind, eps, turns, phase, seed, modes, spawn_key), or null for an explicit state",
     "units": "nondimensional (lengths in b, times in sqrt(b/g)) or SI",
     "status": "landed, until, max_time, error or interrupted",
@@ -81,6 +84,7 @@ STATS_POINT = {
     "alpha_deg": "alpha, degrees",
     "floor": "the floor model",
     "anchor_cone": "the anchor cone setting",
+    **{name: prm.column for name, prm in contact_params().items() if prm.column is not None},
     "ic": "the start's family",
     "eps": "the start's tilt",
     "method": "the integration method",

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..contacts.registry import all_params as contact_params
 from ..core.kinds import EVENT_CODES, EVENT_KINDS, EVENT_MEANINGS  # noqa: F401  (re-exported)
 from ..methods import all_options
 from ..model import ChainParams, InitialCondition, SolverOptions
@@ -278,6 +279,9 @@ class Result:
             "alpha": p.alpha,
             "floor": p.floor,
             "anchor_cone": p.anchor_cone,
+            **{  # the contact laws' parameters (contacts.registry: those with a key)
+                name: getattr(p, name) for name, prm in contact_params().items() if prm.json is not None
+            },
             "ic": None if self.ic is None else self.ic.to_dict(),
             "units": self.units,
             "status": self.status,

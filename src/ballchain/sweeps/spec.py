@@ -17,6 +17,8 @@ import math
 import os
 from dataclasses import dataclass, field
 
+from ..contacts.registry import all_params as contact_params
+from ..contacts.registry import check_honoured, law_of
 from ..methods import all_options
 from ..methods.checkpoint import DEFAULT_EVERY
 from ..methods.options import options_dataclass
@@ -184,9 +186,14 @@ class _SweepGrid:
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
+        check_honoured(ChainParams(segments=1, **self.contact_values()), self.method)
         n = self.size
         if n > MAX_RUNS:
             raise ParameterError(f"sweep has {n} runs (more than {MAX_RUNS}); narrow it")
+
+    def contact_values(self) -> dict:
+        """The contact laws' parameters of every run (``contacts.registry``)."""
+        return {name: getattr(self, name) for name in contact_params()}
 
     @property
     def size(self) -> int:
@@ -201,7 +208,7 @@ class _SweepGrid:
         for n in self.segments:
             for a in self.alphas:
                 for fl in self.floors:
-                    params = ChainParams(segments=n, alpha=a, floor=fl)
+                    params = ChainParams(segments=n, alpha=a, floor=fl, **self.contact_values())
                     for kind in self.ics:
                         for k in range(self.runs):
                             ic = InitialCondition(
@@ -227,7 +234,10 @@ class _SweepGrid:
         return out
 
 
-SweepSpec = options_dataclass(_SweepGrid, "SweepSpec", __name__, sweep_options())
+_SweepContacts = options_dataclass(  # the contact laws' parameters: one value for every run
+    _SweepGrid, "_SweepContacts", __name__, registry=(contact_params(), law_of, lambda n: contact_params()[n].help)
+)
+SweepSpec = options_dataclass(_SweepContacts, "SweepSpec", __name__, sweep_options())
 
 
 def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:
@@ -246,4 +256,5 @@ def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) ->
         f"_fr{options.frames_per_tff:.12g}"
         + ("" if options.max_time == SolverOptions.max_time else f"_tmax{options.max_time:.12g}")
         + "".join(opt.key(options) for opt in opts if not opt.key_among_inputs)
+        + "".join(prm.key(params) for prm in contact_params().values())  # (nothing at their defaults)
     )

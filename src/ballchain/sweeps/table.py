@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contacts.registry import all_params as contact_params
 from ..methods import all_options
 from ..model import ParameterError
 from ..records.result import EVENT_KINDS
@@ -33,6 +34,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "alpha_deg": ("float64", "critical bend angle, degrees"),
     "floor": ("string", "floor model: all or pivot"),
     "anchor_cone": ("bool", "hinge limit kept between landed and airborne segments"),
+    # the contact laws' parameters (contacts.registry), in the registry's order
+    **{name: (prm.column_type, prm.column) for name, prm in contact_params().items() if prm.column is not None},
     "ic": ("string", "initial-condition family"),
     "eps": ("float64", "largest initial tilt"),
     "turns": ("float64", "q of the helix / planar bend"),
@@ -88,6 +91,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
 }
 # the methods' options with a column (``methods.all_options``), in the registry's order
 OPTION_COLUMNS = tuple(name for name, opt in all_options().items() if opt.column is not None)
+# the contact laws' parameters with a column (``contacts.registry``)
+CONTACT_COLUMNS = tuple(name for name, prm in contact_params().items() if prm.column is not None)
 # the columns every sweep table has had (a file without one of them is not a sweep table;
 # the methods' own columns came and come later, and are filled in when missing)
 INPUT_COLUMNS = (
@@ -106,7 +111,18 @@ INPUT_COLUMNS = (
     "frames_per_tff",
 )
 # what tells a table's points apart (its inputs but the start), then the start
-POINT_KEYS = ("segments", "alpha", "floor", "anchor_cone", "ic", "eps", "method", *OPTION_COLUMNS, "until")
+POINT_KEYS = (
+    "segments",
+    "alpha",
+    "floor",
+    "anchor_cone",
+    *CONTACT_COLUMNS,
+    "ic",
+    "eps",
+    "method",
+    *OPTION_COLUMNS,
+    "until",
+)
 SORT_KEYS = (*POINT_KEYS, "seed", "run_index", "run_id")
 # columns that differ between two executions of the same sweep (the rest must not)
 VOLATILE = ("wall_seconds", "worker")
@@ -116,6 +132,7 @@ CONVENTIONS = (
     "rebuild run k of a random start with: ballchain simulate --ic random --seed SEED "
     "--spawn-key SPAWN_KEY --eps EPS -N SEGMENTS --alpha ALPHA --floor FLOOR --method METHOD "
     + "".join(f"{opt.flag} {name.upper()} " for name, opt in all_options().items() if opt.column and opt.flag)
+    + "".join(f"{prm.flag} {name.upper()} " for name, prm in contact_params().items() if prm.column and prm.flag)
     + "--frames-per-tff FRAMES_PER_TFF (and --until UNTIL if set; an empty value: leave the option out)"
 )
 EMPTY = {"string": "", "int64": 0, "float64": math.nan, "bool": False}  # a column's value for None
@@ -147,6 +164,7 @@ def input_row(task) -> dict:
         "alpha_deg": math.degrees(p.alpha),
         "floor": p.floor,
         "anchor_cone": p.anchor_cone,
+        **{name: getattr(p, name) for name in CONTACT_COLUMNS},
         "ic": ic.kind,
         "eps": ic.eps,
         "turns": ic.turns,

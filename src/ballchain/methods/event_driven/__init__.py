@@ -17,6 +17,8 @@ from ..bounds import AuditBounds
 from ..options import MethodOption, number_text, positive
 
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
+# the contact laws' parameters it honours away from their defaults (contacts.registry)
+CONTACTS = ("restitution_lock",)
 
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 

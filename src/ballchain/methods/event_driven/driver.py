@@ -99,7 +99,14 @@ def run(setup, progress, stop) -> RunOutput:
     (not None) asks the run to stop there (status ``interrupted``)."""
     p, o, n = setup.params, setup.options, setup.params.segments
     model = new_model(
-        p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, ZENO_WINDOW * setup.t_ff, RETURN_EVERY
+        p.alpha,
+        FLOOR_CODES[p.floor],
+        p.anchor_cone,
+        o,
+        setup.t_stop,
+        ZENO_WINDOW * setup.t_ff,
+        RETURN_EVERY,
+        e_lock=p.restitution_lock,
     )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     watch, ws, st, sc, books = new_watch(n), new_work(n), new_stepper(n), new_instant(n), new_books()

@@ -31,6 +31,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...contacts.newton import rebounds
 from ...core.books import PROJECTED_AT_INSTANTS, fill_frame_books, log_row, mechanical_energy
 from ...core.dynamics import (
     kinetic_energy,
@@ -220,13 +221,17 @@ def _impact_candidates(model, chain, hs, ct):
 
 
 @njit(cache=True)
-def _apply_impact(rnd, chain, ws, hs, ct, iw, books):
-    """Step 3: one Moreau impact over the new anchors and the candidates (impulses
-    summed into the books, the hinge log and the floor's impulse); the hinges it keeps
-    at their limit are locked.  Returns False if the impact problem failed."""
+def _apply_impact(rnd, model, chain, ws, hs, ct, iw, books):
+    """Step 3: one impact over the new anchors and the candidates (Moreau's, or Newton's
+    restitution at the limits: ``model.e_lock``; impulses summed into the books, the
+    hinge log and the floor's impulse); the hinges it keeps at their limit are locked (a
+    hinge that rebounds, ``contacts.newton.rebounds``, is not).  Returns False if the
+    impact problem failed."""
     e, w, locked = chain.Y[0], chain.Y[1], chain.locked
     hinge_rates(e, w, hs.rates)
-    if velocity_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, ws, iw) < 0:
+    if rnd == 0:  # (Newton's law compares with the rates before the instant, in every round)
+        hinge_rates(e, w, iw.rates_before)
+    if velocity_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, model.e_lock, ws, iw) < 0:
         return False
     books.lost_locking[0] += iw.split[0]
     books.lost_landing[0] += iw.split[1]
@@ -236,10 +241,14 @@ def _apply_impact(rnd, chain, ws, hs, ct, iw, books):
             books.floor_impulse[q] += iw.anchor_impulse[j, q]
     for k in range(locked.shape[0]):
         hs.imp_sum[k] += iw.impulse[k]
-        hs.lost_h[k] += -0.5 * iw.impulse[k] * (hs.rates[k] + iw.rates_after[k])
+        if model.e_lock > 0.0:  # (its impact may have taken two passes: velocity_impact)
+            hs.lost_h[k] += iw.lost_hinge[k]
+        else:
+            hs.lost_h[k] += -0.5 * iw.impulse[k] * (hs.rates[k] + iw.rates_after[k])
         if rnd == 0 and hs.active[k] and not hs.was_locked[k]:
             hs.new_lock[k] = 1
-        locked[k] = hs.active[k]  # hinges kept at the limit by the impact
+        # hinges kept at the limit by the impact (not one that rebounds from it)
+        locked[k] = 0 if rebounds(iw.rates_after[k], model.e_lock, RATE_TOL) and not hs.forced[k] else hs.active[k]
     hinge_rates(e, w, hs.rates)
     return True
 
@@ -367,7 +376,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
     T0 = kinetic_energy(e, w, pt.pv, pt.vel)
     for rnd in range(chain.locked.shape[0] + 1):  # each round holds at least one more hinge
-        if impact and not _apply_impact(rnd, chain, ws, hs, ct, sc.iw, books):
+        if impact and not _apply_impact(rnd, model, chain, ws, hs, ct, sc.iw, books):
             return ERR_IMPACT_LCP
         if rnd == 0:
             _settle_anchors(model, chain, hs)

@@ -1,0 +1,81 @@
+"""The contact laws by name, and the parameters each states (plain data: importable
+without the compiled kernels).
+
+A contact law says what a constraint that reaches its limit does: today's, stated here
+once, are the anchor (a point that touches the floor is held where it touched, for good:
+``floors.registry.CONTACT_FIXED``) and Newton's restitution at an impact (``newton``:
+the rate after an impact that acts on a row is -e times the rate before).  Each law is
+one module of this package (its kernels, which the methods call) and a line here: its
+parameters (``options.MethodOption`` data: the ``ChainParams`` field, its check, flag,
+help, sweep column and JSON key), from which ``ChainParams``, the command line, the sweep
+and the JSON keys learn them.  A method states which parameters it honours away from their
+defaults (``CONTACTS`` in its package); a run that asks another is refused in one line
+(``check_honoured``).
+"""
+
+from __future__ import annotations
+
+from ..errors import ParameterError
+from ..methods.options import MethodOption, in_range
+
+# law -> (module, what it is, the parameters it states)
+LAWS = {
+    "newton": (
+        "newton",
+        "Newton's restitution: an impact that acts on a row (a hinge at its limit) leaves it "
+        "separating at e times the rate it closed with; the impulse never pulls (e = 0: the "
+        "inelastic lock)",
+        (
+            MethodOption(
+                "restitution_lock",
+                float,
+                0.0,
+                "Newton's restitution at the bend limit, in [0, 1]: a hinge that reaches its limit rebounds at "
+                "this fraction of the rate it closed with (0: it locks, the model's law; 1: nothing is lost).",
+                in_range(0.0, 1.0, "a rebound faster than the approach creates energy"),
+                flag="--restitution-lock",
+                json="Newton's restitution at the bend limit (0: the hinge locks)",
+                column="Newton's restitution at the bend limit (0: the hinge locks; empty in tables written "
+                "before the column: 0)",
+            ),
+        ),
+    ),
+}
+
+
+def all_params() -> dict:
+    """Every contact law's parameters by name, in the registry's order."""
+    out: dict = {}
+    for _, (_, _, params) in LAWS.items():
+        for p in params:
+            out[p.name] = p
+    return out
+
+
+def law_of(name: str) -> str:
+    """The law that states the parameter ``name``."""
+    for law, (_, _, params) in LAWS.items():
+        if any(p.name == name for p in params):
+            return law
+    raise KeyError(f"no contact law states a parameter {name!r}")
+
+
+def check_honoured(params, method: str) -> None:
+    """Refuse, in one line, a contact parameter away from its default that ``method`` does
+    not honour (its package's ``CONTACTS``)."""
+    from ..methods import method_package
+
+    honoured = tuple(getattr(method_package(method), "CONTACTS", ()))
+    for name, p in all_params().items():
+        if getattr(params, name) != p.default and name not in honoured:
+            takers = [m for m in _methods() if name in getattr(method_package(m), "CONTACTS", ())]
+            raise ParameterError(
+                f"{p.flag} {getattr(params, name):g} is not honoured by --method {method} yet "
+                f"(only by: {', '.join(takers) or 'none'}); leave it at {p.default:g} or change the method"
+            )
+
+
+def _methods():
+    from ..methods import METHOD_NAMES
+
+    return METHOD_NAMES
