@@ -337,17 +337,24 @@ def test_impacts_random_states(n):
         done += 1
 
 
+def closing_pair(rng, alpha):
+    """Two free rods on the pivot, the hinge at its limit and closing faster than 0.1:
+    (e, w, its rate v)."""
+    e = chain_directions(rng, 2, "tilted", [True], alpha)
+    while True:
+        w = ref.project_velocity(e, rng.normal(size=(2, 3)), [0, 0, 1], [False])
+        v = ref.hinge_rates(e, w)[0]
+        if v < -0.1:
+            return e, w, v
+
+
 def test_impact_single_pair_locks_rigidly():
     """Two free rods on the pivot, hinge at its limit and closing: after the impact
     dg/dt = 0, the impulse is positive and the pair turns as one rigid body."""
     rng = np.random.default_rng(3)
     alpha = 0.6
     for _ in range(10):
-        e = chain_directions(rng, 2, "tilted", [True], alpha)
-        while True:
-            w = ref.project_velocity(e, rng.normal(size=(2, 3)), [0, 0, 1], [False])
-            if ref.hinge_rates(e, w)[0] < -0.1:
-                break
+        e, w, _ = closing_pair(rng, alpha)
         f, r = check_impact(e, w, np.array([0, 0, 1], np.uint8), np.array([True]), alpha)
         assert f["impulse"][0] > 0 and r["Lambda"][0] > 0
         assert abs(ref.hinge_rates(e, f["w"])[0]) < 1e-13
@@ -542,14 +549,8 @@ def test_a_single_hinge_rebounds_at_e_times_its_rate_and_loses_one_minus_e_squar
     -e v, and the energy lost is (1 - e^2) times the inelastic impact's (closed form of
     Newton's law for one row: T lost = (1 - e^2) v^2 / (2 G))."""
     rng = np.random.default_rng(31)
-    alpha = 0.6
     for _ in range(5):
-        e = chain_directions(rng, 2, "tilted", [True], alpha)
-        while True:
-            w = ref.project_velocity(e, rng.normal(size=(2, 3)), [0, 0, 1], [False])
-            v = ref.hinge_rates(e, w)[0]
-            if v < -0.1:
-                break
+        e, w, v = closing_pair(rng, 0.6)
         inelastic = fast_impact(e, w, np.array([0, 0, 1], np.uint8), np.array([True]))
         lost0 = inelastic["T0"] - inelastic["T1"]
         for r in (0.25, 0.5, 0.9, 1.0):

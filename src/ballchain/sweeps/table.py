@@ -110,19 +110,10 @@ INPUT_COLUMNS = (
     "until",
     "frames_per_tff",
 )
-# what tells a table's points apart (its inputs but the start), then the start
-POINT_KEYS = (
-    "segments",
-    "alpha",
-    "floor",
-    "anchor_cone",
-    *CONTACT_COLUMNS,
-    "ic",
-    "eps",
-    "method",
-    *OPTION_COLUMNS,
-    "until",
-)
+# what tells a table's points apart (the chain: segments, alpha, floor, anchor_cone; its
+# contact laws; the start's family and size; the method and its options; the stop), then
+# the start
+POINT_KEYS = (*INPUT_COLUMNS[:4], *CONTACT_COLUMNS, "ic", "eps", "method", *OPTION_COLUMNS, "until")
 SORT_KEYS = (*POINT_KEYS, "seed", "run_index", "run_id")
 # columns that differ between two executions of the same sweep (the rest must not)
 VOLATILE = ("wall_seconds", "worker")
