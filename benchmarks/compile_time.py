@@ -13,7 +13,7 @@ temporary directory) that imports ballchain and loads the kernels as the first r
 ``ballchain simulate`` does (``engine.load_kernels``; for a revision from before it, the
 smallest run through its CLI, ``simulate -N 4``); it reports wall and CPU seconds.
 Without ``--base`` the two sides are this checkout with the compile policy of
-``ballchain.core.jit`` switched off (``BALLCHAIN_OPTIMIZE_CALLEES=1``: numba as it always
+``ballchain.jit`` switched off (``BALLCHAIN_OPTIMIZE_CALLEES=1``: numba as it always
 compiles) and on; with ``--base`` the revision is checked out as a git worktree (removed
 at the end).  The sides alternate (A, B, A, B, ...) so that the machine's drift hits both
 alike; prints the machine, the versions, every compile, and the medians with their ratio.
@@ -55,7 +55,7 @@ else:  # a revision from before load_kernels: the smallest run through its CLI
     cold = True  # the cache directory was empty
 r = resource.getrusage(resource.RUSAGE_SELF)
 try:
-    from ballchain.core.jit import policy_active
+    from ballchain.jit import policy_active
     policy = policy_active()
 except ImportError:  # a revision from before the policy
     policy = False
@@ -68,7 +68,7 @@ BREAKDOWN = (
     """
 import collections, os, time
 import numba.core.codegen as cg
-import ballchain.core.jit  # its policy wraps numba's methods first: time them as installed
+import ballchain.jit  # its policy wraps numba's methods first: time them as installed
 llvm, count = collections.defaultdict(float), collections.Counter()
 finalize = cg.CPUCodeLibrary.finalize
 def timed(self):  # link, optimise and emit machine code: numba's LLVM work per library
@@ -82,7 +82,7 @@ cg.CPUCodeLibrary.finalize = timed
 """
     + PROBE
     + """
-from ballchain.core import jit
+from ballchain import jit
 cheap = set(jit.cheap_libraries()) if hasattr(jit, "cheap_libraries") else set()
 print(f"wall {time.perf_counter() - t0:.1f} s; LLVM (finalize) {sum(llvm.values()):.1f} s over "
       f"{sum(count.values())} libraries; the rest is numba's front end (typing, lowering)")

@@ -1,4 +1,4 @@
-"""The compile policy (ballchain.core.jit): nested compiles under a kernel of the package get
+"""The compile policy (ballchain.jit): nested compiles under a kernel of the package get
 numba's cheap pipeline, the kernel called from Python and ``entry`` kernels the full one;
 numbers are unchanged (every physics test runs with the policy in force)."""
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ballchain.core import jit
+from ballchain import jit
 
 
 def _chain(module, entry_middle=False):
@@ -75,7 +75,7 @@ def test_entry_kernels_and_foreign_code_get_the_full_pipeline():
 def test_policy_can_be_switched_off():
     env = dict(os.environ, BALLCHAIN_OPTIMIZE_CALLEES="1")
     out = subprocess.run(
-        [sys.executable, "-c", "from ballchain.core import jit; print(jit.policy_active())"],
+        [sys.executable, "-c", "from ballchain import jit; print(jit.policy_active())"],
         env=env,
         capture_output=True,
         text=True,
@@ -101,7 +101,7 @@ def test_cheap_libraries_link_nothing_and_the_outer_one_everything():
 
 PROBE_MODULE = """
 import numpy as np
-from ballchain.core.jit import njit
+from ballchain.jit import njit
 
 _ours = njit(cache=True)
 
@@ -131,7 +131,7 @@ def test_cheap_libraries_are_not_cached_and_compile_when_called_later(tmp_path):
 
     def run(code):
         # the policy counts this module's kernels as the package's own
-        head = "from ballchain.core import jit; jit._PACKAGE = 'probe_cache_mod'\nimport numpy as np, probe_cache_mod as m\n"
+        head = "from ballchain import jit; jit._PACKAGE = 'probe_cache_mod'\nimport numpy as np, probe_cache_mod as m\n"
         return subprocess.run(
             [sys.executable, "-c", head + code], env=env, capture_output=True, text=True, check=True, cwd=tmp_path
         ).stdout
@@ -179,7 +179,7 @@ def test_an_edited_callee_recompiles_its_callers(tmp_path):
     (another file): after an edit of the callee alone, the next process must run the
     edited code, not the cached machine code of the old one."""
     shutil.copytree(
-        Path(jit.__file__).resolve().parents[1], tmp_path / "ballchain", ignore=shutil.ignore_patterns("__pycache__")
+        Path(jit.__file__).resolve().parent, tmp_path / "ballchain", ignore=shutil.ignore_patterns("__pycache__")
     )
     env = dict(os.environ, PYTHONPATH=str(tmp_path))
     env.pop("NUMBA_CACHE_DIR", None)

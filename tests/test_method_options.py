@@ -1,4 +1,4 @@
-"""Each method's package states its own options (``methods.options.MethodOption``) and
+"""Each method's package states its own options (``options.MethodOption``) and
 everything that names an option learns it from the registry (``methods.all_options``):
 a new option touches one file.  Importing ballchain (and the registry, the CLI, the
 sweeps) loads no method's kernels."""
@@ -14,8 +14,8 @@ import pytest
 
 from ballchain import methods
 from ballchain.errors import ParameterError
-from ballchain.methods.options import MethodOption
 from ballchain.model import SolverOptions
+from ballchain.options import MethodOption
 
 TESTS = Path(__file__).parent
 
@@ -25,7 +25,7 @@ NEW_OPTION = textwrap.dedent(
     """
     import json, sys, types
     import ballchain.methods.rattle as rattle
-    from ballchain.methods.options import MethodOption, positive
+    from ballchain.options import MethodOption, positive
 
     rattle.OPTIONS = rattle.OPTIONS + (MethodOption(
         "fake_gain", float, 2.0, "--method rattle: a fake gain, in units of E0 (at most 10).",

@@ -21,13 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .contacts.registry import check_honoured
 from .core.books import PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS
 from .core.dynamics import kinetic_energy, potential_energy
 from .core.kinds import EVENT_KINDS
 from .core.rules import is_landed
 from .initial import check_inside_cone, initial_directions
-from .methods import method_runner
+from .methods import check_contacts, method_runner
 from .methods.checkpoint import Checkpoint
 from .methods.outputs import FRAME_CHUNK_BYTES, RunOutput, SimulationError, frame_bytes  # noqa: F401  (re-exported)
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
@@ -272,7 +271,7 @@ def simulate(
     file is left in place (``Checkpoint.discard`` it once the result is saved).
     Returns a Result in the run's units."""
     options = (options or SolverOptions()).for_segments(params.segments)
-    check_honoured(params, options.method)
+    check_contacts(params, options.method)
     check_memory(params, options)
     wall0 = _time.perf_counter()
     setup = _setup(params, ic, options, state)

@@ -6,8 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from .contacts.registry import all_params as contact_params
-from .contacts.registry import check_honoured
-from .methods import all_options
+from .methods import all_options, check_contacts
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 
@@ -79,5 +78,5 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         method=v.get("method", _SOLVER.method),
         **{name: v[name] for name in all_options() if name in v},  # the methods' own (methods.all_options)
     )
-    check_honoured(params, options.method)  # (before anything compiles)
+    check_contacts(params, options.method)  # (before anything compiles)
     return params, init, options

@@ -20,12 +20,12 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .contacts.registry import all_params as contact_params  # (one registry of contact laws)
-from .contacts.registry import law_of
+from .contacts.registry import law_of, law_param_help
 from .errors import ParameterError  # noqa: F401  (re-exported: the model's validation raises it)
 from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
-from .methods import METHOD_NAMES, all_options, method_default  # noqa: E402  (one registry of methods)
+from .methods import METHOD_NAMES, all_options, method_default, option_help, option_owner  # noqa: E402  (one registry of methods)
 from .methods.event_driven import RTOL_MIN  # noqa: E402, F401  (re-exported: the event method's)
-from .methods.options import options_dataclass
+from .options import options_dataclass
 
 IC_KINDS = ("helix", "planar", "random")
 
@@ -144,9 +144,7 @@ class _Chain:
         return asdict(self)
 
 
-ChainParams = options_dataclass(
-    _Chain, "ChainParams", __name__, registry=(contact_params(), law_of, lambda n: contact_params()[n].help)
-)
+ChainParams = options_dataclass(_Chain, "ChainParams", __name__, (contact_params(), law_of, law_param_help))
 
 
 @dataclass(frozen=True)
@@ -263,4 +261,4 @@ class _RunOptions:
         return asdict(self)
 
 
-SolverOptions = options_dataclass(_RunOptions, "SolverOptions", __name__)
+SolverOptions = options_dataclass(_RunOptions, "SolverOptions", __name__, (all_options(), option_owner, option_help))

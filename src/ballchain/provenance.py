@@ -14,7 +14,7 @@ from pathlib import Path
 PACKAGE_DIR = Path(__file__).resolve().parent
 # the sub-packages and modules whose code decides a run's numbers
 ENGINE_PACKAGES = ("core", "methods", "floors", "contacts")
-ENGINE_MODULES = ("model.py", "initial.py", "engine.py")
+ENGINE_MODULES = ("model.py", "initial.py", "engine.py", "jit.py", "options.py")
 
 
 def engine_sources(root: Path = PACKAGE_DIR) -> list[Path]:

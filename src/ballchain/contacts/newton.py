@@ -24,7 +24,7 @@ accumulation rule (``rules.must_hold``) takes e = 0: it is held, not bounced.
 
 from __future__ import annotations
 
-from ..core.jit import njit
+from ..jit import njit
 
 
 @njit(cache=True, inline="always")

@@ -10,13 +10,12 @@ parameters (``options.MethodOption`` data: the ``ChainParams`` field, its check,
 help, sweep column and JSON key), from which ``ChainParams``, the command line, the sweep
 and the JSON keys learn them.  A method states which parameters it honours away from their
 defaults (``CONTACTS`` in its package); a run that asks another is refused in one line
-(``check_honoured``).
+(``methods.check_contacts``).
 """
 
 from __future__ import annotations
 
-from ..errors import ParameterError
-from ..methods.options import MethodOption, in_range
+from ..options import MethodOption, in_range
 
 # law -> (module, what it is, the parameters it states)
 LAWS = {
@@ -60,22 +59,6 @@ def law_of(name: str) -> str:
     raise KeyError(f"no contact law states a parameter {name!r}")
 
 
-def check_honoured(params, method: str) -> None:
-    """Refuse, in one line, a contact parameter away from its default that ``method`` does
-    not honour (its package's ``CONTACTS``)."""
-    from ..methods import method_package
-
-    honoured = tuple(getattr(method_package(method), "CONTACTS", ()))
-    for name, p in all_params().items():
-        if getattr(params, name) != p.default and name not in honoured:
-            takers = [m for m in _methods() if name in getattr(method_package(m), "CONTACTS", ())]
-            raise ParameterError(
-                f"{p.flag} {getattr(params, name):g} is not honoured by --method {method} yet "
-                f"(only by: {', '.join(takers) or 'none'}); leave it at {p.default:g} or change the method"
-            )
-
-
-def _methods():
-    from ..methods import METHOD_NAMES
-
-    return METHOD_NAMES
+def law_param_help(name: str) -> str:
+    """What ``--help`` says of the parameter ``name``."""
+    return all_params()[name].help

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from .jit import entry, njit
+from ..jit import entry, njit
 from .rules import is_landed as _is_landed
 from .state import MAXR
 

@@ -30,6 +30,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..contacts.newton import impulse_rhs, law_rate
+from ..jit import entry, njit
 from .dynamics import (
     ROW_ANCHOR_LOWER,
     ROW_ANCHOR_UPPER,
@@ -48,7 +49,6 @@ from .dynamics import (
     torque_jump,
     torques4,
 )
-from .jit import entry, njit
 from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
 from .rules import RATE_TOL, unit_hinge_gap
 from .state import MAXR

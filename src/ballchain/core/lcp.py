@@ -18,7 +18,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .jit import njit
+from ..jit import njit
 
 PIVOT_BUDGET = 200  # principal-pivoting trials before the dense fallback
 REG_RTOL = 1e-10  # fallback: delta = REG_RTOL * max diag M (makes M + delta I positive definite)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from .jit import njit
+from ..jit import njit
 from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a plain module)
     EVENT_CODES,
     EVENT_KINDS,

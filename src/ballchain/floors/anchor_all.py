@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
-from ..core.jit import njit
 from ..core.rules import RATE_TOL, point_height
+from ..jit import njit
 
 CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = False  # t_fall comes from the top end's anchoring, not from an event of its own

@@ -9,7 +9,7 @@ code (``registry.FLOOR_CODES``); nothing else in the engine branches on the floo
 
 from __future__ import annotations
 
-from ..core.jit import njit
+from ..jit import njit
 from . import anchor_all, pivot
 from .registry import FLOOR_ALL
 

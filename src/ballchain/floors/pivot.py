@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import math
 
-from ..core.jit import njit
 from ..core.rules import bottom_airborne
+from ..jit import njit
 
 CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = True  # t_fall: the top end's height crossing zero is watched

@@ -52,6 +52,22 @@ def method_package(name: str):
     return importlib.import_module(f"{__name__}.{METHODS[name][0].split('.')[0]}")
 
 
+def check_contacts(params, method: str) -> None:
+    """Refuse, in one line, a contact law's parameter away from its default
+    (``contacts.registry``) that ``method`` does not honour (its package's ``CONTACTS``)."""
+    from ..contacts.registry import all_params
+    from ..errors import ParameterError
+
+    for name, p in all_params().items():
+        value = getattr(params, name)
+        if value != p.default and name not in getattr(method_package(method), "CONTACTS", ()):
+            takers = [m for m in METHODS if name in getattr(method_package(m), "CONTACTS", ())]
+            raise ParameterError(
+                f"{p.flag} {value:g} is not honoured by --method {method} yet "
+                f"(only by: {', '.join(takers) or 'none'}); leave it at {p.default:g} or change the method"
+            )
+
+
 def method_options(name: str) -> tuple:
     """The options the method ``name`` owns (its package's ``OPTIONS``: ``options.MethodOption``)."""
     return tuple(getattr(method_package(name), "OPTIONS", ()))

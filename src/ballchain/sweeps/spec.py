@@ -18,11 +18,11 @@ import os
 from dataclasses import dataclass, field
 
 from ..contacts.registry import all_params as contact_params
-from ..contacts.registry import check_honoured, law_of
-from ..methods import all_options
+from ..contacts.registry import law_of, law_param_help
+from ..methods import all_options, check_contacts, option_help, option_owner
 from ..methods.checkpoint import DEFAULT_EVERY
-from ..methods.options import options_dataclass
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
+from ..options import options_dataclass
 
 MAX_RUNS = 1_000_000  # a guard against a typo in a range step
 
@@ -186,7 +186,7 @@ class _SweepGrid:
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
-        check_honoured(ChainParams(segments=1, **self.contact_values()), self.method)
+        check_contacts(ChainParams(segments=1, **self.contact_values()), self.method)
         n = self.size
         if n > MAX_RUNS:
             raise ParameterError(f"sweep has {n} runs (more than {MAX_RUNS}); narrow it")
@@ -234,10 +234,11 @@ class _SweepGrid:
         return out
 
 
-_SweepContacts = options_dataclass(  # the contact laws' parameters: one value for every run
-    _SweepGrid, "_SweepContacts", __name__, registry=(contact_params(), law_of, lambda n: contact_params()[n].help)
+# the contact laws' parameters (one value for every run), then the methods' options
+_SweepContacts = options_dataclass(_SweepGrid, "_SweepContacts", __name__, (contact_params(), law_of, law_param_help))
+SweepSpec = options_dataclass(
+    _SweepContacts, "SweepSpec", __name__, (all_options(), option_owner, option_help), sweep_options()
 )
-SweepSpec = options_dataclass(_SweepContacts, "SweepSpec", __name__, sweep_options())
 
 
 def run_id(params: ChainParams, ic: InitialCondition, options: SolverOptions) -> str:

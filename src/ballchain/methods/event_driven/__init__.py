@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 
 from ...errors import ParameterError
+from ...options import MethodOption, number_text, positive
 from ..bounds import AuditBounds
-from ..options import MethodOption, number_text, positive
 
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
 # the contact laws' parameters it honours away from their defaults (contacts.registry)

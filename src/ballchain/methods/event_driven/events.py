@@ -42,7 +42,6 @@ from ...core.dynamics import (
     velocities,
 )
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
-from ...core.jit import entry, njit
 from ...core.rules import (
     GAP_TOL,
     LOG_ANCHOR,
@@ -63,6 +62,7 @@ from ...core.rules import (
     settle_anchors,
 )
 from ...floors.dispatch import floor_contacts, top_event
+from ...jit import entry, njit
 from .integrator import ADV_EVENT, advance
 from .watch import EV_LANDING, EV_TOP, EV_UNLOCK, apex_times, arm_functions
 

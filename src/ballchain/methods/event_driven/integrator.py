@@ -64,9 +64,9 @@ from ...core.dynamics import (
     projection_tol,
     reuse_factors,
 )
-from ...core.jit import njit
 from ...core.rules import ARMED, OFF, ZERO_BAND, hinge_gap, landed_or_landing, point_height
 from ...floors.dispatch import floor_value, floor_values
+from ...jit import njit
 from .watch import EV_LANDING, EV_LOCK, EV_TOP, EV_UNLOCK, arm_departed
 
 # Dormand-Prince 5(4) (Hairer's DOPRI5; the coefficients of scipy's RK45)

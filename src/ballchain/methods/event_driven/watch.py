@@ -16,9 +16,9 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.jit import entry, njit
 from ...core.rules import ARMED, DEPARTING, OFF, ZERO_BAND, arm_state, hinge_gap, limit_in_force, point_height
 from ...floors.dispatch import floor_values, floor_watched, top_event
+from ...jit import entry, njit
 
 EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP = 1, 2, 3, 4
 EVENT_FUNCTIONS = (EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP)

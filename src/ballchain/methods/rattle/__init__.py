@@ -8,8 +8,8 @@ package's option) and the bounds its runs are audited against (``records.audit``
 
 from __future__ import annotations
 
+from ...options import MethodOption, non_negative, number_text
 from ..bounds import AuditBounds
-from ..options import MethodOption, non_negative, number_text
 
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
 STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is taken again, shorter)

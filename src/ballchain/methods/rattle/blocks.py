@@ -28,7 +28,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.dynamics import DROP_RTOL, _weights
-from ...core.jit import njit
+from ...jit import njit
 from .rows import K_AXIS, K_JOINT, end_signs, has_columns
 
 PIVOT_RTOL = 1e-12  # stage 1: a pivot of A below this fraction of its diagonal (not dropped): A is singular

@@ -27,8 +27,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.jit import njit
 from ...core.rules import is_landed
+from ...jit import njit
 
 RMAX = 8  # rows per point at most
 K_JOINT, K_ANCHOR_LOWER, K_ANCHOR_UPPER = 0, 3, 6  # + the component 0, 1, 2

@@ -47,7 +47,6 @@ import numpy as np
 
 from ...core.books import log_row, lowest_point
 from ...core.dynamics import _weights, potential_energy, rates_for_axes
-from ...core.jit import entry, njit
 from ...core.rules import (
     LOG_LANDING,
     LOG_LOCK,
@@ -60,6 +59,7 @@ from ...core.rules import (
     landed_count,
     limit_in_force,
 )
+from ...jit import entry, njit
 from .blocks import factor_blocks, factors_view, solve_blocks
 from .rows import (
     K_ANCHOR_LOWER,

@@ -16,8 +16,8 @@ N = 1024, dt 0.02, the worst of 16 starts; 0.09 at dt 0.04), so the bound is per
 
 from __future__ import annotations
 
+from ...options import MethodOption, in_range, number_text, one_of, positive
 from ..bounds import AuditBounds
-from ..options import MethodOption, in_range, number_text, one_of, positive
 
 AUDIT = AuditBounds(energy_rtol=0.1, depth_tol=0.1, hinge_tol=0.0, hinge_per_dt=15.0, warn_near=True)
 

@@ -69,7 +69,6 @@ from ...core.dynamics import (
     velocities,
 )
 from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, velocity_impact
-from ...core.jit import entry, njit
 from ...core.rules import (
     LOG_LANDING,
     LOG_LOCK,
@@ -85,6 +84,7 @@ from ...core.rules import (
 )
 from ...core.state import new_books, new_chain, new_work
 from ...floors.dispatch import floor_contacts, floor_values, top_event
+from ...jit import entry, njit
 from .. import DT_RULES, LANDING_STEP_RANGE
 
 TOUCH_TOL = 1e-9  # a floor function at or below this touches (b, or e_z under floor "pivot")

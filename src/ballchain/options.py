@@ -1,5 +1,5 @@
-"""What a method's option is, as plain data (``MethodOption``), and the checks its values
-pass (``positive``, ``in_range``, ``one_of``, ...).
+"""What an option is, as plain data (``MethodOption``: a method's option, or a contact law's
+parameter), and the checks its values pass (``positive``, ``in_range``, ``one_of``, ...).
 
 Each method's package states the options it owns in its ``__init__`` (``OPTIONS``: a tuple
 of ``MethodOption``, importable without its kernels); the registry (``methods``) gathers
@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import ParameterError
+from .errors import ParameterError
 
 # the sweep table's column type of an option's value type
 COLUMN_TYPES = {float: "float64", int: "int64", str: "string", bool: "bool"}
@@ -158,19 +158,15 @@ class MethodOption:
         return f"_{self.name}{value:.12g}" if isinstance(value, float) else f"_{self.name}{value}"
 
 
-def options_dataclass(base: type, name: str, module: str, names=None, registry=None) -> type:
+def options_dataclass(base: type, name: str, module: str, registry, names=None) -> type:
     """The frozen dataclass ``name`` of ``module``: the fields of ``base`` (a frozen
-    dataclass), then one per method option (``methods.all_options``; ``names``: only
-    those) with its type and default, given by name only; its docstring is ``base``'s and
-    each option's help.  ``registry``: (options by name, owner(name), help(name)) instead
-    of the methods' (the contact laws' parameters: ``contacts.registry``)."""
+    dataclass), then one per option of ``registry`` = (options by name, owner(name),
+    help(name)) (the methods': ``methods.all_options``; the contact laws':
+    ``contacts.registry``; ``names``: only those) with its type and default, given by
+    name only; its docstring is ``base``'s and each option's help."""
     import textwrap
     from dataclasses import field, make_dataclass
 
-    if registry is None:
-        from . import all_options, option_help, option_owner  # (the registry imports this module)
-
-        registry = (all_options(), option_owner, option_help)
     every, option_owner, option_help = registry
     opts = [o for o in every.values() if names is None or o.name in names]
     cls = make_dataclass(

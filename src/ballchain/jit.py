@@ -45,13 +45,13 @@ from __future__ import annotations
 
 import os
 
-from numba import njit  # noqa: F401  (the kernels' decorator: ``from .jit import njit``)
+from numba import njit  # noqa: F401  (the kernels' decorator: ``from ..jit import njit``)
 from numba.core import caching as _caching
 from numba.core import codegen as _codegen
 from numba.core import config as _config
 from numba.core import event as _event
 
-from ..provenance import PACKAGE_DIR, engine_fingerprint
+from .provenance import PACKAGE_DIR, engine_fingerprint
 
 __all__ = ["njit", "entry", "policy_active", "nested_depth", "cheap_libraries", "cache_keyed"]
 
