@@ -3,7 +3,7 @@
     python benchmarks/factor_speed.py                          # N = 128 .. 65536
     python benchmarks/factor_speed.py --segments 1024,16384 --reps 7
 
-One factorisation of J W J^T and one solve (``dynamics.factor4`` and ``solve4``, the
+One factorisation of J W J^T and one solve (``core.blocks.factor4`` and ``solve4``, the
 fixed-size path every step of a fall takes) for a chain of N random unit axes with every
 hinge locked (four rows per point: the largest common block), repeated on the same
 arrays.  Two timings per N, in ns per point (the median of --reps):
@@ -33,7 +33,8 @@ from numba import njit
 sys.path.insert(0, str(Path(__file__).parent))
 from machine import machine_info  # noqa: E402
 
-from ballchain.core.dynamics import ROW_HINGE, ROW_LOCK, factor4, solve4  # noqa: E402
+from ballchain.core.blocks import factor4, solve4  # noqa: E402
+from ballchain.core.rows import ROW_HINGE, ROW_LOCK  # noqa: E402
 from ballchain.core.state import new_work  # noqa: E402
 
 FOOTPRINT = 2200  # bytes per segment a step touches (docs/timestep.md)

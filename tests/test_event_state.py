@@ -1,4 +1,4 @@
-"""The state at an event time (integrator._event_state): a quintic through the step's
+"""The state at an event time (integrator.dopri.event_state): a quintic through the step's
 ends and f at two interior points must have the Dormand-Prince step's own order (local
 error O(h^6)), where the 4th-order continuous extension is O(h^5), and an error of the
 size of the step's.  Checked against the same chain integrated in many small steps."""
@@ -7,6 +7,7 @@ import numpy as np
 
 from ballchain.core.state import new_work
 from ballchain.initial import helix_directions
+from ballchain.methods.event_driven import dopri
 from ballchain.methods.event_driven import integrator as itg
 
 N = 8
@@ -28,8 +29,8 @@ def _chain():
 def _step(Y, h, anchored, locked, ws):
     """One Dormand-Prince step: (stages K, anchor forces F, 5th-order end Y1)."""
     st = itg.new_stepper(Y.shape[1])
-    itg._stage_rhs(Y, anchored, locked, ws, st.sg.K[0], st.sg.F[0])
-    itg._rk_stages(Y, h, st.sg, anchored, locked, ws)
+    dopri.stage_rhs(Y, anchored, locked, ws, st.sg.K[0], st.sg.F[0])
+    dopri.rk_stages(Y, h, st.sg, anchored, locked, ws)
     return st
 
 
@@ -39,7 +40,7 @@ def _fine(Y, t, anchored, locked, ws, m=200):
     imp = np.zeros(4)
     for _ in range(m):
         st = _step(Y, t / m, anchored, locked, ws)
-        itg.floor_impulse_step(t / m, st.sg.F, np.int64(0), imp)
+        dopri.floor_impulse_step(t / m, st.sg.F, np.int64(0), imp)
         Y = st.sg.Y1.copy()
     return Y, imp[:3]
 
@@ -54,9 +55,9 @@ def _errors(h):
     ref_end, _ = _fine(Y, h, anchored, locked, ws)
     Ye = Y.copy()
     fint = np.zeros(4)
-    itg._event_state(Ye, st.sg, st.hb, h, THETA, anchored, locked, ws, np.int64(0), fint)
+    dopri.event_state(Ye, st.sg, st.hb, h, THETA, anchored, locked, ws, np.int64(0), fint)
     Yd = np.empty_like(Y)
-    itg._dense(Y, K, h, THETA, Yd)
+    dopri.dense_state(Y, K, h, THETA, Yd)
     return (
         np.abs(Ye - ref).max(),
         np.abs(fint[:3] - imp_ref).max(),

@@ -10,7 +10,9 @@ import pytest
 from conftest import chain_directions
 from oracle import reference as ref
 
+from ballchain.core import blocks, rows
 from ballchain.core import dynamics as dyn
+from ballchain.core import kinematics as kin
 from ballchain.core.impacts import hinge_rates, new_impact_work, velocity_impact
 from ballchain.core.rules import limit_in_force
 from ballchain.core.state import new_work
@@ -63,14 +65,14 @@ def fast_impact(e, w, anchored_u8, cand, restitution=0.0):
         "anchor_impulse": iw.anchor_impulse,
         "energy_split": iw.split,
     }
-    T0 = dyn.kinetic_energy(e, w, pv, vel)
+    T0 = kin.kinetic_energy(e, w, pv, vel)
     hinge_rates(e, w_after, iw.rates_before)
     it = velocity_impact(
         e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active, restitution, ws, iw
     )
     out["T0"] = T0
-    out["T1"] = dyn.kinetic_energy(e, w_after, pv, vel)
-    dyn.velocities(e, w_after, pv, vel)
+    out["T1"] = kin.kinetic_energy(e, w_after, pv, vel)
+    kin.velocities(e, w_after, pv, vel)
     out["point_vel"] = pv.copy()
     out["w"] = w_after
     out["pivots"] = it
@@ -422,10 +424,10 @@ def _general_path(e, w, anchored, locked):
     """Multipliers and torques from the general (J-based, any row count) kernels."""
     n = e.shape[0]
     ws = new_work(n)
-    dyn.build_rows(e, w, anchored, locked, ws.J, ws.kind, ws.nrow, ws.rhs, True)
-    dyn.factor_general(anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
-    dyn.solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
-    dyn.generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
+    rows.build_rows(e, w, anchored, locked, ws.J, ws.kind, ws.nrow, ws.rhs, True)
+    blocks.factor_general(anchored, ws.J, ws.nrow, ws.S, ws.G, ws.drop)
+    blocks.solve_general(ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x)
+    blocks.generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
     return ws
 
 
@@ -440,7 +442,7 @@ def test_fixed_size_path_equals_general_path(n):
         a8, l8 = anchored.astype(np.uint8), in_force(anchored, locked)
         g = _general_path(e, w, a8, l8)
         ws = new_work(n)
-        if not dyn.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs):
+        if not rows.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs):
             continue  # a lock beside a split anchor (7 rows): only the general path applies
         fitted += 1
         assert np.array_equal(ws.nrow, g.nrow)
@@ -448,9 +450,9 @@ def test_fixed_size_path_equals_general_path(n):
             r = g.nrow[j]
             assert np.array_equal(ws.kind[j, :r], g.kind[j, :r])
             assert np.allclose(ws.rhs[j, :r], g.rhs[j, :r], rtol=0, atol=1e-13 * max(1.0, np.abs(g.rhs).max()))
-        ndrop = dyn.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop)
-        dyn.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
-        dyn.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
+        ndrop = blocks.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop)
+        blocks.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
+        blocks.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
         assert ndrop == sum(int(g.drop[j, : g.nrow[j]].sum()) for j in range(n + 1))
         scale = max(1.0, np.abs(g.x).max())
         for j in range(n + 1):
@@ -486,10 +488,10 @@ def test_fixed_size_path_off_unit_axes_and_folded():
         w[2:] = 0.0
         g = _general_path(e, w, a8, l8)
         ws = new_work(n)
-        assert dyn.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs)
-        assert dyn.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop) == 0
-        dyn.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
-        dyn.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
+        assert rows.rows_rhs4(e, w, a8, l8, ws.kind, ws.nrow, ws.rhs)
+        assert blocks.factor4(e, a8, ws.kind, ws.nrow, ws.S, ws.G, ws.drop) == 0
+        blocks.solve4(ws.nrow, ws.S, ws.G, ws.rhs, ws.x)
+        blocks.torques4(e, ws.kind, ws.nrow, ws.x, ws.gf)
         scale = max(1.0, np.abs(g.x).max())
         np.testing.assert_allclose(ws.x, g.x, rtol=0, atol=1e-6 * scale)
         np.testing.assert_allclose(ws.gf[:, 3:], g.gf[:, 3:], rtol=0, atol=1e-6 * scale)
@@ -504,7 +506,7 @@ def test_split_anchor_on_the_fixed_size_path(n, split, locked_hinges):
         e, w, anchored, locked, alpha = _case(n, [split], locked_hinges, seed)
         ws = new_work(n)
         a8 = anchored.astype(np.uint8)
-        assert dyn.rows_rhs4(e, w, a8, in_force(anchored, locked), ws.kind, ws.nrow, ws.rhs)
+        assert rows.rows_rhs4(e, w, a8, in_force(anchored, locked), ws.kind, ws.nrow, ws.rhs)
         assert ws.nrow[split] == 6
         err, _, _ = compare_accelerations(e, w, anchored, locked, alpha)
         assert max(err.values()) < ACC_TOL, err

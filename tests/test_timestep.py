@@ -320,8 +320,8 @@ def _meander_on_the_floor(n, seed):
     alpha = pi/4), every other point anchored where its exact position is (math.fsum of
     the axes, correctly rounded): the kernels' positions, sums of up to n axes, miss the
     anchors by their round-off alone.  Returns the stepper's bundles and that miss."""
-    from ballchain.core.dynamics import point_positions
     from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.kinematics import point_positions
     from ballchain.core.state import new_books, new_chain, new_model, new_work
     from ballchain.methods.timestep.stepper import new_scratch
 
@@ -349,7 +349,7 @@ def test_the_projection_leaves_the_round_off_of_a_long_pile_alone():
     times the usual, from 0.36 t_ff on).  The tolerance is the one the event-driven
     method uses, ``projection_tol(N)`` (PROJ_ROUNDOFF b per segment): such a state is
     left exactly as it is and books no energy to the projection."""
-    from ballchain.core.dynamics import PROJ_TOL, projection_tol
+    from ballchain.core.kinematics import PROJ_TOL, projection_tol
     from ballchain.methods.timestep.stepper import _project
 
     n = 16384
@@ -365,8 +365,8 @@ def test_the_projection_removes_drift_above_the_round_off():
     """The same pile with its axes turned by 1e-7 rad (drift, as a step leaves it): the
     projection puts the anchored points back on their anchors, to within the scaled
     tolerance, and its move is of the size of the drift."""
-    from ballchain.core.dynamics import point_positions, projection_tol
     from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.kinematics import point_positions, projection_tol
     from ballchain.methods.timestep.stepper import _project
 
     n = 16384
@@ -398,8 +398,8 @@ def test_a_frozen_block_whose_anchors_miss_does_not_move_the_chain_above_it():
     segments hanging straight up from the block's top point, at rest with every
     constraint of their own met.  The projection (of the core, and the time-stepper's)
     leaves the hanging chain exactly where it is."""
-    from ballchain.core.dynamics import point_positions, project_state, projection_tol
     from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.kinematics import point_positions, project_state, projection_tol
     from ballchain.core.state import new_books, new_chain, new_model, new_work
     from ballchain.methods.timestep.stepper import _project, new_scratch
 
@@ -440,8 +440,8 @@ def test_a_loop_landed_past_its_limits_keeps_its_anchors():
     then ends unconverged (an N = 16384 fall took such steps to 0.027 b anchor misses
     and bends 0.39 past the limits); the projection keeps the anchors instead and
     leaves the bends as they are (the steps' impulses hold them from closing further)."""
-    from ballchain.core.dynamics import point_positions, projection_tol
     from ballchain.core.impacts import hinge_gaps
+    from ballchain.core.kinematics import point_positions, projection_tol
     from ballchain.core.state import new_books, new_chain, new_model, new_work
     from ballchain.methods.timestep.stepper import _project, new_scratch
 

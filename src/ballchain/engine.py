@@ -22,8 +22,8 @@ import numpy as np
 
 from . import __version__
 from .core.books import PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS
-from .core.dynamics import kinetic_energy, potential_energy
 from .core.kinds import EVENT_KINDS
+from .core.kinematics import kinetic_energy, potential_energy
 from .core.rules import is_landed
 from .initial import check_inside_cone, initial_directions
 from .methods import check_contacts, method_runner

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..jit import njit
-from .dynamics import kinetic_energy, potential_energy
+from .kinematics import kinetic_energy, potential_energy
 
 PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS = 0, 1  # the slots of Books.projected
 

@@ -31,25 +31,11 @@ import numpy as np
 
 from ..contacts.newton import impulse_rhs, law_rate
 from ..jit import entry, njit
-from .dynamics import (
-    ROW_ANCHOR_LOWER,
-    ROW_ANCHOR_UPPER,
-    ROW_HINGE,
-    ROW_LOCK,
-    W_W,
-    accelerations,
-    apply_impulses,
-    build_rows,
-    constraint_rates4,
-    constraint_rows,
-    constraint_velocities,
-    factor,
-    kinetic_energy,
-    solve,
-    torque_jump,
-    torques4,
-)
+from .blocks import factor, solve, torques4
+from .dynamics import accelerations
+from .kinematics import apply_impulses, constraint_rates4, constraint_velocities, kinetic_energy, torque_jump
 from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
+from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_W, build_rows, constraint_rows
 from .rules import RATE_TOL, unit_hinge_gap
 from .state import MAXR
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.dynamics import kinetic_energy
+from ..core.kinematics import kinetic_energy
 from ..core.state import FRAME_FIELDS, Books, Chain, new_frames, new_log, new_trace
 
 FRAME_CHUNK_BYTES = 32 << 20  # frame buffers are emptied into the result this often
@@ -212,7 +212,7 @@ def spinning_top_note(chain: Chain) -> str:
     the only airborne part is the top end (points 0..k-1 free, every point from k on
     anchored), of two segments or more, every hinge between them locked: one rigid body
     on a frictionless pivot, a heavy top, which nothing in the model slows down (its
-    kinetic energy, m g b: ``dynamics.kinetic_energy``), else ''."""
+    kinetic energy, m g b: ``kinematics.kinetic_energy``), else ''."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if e.shape[0] == 0 or float(np.max(np.abs(w))) < REST_RATE:
         return ""
@@ -247,5 +247,5 @@ class RunOutput:
     log: LogBuffer
     # the kinetic energy at the end, when the method keeps velocities of its own (the
     # time-stepper's centre velocities V: ``stepper.kinetic_energy_maximal``, as its
-    # frames record it); None: from the axes and rates (``dynamics.kinetic_energy``)
+    # frames record it); None: from the axes and rates (``kinematics.kinetic_energy``)
     kinetic: float | None = None

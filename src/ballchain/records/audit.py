@@ -82,7 +82,7 @@ def _measured(result: Result) -> tuple[float, float, float]:
 def anchor_miss(result: Result) -> tuple[float, float]:
     """(the largest distance of an anchored point from its anchor over the frames, in b;
     the time of that frame), over the points a turn of the airborne chain can move: the
-    rule of ``core.dynamics.drift_removable`` (an anchored point whose lower segment has
+    rule of ``core.kinematics.drift_removable`` (an anchored point whose lower segment has
     not landed), over whole frames at once.  Both
     methods keep these on their anchors to their projection's tolerance (1e-12 b to
     1e-13 N b); (0, NaN) without frames or anchors."""

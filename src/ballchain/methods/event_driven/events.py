@@ -32,16 +32,10 @@ from collections import namedtuple
 import numpy as np
 
 from ...contacts.newton import rebounds
+from ...core.blocks import reuse_factors
 from ...core.books import PROJECTED_AT_INSTANTS, fill_frame_books, log_row, mechanical_energy
-from ...core.dynamics import (
-    kinetic_energy,
-    point_positions,
-    project_state,
-    projection_tol,
-    reuse_factors,
-    velocities,
-)
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
+from ...core.kinematics import kinetic_energy, point_positions, project_state, projection_tol, velocities
 from ...core.rules import (
     GAP_TOL,
     LOG_ANCHOR,

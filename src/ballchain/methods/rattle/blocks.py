@@ -27,7 +27,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.dynamics import DROP_RTOL, _weights
+from ...core.blocks import DROP_RTOL, _weights
 from ...jit import njit
 from .rows import K_AXIS, K_JOINT, end_signs, has_columns
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.dynamics import rates_for_axes
+from ...core.kinematics import rates_for_axes
 from ...core.state import new_books, new_chain, new_model
 from ...errors import ParameterError
 from ...floors.registry import FLOOR_CODES

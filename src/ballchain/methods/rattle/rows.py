@@ -4,7 +4,7 @@ Coordinates per segment i: its centre c_i and its axis e_i (lower end c - e, upp
 c + e).  For a thin uniform rod the kinetic energy is exactly
 1/2 |c'|^2 + 1/6 |e'|^2 (integrate 1/2 |c' + s e'|^2 ds/2 over s in [-1, 1]), so the
 inverse mass W = diag(1, 1, 1, 3, 3, 3) is constant: the same weights as the core's
-(v, w) rows (``dynamics.W_V``, ``W_W``), and J W J^T is block tridiagonal (``blocks``).  Rows are gathered per point j, on the segment
+(v, w) rows (``core.rows.W_V``, ``W_W``), and J W J^T is block tridiagonal (``blocks``).  Rows are gathered per point j, on the segment
 above it (a = j - 1, columns 0:6 = (c_a, e_a)) and the one below (c = j, columns 6:12):
 
   kind 0-2   joint, free point:     (c_a - e_a) - (c_c + e_c) = 0          linear

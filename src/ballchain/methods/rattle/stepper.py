@@ -45,8 +45,9 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...core.blocks import _weights
 from ...core.books import log_row, lowest_point
-from ...core.dynamics import _weights, potential_energy, rates_for_axes
+from ...core.kinematics import potential_energy, rates_for_axes
 from ...core.rules import (
     LOG_LANDING,
     LOG_LOCK,

@@ -20,7 +20,7 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
    inelastic law: dg/dt+ >= 0, impulse >= 0, complementary (a hinge is released when its
    impulse would pull); warm-started with the whole index set active, each trial's
    factorisation redone only from the first point whose rows changed
-   (``dynamics.reuse_factors``).  Every force of
+   (``blocks.reuse_factors``).  Every force of
    the step is an impulse of this problem: the tension, the floor's support, the locks.
    The energy it removes at the lock rows is booked per row from the impulses,
    -1/2 P (u- + u+), to the hinges; in a step that anchors a point, the rest of what it
@@ -31,7 +31,7 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
 5. **Positions**: each airborne axis turns exactly (Rodrigues) by h (theta w+ + (1 - theta) w),
    theta = ``SolverOptions.theta`` (by default 1/2 below N = 1024, 1 from it); V+ is kept.
 6. **Projection** (positions only): any hinge found past its limit is put back on it,
-   the anchors at their points (``dynamics.project_state``: Gauss-Newton to ``projection_tol``,
+   the anchors at their points (``kinematics.project_state``: Gauss-Newton to ``projection_tol``,
    J W J^T factored at each iteration; a projection factored once, or stopped at 1e-9,
    left the books' imbalance larger).
 
@@ -53,22 +53,19 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...core.blocks import fits4, forces4, generalized_forces, reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
-from ...core.dynamics import (
-    W_V,
+from ...core.dynamics import pile_pull
+from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, velocity_impact
+from ...core.kinematics import (
     drift_removable,
-    fits4,
-    forces4,
-    generalized_forces,
-    pile_pull,
     point_positions,
     potential_energy,
     project_state,
     projection_tol,
-    reuse_factors,
     velocities,
 )
-from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, velocity_impact
+from ...core.rows import W_V
 from ...core.rules import (
     LOG_LANDING,
     LOG_LOCK,
@@ -623,7 +620,7 @@ def fill_frames(model, chain, sc, books, frames):
 @njit(cache=True)
 def fall_speed(e, w, anchored, pv, vel):
     """v = -mean V_z over the airborne segments, V their centres' velocities from the
-    axes and rates alone (``dynamics.velocities``, into the scratch pv, vel); 0 when
+    axes and rates alone (``kinematics.velocities``, into the scratch pv, vel); 0 when
     every segment has landed."""
     velocities(e, w, pv, vel)
     fall = 0.0
