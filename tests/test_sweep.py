@@ -600,3 +600,8 @@ def test_runs_of_two_methods_or_two_steps_are_two_points(tmp_path):
     ]
     means = sorted(p["ratio"]["mean"] for p in points)
     assert means == pytest.approx([0.925, 1.0, 1.1])
+    from ballchain.cli import stats_text
+
+    text = stats_text(table_stats(path)).splitlines()
+    assert "method" in text[1].split() and "dt" in text[1].split() and "rtol" not in text[1].split()
+    assert sorted(line.split()[3:5] for line in text[2:5]) == [["event", "-"], ["rattle", "0.05"], ["rattle", "0.1"]]

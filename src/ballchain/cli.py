@@ -1062,15 +1062,34 @@ def stats_text(res: dict) -> str:
     def f(x, spec=".4f"):
         return "-" if x is None else format(x, spec)
 
+    from .sweeps.stats import GROUP_KEYS
+
+    # the other inputs that tell the points apart (a method, its step, a contact law's
+    # parameter), one column each when they vary
+    varying = [
+        k
+        for k in GROUP_KEYS
+        if k not in ("segments", "alpha", "floor") and len({repr(p.get(k)) for p in res["points"]}) > 1
+    ]
+
+    def cell(v):
+        if v is None or (isinstance(v, float) and not math.isfinite(v)) or v == "":
+            return "-"  # (not this point's: an option of another method)
+        return f"{v:.6g}" if isinstance(v, float) else str(v)
+
     lines = [
         f"{res['table']}: {res['rows']} rows ({', '.join(f'{v} {k}' for k, v in res['status'].items())})",
-        f"{'N':>5} {'alpha':>7} {'floor':>5} {'runs':>4} {'fell':>4} {'t_fall/t_ff: mean':>17} {'95% interval':>17} "
+        f"{'N':>5} {'alpha':>7} {'floor':>5} "
+        + "".join(f"{k:>{max(len(k), 8)}} " for k in varying)
+        + f"{'runs':>4} {'fell':>4} {'t_fall/t_ff: mean':>17} {'95% interval':>17} "
         f"{'median':>7} {'t_landed/t_ff':>13} {'faster':>7} {'95% interval':>13}",
     ]
     for p in res["points"]:
         r, lr, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
         lines.append(
-            f"{p['segments']:>5} {p['alpha_deg']:>6.4g}d {p['floor']:>5} {p['n_runs']:>4} {r['n']:>4} {f(r['mean']):>17} "
+            f"{p['segments']:>5} {p['alpha_deg']:>6.4g}d {p['floor']:>5} "
+            + "".join(f"{cell(p.get(k)):>{max(len(k), 8)}} " for k in varying)
+            + f"{p['n_runs']:>4} {r['n']:>4} {f(r['mean']):>17} "
             f"{'[' + f(r['ci_low']) + ', ' + f(r['ci_high']) + ']':>17} {f(r['median']):>7} "
             f"{f(lr['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
             f"{'[' + f(fa['ci_low'], '.2f') + ', ' + f(fa['ci_high'], '.2f') + ']':>13}"
