@@ -113,3 +113,14 @@ def test_the_parameter_in_the_json_the_file_the_sweep_table_and_its_key(tmp_path
     assert len(keys) == 4 and sum(k.endswith("_restitution_lock0.5") for k in keys) == 2
     points = table_stats(out)["points"]
     assert sorted(p["restitution_lock"] for p in points) == [0.0, 0.5]  # two points, never pooled
+
+
+def test_without_limits_the_law_never_acts():
+    """alpha = pi: no hinge ever reaches a limit, so a fall with restitution at the limit
+    is the fall without it, bit for bit (the law acts only where a limit does)."""
+    a = simulate(ChainParams(segments=6, alpha=np.pi), START, SolverOptions())
+    b = simulate(ChainParams(segments=6, alpha=np.pi, restitution_lock=0.7), START, SolverOptions())
+    assert a.status == b.status == "landed"
+    assert a.t_fall == b.t_fall and a.energy == b.energy
+    np.testing.assert_array_equal(a.frame_e, b.frame_e)
+    assert (a.event_kind == EVENT_CODES["lock"]).sum() == 0
