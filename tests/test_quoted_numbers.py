@@ -235,10 +235,12 @@ def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
     assert sorted(q for q in quoted if q not in printed) == []
 
 
-def test_the_rattle_page_quotes_what_its_command_prints():
+@pytest.mark.parametrize("name", ["rattle.md", "notes/rattle-engines.md"])
+def test_the_rattle_page_quotes_what_its_command_prints(name):
     """Every interval the RATTLE method's page quotes (its ensembles against the exact
-    method, the paired differences) is printed by the page's own command."""
-    page = ROOT / "docs" / "rattle.md"
+    method, the paired differences; and the engines' history in the notes) is printed by
+    the page's own commands."""
+    page = ROOT / "docs" / name
     printed = " ".join(_page_commands(page).split())
     text = " ".join(page.read_text().split())
     quoted = re.findall(r"[+-]?\d\.\d{3,4} \[[+-]?\d\.\d{3,4}, [+-]?\d\.\d{3,4}\]", text)
