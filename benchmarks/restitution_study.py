@@ -2,10 +2,13 @@
 
     python benchmarks/restitution_study.py docs/data/restitution-lock.parquet [--plot FILE]
 
-Per (N, restitution E): the runs and how many landed; the mean t_fall/t_ff with its 95%
+Per (N, restitution E), over the runs that landed (a run that ended as an error, its
+books or constraints broken, is listed and not counted): the runs and how many landed;
+the mean t_fall/t_ff with its 95%
 bootstrap interval (``sweeps.stats.mean_interval``); the fraction faster than free fall
 with its Wilson interval; the medians of E_lock/E0 (what the lock impacts dissipate), of
-E_land/E0 and of the lock events per segment; the worst |imbalance|/E0.  Then the mean
+E_land/E0, of the lock events per segment and of the wall time of a fall; the worst
+|imbalance|/E0.  Then the mean
 difference of t_fall/t_ff from E = 0, paired by start (the same 16 starts at every E),
 with its 95% bootstrap interval.  ``--plot``: the mean t_fall/t_ff against E, one line per N, with its intervals.
 """
@@ -30,29 +33,32 @@ def main() -> None:
     df["eland"] = df.energy_lost_landing / df.energy_initial
     df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
     df["locks_per_seg"] = df.events_lock / df.segments
-    print(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in df.status.value_counts().items()) + "\n")
+    print(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in df.status.value_counts().items()))
+    for _, r in df[df.status != "landed"].iterrows():
+        print(f"  not counted: {r.run_id} ({r.status}): {r.message}")
+    print()
     print(
         "| N | E | runs | landed | t_fall/t_ff [95%] | faster than free fall [95%] | E_lock/E0 (median) | "
-        "E_land/E0 (median) | lock events per segment (median) | worst imbalance/E0 |"
+        "E_land/E0 (median) | lock events per segment (median) | worst imbalance/E0 | wall per fall (median) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     curves = {}
     for (n, e), g in df.groupby(["segments", "restitution_lock"]):
-        x = g.ratio.to_numpy(dtype=float)
-        x = x[np.isfinite(x)]
+        x = g[g.status == "landed"].ratio.to_numpy(dtype=float)  # (a run that broke the model: not counted)
         lo, hi = mean_interval(x)
         k = int(np.sum(x < 1.0))
         flo, fhi = wilson_interval(k, x.size)
         print(
             f"| {n} | {e:g} | {len(g)} | {(g.status == 'landed').sum()} | {x.mean():.3f} [{lo:.3f}, {hi:.3f}] | "
             f"{k / x.size:.2f} [{flo:.2f}, {fhi:.2f}] | {g.elock.median():.3f} | {g.eland.median():.3f} | "
-            f"{g.locks_per_seg.median():.0f} | {g.imb.max():.1e} |"
+            f"{g.locks_per_seg.median():.0f} | {g.imb.max():.1e} | {g.wall_seconds.median():.1f} s |"
         )
         curves.setdefault(n, []).append((e, x.mean(), lo, hi))
     print("\nPaired by start, t_fall/t_ff minus at E = 0 (mean [95%]):\n")
     print("| N | E | pairs | difference [95%] |")
     print("|---|---|---|---|")
     for n, g in df.groupby("segments"):
+        g = g[g.status == "landed"]
         base = g[g.restitution_lock == 0.0].set_index("run_index").ratio
         for e, h in g[g.restitution_lock > 0.0].groupby("restitution_lock"):
             d = (h.set_index("run_index").ratio - base).dropna().to_numpy()

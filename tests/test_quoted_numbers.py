@@ -247,3 +247,16 @@ def test_the_rattle_page_quotes_what_its_command_prints(name):
     assert len(quoted) >= 4
     for q in quoted:
         assert q in printed, q
+
+
+def test_the_restitution_page_quotes_what_its_command_prints():
+    """Every interval the page on restitution at the bend limit quotes (the fall times per
+    restitution and N, the paired differences from the inelastic lock) is printed by the
+    page's own command, from the committed table."""
+    page = ROOT / "docs" / "restitution.md"
+    printed = " ".join(_page_commands(page).split())
+    text = " ".join(page.read_text().split())
+    quoted = re.findall(r"[+-]?\d\.\d{3} \[[+-]?\d\.\d{3}, [+-]?\d\.\d{3}\]", text)
+    assert len(quoted) >= 8
+    for q in quoted:
+        assert q in printed, q
