@@ -71,6 +71,7 @@ def fast_impact(e, w, anchored_u8, cand, restitution=0.0):
         e, w_after, np.asarray(anchored_u8, np.uint8), c8, np.zeros(nh, np.uint8), active, restitution, ws, iw
     )
     out["T0"] = T0
+    out["active"] = active.copy()
     out["T1"] = kin.kinetic_energy(e, w_after, pv, vel)
     kin.velocities(e, w_after, pv, vel)
     out["point_vel"] = pv.copy()
@@ -534,6 +535,10 @@ def test_newton_impacts_against_the_dense_enumeration(n, restitution):
         assert np.abs(r["w_plus"] - f["w"]).max() < IMP_TOL * scale
         mL = r["Lambda_determined"]
         assert np.abs(r["Lambda"] - f["impulse"])[mL].max(initial=0.0) < IMP_TOL * scale
+        # every hinge that carries an impulse is reported active (the accumulation rule
+        # and the lock decision read it), also one that took it in the first pass only
+        carries = mL & (np.abs(r["Lambda"]) > 1e-6 * scale)
+        assert np.all(f["active"][carries] != 0), (f["active"], r["Lambda"])
         lost = f["T0"] - f["T1"]
         assert lost == pytest.approx(r["lost_energy"], abs=1e-10 * f["T0"])
         assert lost == pytest.approx(f["energy_split"].sum(), abs=1e-10 * f["T0"])  # the books

@@ -504,6 +504,8 @@ def _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     for k in range(nh):
         iw.lost_hinge[k] += -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
         iw.impulse[k] += iw.keep_impulse[k]
+        if iw.keep_impulse[k] != 0.0:  # it carried an impulse (in the first pass): active on exit
+            active[k] = 1
     for j in range(iw.anchor_impulse.shape[0]):
         for q in range(3):
             iw.anchor_impulse[j, q] += iw.keep_anchor[j, q]
