@@ -171,6 +171,7 @@ def test_json_summary(engine):
         "release": 0,
         "hold": 0,
         "anchor": 0,
+        "bounce": 0,
     }
     assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking", "lost_landing", "imbalance"}
     assert out["segments"] == 16 and out["floor"] == "all"

@@ -1,9 +1,10 @@
-"""The contact laws (``ballchain.contacts``): Newton's restitution at the bend limit in
-whole falls of the event method, against what the law implies independently of the code
-that solves it (nothing lost at e = 1; the first lock, the same instant for every e, loses
-(1 - e^2) of the inelastic loss), and the parameter as a contract: the command line, the
-sweep's column and key, the result file, and a method that cannot honour it refusing it
-in one line."""
+"""The contact laws (``ballchain.contacts``): Newton's restitution at the bend limit and
+at the floor in whole falls of the event method, against what the law implies
+independently of the code that solves it (nothing lost at e = 1; the first lock, the
+same instant for every e, loses (1 - e^2) of the inelastic loss; a rod's bounces against
+the rigid rod's closed forms), and the parameters as a contract: the command line, the
+sweep's column and key, the result file, and a method that cannot honour them refusing
+them in one line."""
 
 from __future__ import annotations
 
@@ -73,16 +74,16 @@ def test_a_partly_elastic_limit_closes_its_books_and_stays_inside_its_limits(e):
     assert g[free_pair].min() > -1e-7
 
 
+@pytest.mark.parametrize("law", ["restitution_lock", "restitution_floor"])
 @pytest.mark.parametrize("method", ["timestep", "rattle"])
-def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method):
+def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method, law):
+    flag = "--" + law.replace("_", "-")
     with pytest.raises(ParameterError, match=f"not honoured by --method {method}"):
-        simulate(ChainParams(segments=4, restitution_lock=0.5), START, SolverOptions(method=method))
-    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", method, "--restitution-lock", "0.5", "-q"])
+        simulate(ChainParams(segments=4, **{law: 0.5}), START, SolverOptions(method=method))
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", method, flag, "0.5", "-q"])
     assert res.exit_code == 2
-    assert len(res.stderr.strip().splitlines()) == 1 and "--restitution-lock 0.5" in res.stderr
-    res = CliRunner().invoke(
-        app, ["sweep", "-N", "4", "--method", method, "--restitution-lock", "0.5", "--out", "x.parquet", "-q"]
-    )
+    assert len(res.stderr.strip().splitlines()) == 1 and f"{flag} 0.5" in res.stderr
+    res = CliRunner().invoke(app, ["sweep", "-N", "4", "--method", method, flag, "0.5", "--out", "x.parquet", "-q"])
     assert res.exit_code == 2 and "not honoured" in res.stderr
 
 
@@ -124,3 +125,100 @@ def test_without_limits_the_law_never_acts():
     assert a.t_fall == b.t_fall and a.energy == b.energy
     np.testing.assert_array_equal(a.frame_e, b.frame_e)
     assert (a.event_kind == EVENT_CODES["lock"]).sum() == 0
+
+
+# --------------------------------------------------------------------------- the floor
+
+
+def _rod(theta0, e_floor, **opts):
+    """N = 1 leaning by theta0 from the vertical, its lower end anchored: it pivots down
+    and its top end strikes the floor."""
+    e0 = np.array([[np.sin(theta0), 0.0, np.cos(theta0)]])
+    return simulate(ChainParams(segments=1, restitution_floor=e_floor), state=(e0, None), options=SolverOptions(**opts))
+
+
+def _flight(omega):
+    """Time a rod pivoting on its anchored lower end spends off the floor after its top end
+    leaves it at angular velocity omega (m = b = g = 1, I = 4/3 about the end): phi'^2 =
+    omega^2 - (3/2) sin phi, up to sin phi_m = (2/3) omega^2 and back, by quadrature (phi =
+    phi_m - x^2 removes the turning point's singularity)."""
+    from scipy.integrate import quad
+
+    pm = np.arcsin(omega**2 / 1.5)
+    f = lambda x: (
+        2.0 * x / np.sqrt(1.5 * (np.sin(pm) - np.sin(pm - x * x))) if x > 0 else 2.0 / np.sqrt(1.5 * np.cos(pm))
+    )  # noqa: E731
+    return 2.0 * quad(f, 0.0, np.sqrt(pm), epsabs=1e-13, epsrel=1e-12)[0]
+
+
+def test_a_rod_bounces_on_its_top_end_until_the_accumulation_rule_anchors_it():
+    """Restitution at the floor on a pivoting rod, against the rigid rod's closed forms:
+    it strikes flat at omega^2 = (3/2) cos theta0 (energy), each bounce leaves at e times
+    the rate it came with and loses (1 - e^2) of the kinetic energy, each flight lasts
+    what the quadrature of the pivoting rod says, and the series ends where the
+    accumulation rule (v^2 < 2 hold_apex |a_z|, v < hold_rate; a_z = -3/2 at the flat
+    rod's top end) says: then the top end is anchored and the books hold all of E0."""
+    theta0, e = 0.4, 0.5
+    r = _rod(theta0, e)
+    assert r.status == "landed", r.message
+    top = r.event_index == 0
+    bounce = top & (r.event_kind == EVENT_CODES["bounce"])
+    landing = top & (r.event_kind == EVENT_CODES["landing"])
+    omega = np.sqrt(1.5 * np.cos(theta0))
+    o = SolverOptions()
+    v = 2.0 * omega * e ** np.arange(1, 60)  # the top end's speed leaving the k-th bounce
+    held = (v < o.hold_rate) | (v**2 < 2.0 * o.hold_apex * 1.5)
+    assert bounce.sum() == np.argmax(held) and landing.sum() == 1
+    t = r.event_t[bounce]
+    assert r.t_fall == t[0]  # the fall ends at the top end's first touch
+    flights = np.array([_flight(omega * e**k) for k in range(1, 7)])
+    np.testing.assert_allclose(np.diff(t)[:6], flights, rtol=1e-7)
+    lost = r.event_energy[bounce][:6]
+    expected = (1 - e**2) * np.cos(theta0) * e ** (2 * np.arange(6))
+    np.testing.assert_allclose(lost, expected, rtol=0, atol=1e-9 * np.cos(theta0))  # (the integrator's tolerance)
+    en = r.energy
+    assert en["lost_landing"] == pytest.approx(en["initial"], rel=1e-9) and en["lost_locking"] == 0.0
+    assert abs(en["imbalance"]) < 1e-10 * en["initial"]
+
+
+def test_an_elastic_floor_under_a_rod_gives_back_every_bounce():
+    """e = 1: the rod bounces forever at the rate it first struck with (its top end moves
+    vertically at the flat rod: nothing for the rough floor to stop), nothing is lost."""
+    theta0 = 0.6
+    r = _rod(theta0, 1.0, until=6.0)
+    assert r.status == "until"
+    t = r.event_t[(r.event_index == 0) & (r.event_kind == EVENT_CODES["bounce"])]
+    assert t.size >= 3
+    np.testing.assert_allclose(np.diff(t), _flight(np.sqrt(1.5 * np.cos(theta0))), rtol=1e-7)
+    assert abs(r.energy["lost_landing"]) < 1e-12 and abs(r.energy["imbalance"]) < 1e-10
+
+
+@pytest.mark.parametrize("e_floor, e_lock", [(0.5, 0.0), (0.8, 0.5), (1.0, 1.0)])
+def test_restitution_at_the_floor_closes_the_books_and_keeps_every_point_above_it(e_floor, e_lock):
+    """Whole falls with points that bounce: the books close to the event method's bound,
+    no point passes below the floor (the audit), the fall ends at the top end's first
+    touch; with the rough floor a bounce stops a point's sliding, so even e = 1 at the
+    floor and at the limits loses something at the landings, never at the locks."""
+    r = simulate(
+        ChainParams(segments=10, restitution_floor=e_floor, restitution_lock=e_lock),
+        START,
+        SolverOptions(until=None if e_floor < 1 else 2.0, max_time=8.0),  # (a bouncing tent settles slowly)
+    )
+    assert r.status == ("landed" if e_floor < 1 else "until"), r.message
+    bounces = r.event_kind == EVENT_CODES["bounce"]
+    assert bounces.sum() > 0
+    en, e0 = r.energy, r.energy["initial"]
+    assert abs(en["imbalance"]) < 1e-8 * e0
+    assert r.max_depth <= 1e-9
+    top = (r.event_index == 0) & (bounces | (r.event_kind == EVENT_CODES["landing"]))
+    if e_floor < 1:
+        assert r.t_fall == r.event_t[top][0]
+    if e_lock == 1.0:
+        assert abs(en["lost_locking"]) < 1e-10 * e0
+
+
+def test_restitution_at_the_floor_needs_the_floor_that_watches_every_point():
+    with pytest.raises(ParameterError, match="needs floor all"):
+        ChainParams(segments=4, floor="pivot", restitution_floor=0.5)
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--restitution-floor", "0.5", "--json", "-q"])
+    assert res.exit_code == 0 and json.loads(res.stdout)["restitution_floor"] == 0.5

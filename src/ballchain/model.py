@@ -22,7 +22,7 @@ import numpy as np
 from .contacts.registry import all_params as contact_params  # (one registry of contact laws)
 from .contacts.registry import law_of, law_param_help
 from .errors import ParameterError  # noqa: F401  (re-exported: the model's validation raises it)
-from .floors.registry import FLOOR_MODELS  # noqa: E402  (one registry of floor models)
+from .floors.registry import FLOOR_MODELS, WATCHES_EVERY_POINT  # noqa: E402  (one registry of floor models)
 from .methods import METHOD_NAMES, all_options, method_default, option_help, option_owner  # noqa: E402  (one registry of methods)
 from .methods.event_driven import RTOL_MIN  # noqa: E402, F401  (re-exported: the event method's)
 from .options import options_dataclass
@@ -110,6 +110,11 @@ class _Chain:
             object.__setattr__(self, name, _finite_positive(name, getattr(self, name)))
         for name, p in contact_params().items():  # the contact laws' (contacts.registry)
             object.__setattr__(self, name, p.validated(getattr(self, name)))
+        if self.restitution_floor != 0.0 and self.floor not in WATCHES_EVERY_POINT:
+            raise ParameterError(
+                f"restitution_floor {self.restitution_floor:g} needs floor all (a point that rebounds must "
+                f"be watched again; floor {self.floor} watches only the bottom airborne segment)"
+            )
 
     @classmethod
     def from_chain(cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81, **kw):

@@ -20,6 +20,13 @@ inelastic pass from there (Moreau's, dissipative too) that stops it at its limit
 (``core.impacts.velocity_impact``).  A single row closing at rate v < 0 rebounds at -e v and loses
 (1 - e^2) of what the inelastic impact loses, v^2 / (2 G).  A row held at its limit by the
 accumulation rule (``rules.must_hold``) takes e = 0: it is held, not bounced.
+
+At the floor (``floor_rebound``) the law acts on a landing point's vertical row: it
+leaves the floor at -e times the vertical velocity it landed with, its horizontal
+velocity stopped (the floor is rough: friction inf).  A point that rebounds is not
+anchored; one that would come back slower than the accumulation threshold is anchored
+instead, and the anchoring's impact books what the series of ever smaller bounces would
+have lost.
 """
 
 from __future__ import annotations
@@ -47,3 +54,11 @@ def rebounds(rate_after, e, rate_tol):
     """A row that carried an impulse leaves its limit (e > 0 and it separates faster
     than ``rate_tol``): it is not locked."""
     return e > 0.0 and rate_after > rate_tol
+
+
+@njit(cache=True, inline="always")
+def floor_rebound(vz_before, e):
+    """The upward velocity a point that lands at vertical velocity ``vz_before`` (< 0)
+    leaves the floor with: -e vz_before (Newton's law on the floor's normal row; the
+    rough floor stops its horizontal motion in the impact); 0 for a touch or e = 0."""
+    return -e * vz_before if (e > 0.0 and vz_before < 0.0) else 0.0

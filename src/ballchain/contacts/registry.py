@@ -37,6 +37,20 @@ LAWS = {
                 column="Newton's restitution at the bend limit (0: the hinge locks; empty in tables written "
                 "before the column: 0)",
             ),
+            MethodOption(
+                "restitution_floor",
+                float,
+                0.0,
+                "Newton's restitution at the floor, in [0, 1]: a point that lands leaves the floor again at "
+                "this fraction of the vertical velocity it landed with, its sliding stopped (0: it is "
+                "anchored, the model's law; a point that would come back slower than the accumulation "
+                "threshold is anchored). Floor all only.",
+                in_range(0.0, 1.0, "a rebound faster than the approach creates energy"),
+                flag="--restitution-floor",
+                json="Newton's restitution at the floor (0: a landing point is anchored)",
+                column="Newton's restitution at the floor (0: a landing point is anchored; empty in tables "
+                "written before the column: 0)",
+            ),
         ),
     ),
 }

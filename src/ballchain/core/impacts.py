@@ -55,6 +55,9 @@ ENERGY_RTOL = 1e-12  # an impact "creates" energy beyond this share of the kinet
 # with restitution (e_lock > 0), an impact may take a second, inelastic pass
 # (``velocity_impact``): lost_hinge the energy each hinge's impulse took over both, from
 # the rates at each pass's start (rates_start), and keep the first pass's outputs.
+# rebound: per point, the upward velocity a landing point leaves the floor with (Newton's
+# restitution at the floor, ``contacts.newton.floor_rebound``; 0: the anchor stops it),
+# n_rebound[0] how many are nonzero (set by the caller: the exact method's landings).
 ImpactWork = namedtuple(
     "ImpactWork",
     [
@@ -74,6 +77,8 @@ ImpactWork = namedtuple(
         "keep_anchor",
         "w_start",
         "active_start",
+        "rebound",
+        "n_rebound",
     ],
 )
 
@@ -98,7 +103,16 @@ def new_impact_work(n: int) -> ImpactWork:
         np.zeros((n + 1, 3)),
         np.zeros((n, 3)),
         np.zeros(nh, dtype=np.uint8),
+        np.zeros(n + 1),
+        np.zeros(1, dtype=np.int64),
     )
+
+
+@njit(cache=True, inline="always")
+def _row_target(kind, j, r, iw):
+    """The rate an anchor row of point j leaves the impact with: the point's rebound on
+    its vertical rows (r % 3 == 2), else 0 (at rest)."""
+    return iw.rebound[j] if (kind == ROW_ANCHOR_LOWER or kind == ROW_ANCHOR_UPPER) and r % 3 == 2 else 0.0
 
 
 @entry
@@ -265,7 +279,7 @@ def _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw):
             if kind[j, r] == ROW_LOCK and not forced[j - 1]:
                 rhs[j, r] = impulse_rhs(jv_minus[j, r], iw.rates_before[j - 1], e_lock)
             else:
-                rhs[j, r] = -jv_minus[j, r]
+                rhs[j, r] = _row_target(kind[j, r], j, r, iw) - jv_minus[j, r]
     factor(e, anchored, J, kind, nrow, ws.S, ws.G, ws.drop)
     solve(nrow, ws.S, ws.G, ws.drop, rhs, x)
     if fits:
@@ -323,7 +337,7 @@ def _impact_books(w, ws, iw):
             if kd == ROW_LOCK:
                 lost_lock += -0.5 * x[j, r] * (jv_minus[j, r] + iw.rates_after[j - 1])
             elif kd == ROW_ANCHOR_LOWER or kd == ROW_ANCHOR_UPPER:
-                lost_land += -0.5 * x[j, r] * jv_minus[j, r]
+                lost_land += -0.5 * x[j, r] * (jv_minus[j, r] + _row_target(kd, j, r, iw))
     anchor_impulse = iw.anchor_impulse
     for j in range(anchor_impulse.shape[0]):
         for q in range(3):
@@ -452,8 +466,15 @@ def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     ``contacts.newton``), and iw.lost_hinge holds each hinge's share over both.  Where
     a landing takes impulse in the same impact (its rows inelastic beside restitution at
     the limits), Newton's law can create energy; such an impact is taken inelastic
-    (e_lock = 0) at every hinge instead."""
-    if e_lock == 0.0:
+    (e_lock = 0) at every hinge instead.
+
+    With iw.rebound (Newton's restitution at the floor, ``contacts.newton``), a landing
+    point's vertical rows leave it rising at iw.rebound[j], its horizontal ones at rest (the
+    rough floor: the impact stops its sliding); the floor's rows are equalities, as the
+    anchor's.  If that creates energy, or the floor would pull a rebounding point down
+    (a negative vertical impulse), the impact is taken inelastic everywhere (iw.rebound
+    zeroed: the points are anchored, the model's law)."""
+    if e_lock == 0.0 and iw.n_rebound[0] == 0:
         return _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
     nh = e.shape[0] - 1
     for i in range(e.shape[0]):
@@ -463,7 +484,7 @@ def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
         iw.active_start[k] = active[k]  # (the initial guess, for a second try)
     t_before = kinetic_energy(e, w, iw.pv, iw.vel)
     it = _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
-    if it < 0 or iw.split[0] + iw.split[1] >= -ENERGY_RTOL * t_before:
+    if it < 0 or (iw.split[0] + iw.split[1] >= -ENERGY_RTOL * t_before and not _floor_pulls(iw)):
         return it
     # Newton's law with the landing's inelastic rows beside it created energy: inelastic
     for i in range(e.shape[0]):
@@ -471,7 +492,22 @@ def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
             w[i, q] = iw.w_start[i, q]
     for k in range(nh):
         active[k] = iw.active_start[k]
+    for j in range(iw.rebound.shape[0]):
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
     return _newton_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
+
+
+@njit(cache=True)
+def _floor_pulls(iw):
+    """Would the floor pull a point down to make it rebound (a negative vertical impulse
+    on a rebounding point: its rows are equalities)?"""
+    if iw.n_rebound[0] == 0:
+        return False
+    for j in range(iw.rebound.shape[0]):
+        if iw.rebound[j] > 0.0 and iw.anchor_impulse[j, 2] < 0.0:
+            return True
+    return False
 
 
 @njit(cache=True)

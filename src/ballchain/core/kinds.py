@@ -7,7 +7,17 @@ plots and files can name the kinds without loading numba.
 from __future__ import annotations
 
 # The event log's kinds (one row per constraint that acted at an event instant).
-EVENT_KINDS = {1: "lock", 2: "unlock", 3: "landing", 4: "top", 5: "impulse", 6: "release", 7: "hold", 8: "anchor"}
+EVENT_KINDS = {
+    1: "lock",
+    2: "unlock",
+    3: "landing",
+    4: "top",
+    5: "impulse",
+    6: "release",
+    7: "hold",
+    8: "anchor",
+    9: "bounce",
+}
 EVENT_MEANINGS = {
     "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
     "unlock": "a locked hinge's multiplier crosses zero in smooth motion and it unlocks; no impulse",
@@ -17,7 +27,10 @@ EVENT_MEANINGS = {
     "release": "a hinge at its limit (locked, or locking at this instant) leaves it at an impact",
     "hold": "a hinge held at its limit by the accumulation rule; impulse (Lambda, 0, 0) of either sign",
     "anchor": "a point anchored before the instant takes an impulse of the floor at an impact",
+    "bounce": "a point reaches the floor and leaves it again (restitution at the floor); impulse: the floor's "
+    "on the chain at that point",
 }
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = (EVENT_CODES[k] for k in ("lock", "unlock", "landing", "top"))
 LOG_IMPULSE, LOG_RELEASE, LOG_HOLD, LOG_ANCHOR = (EVENT_CODES[k] for k in ("impulse", "release", "hold", "anchor"))
+LOG_BOUNCE = EVENT_CODES["bounce"]

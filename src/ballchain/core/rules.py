@@ -30,6 +30,7 @@ from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a 
     EVENT_KINDS,
     EVENT_MEANINGS,
     LOG_ANCHOR,
+    LOG_BOUNCE,
     LOG_HOLD,
     LOG_IMPULSE,
     LOG_LANDING,

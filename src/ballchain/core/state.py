@@ -45,14 +45,18 @@ Model = namedtuple(
         "dt_rule",  # time-stepping: how steps are sized (methods.DT_RULES: 0 fixed, 1 landing)
         "v_ff",  # time-stepping, dt_rule landing: g t_ff, the speed of free fall at t_ff (sqrt(g b))
         "e_lock",  # Newton's restitution at the bend limit (contacts.newton; 0: the hinge locks)
+        "e_floor",  # Newton's restitution at the floor (contacts.newton; 0: a landing point is anchored)
     ],
 )
 
 
-def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every, dt_rule=0, v_ff=0.0, e_lock=0.0) -> Model:
+def new_model(
+    alpha, floor, cone, options, t_stop, zeno_window, return_every, dt_rule=0, v_ff=0.0, e_lock=0.0, e_floor=0.0
+) -> Model:
     """The constant model of a run (``options``: ``model.SolverOptions``; ``dt_rule``,
     ``v_ff``: the time-stepper's step rule, as its code, and g t_ff; ``e_lock``: the
-    restitution at the bend limit, ``ChainParams.restitution_lock``)."""
+    restitution at the bend limit, ``ChainParams.restitution_lock``; ``e_floor``: at the floor,
+    ``ChainParams.restitution_floor``)."""
     return Model(
         float(alpha),
         math.cos(alpha),
@@ -71,6 +75,7 @@ def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every, dt
         np.int64(dt_rule),
         float(v_ff),
         float(e_lock),
+        float(e_floor),
     )
 
 

@@ -18,7 +18,7 @@ from ..bounds import AuditBounds
 
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
 # the contact laws' parameters it honours away from their defaults (contacts.registry)
-CONTACTS = ("restitution_lock",)
+CONTACTS = ("restitution_lock", "restitution_floor")
 
 RTOL_MIN = 1e-14  # the tightest integrator tolerance double precision can honour
 

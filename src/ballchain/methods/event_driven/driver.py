@@ -107,6 +107,7 @@ def run(setup, progress, stop) -> RunOutput:
         ZENO_WINDOW * setup.t_ff,
         RETURN_EVERY,
         e_lock=p.restitution_lock,
+        e_floor=p.restitution_floor,
     )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     watch, ws, st, sc, books = new_watch(n), new_work(n), new_stepper(n), new_instant(n), new_books()

@@ -8,12 +8,14 @@ and the handler without returning to Python.
    instant); in the pivot model, record the top end reaching the floor;
 2. anchor the points the floor model lets touch the floor (``rules.floor_contacts``);
 3. one Moreau impact (``impacts.velocity_impact``) over every new anchor and every
-   hinge at its limit;
+   hinge at its limit (Newton's with restitution: ``contacts.newton``); with
+   restitution at the floor, a landing point that rebounds is not anchored;
 4. the acceleration-level LCP (``impacts.lock_set``): which hinges at the limit stay
    locked.  A hinge released in this instant that accelerates back to its limit and
    would return slower than ``hold_rate``, or after an excursion below
    ``hold_apex``, is held at its limit (``rules.must_hold``: the limit of the
-   converging series of impacts it would start), and steps 3-4 are solved again;
+   converging series of impacts it would start), and so is a point that rebounded from
+   the floor (anchored); steps 3-4 are then solved again;
 5. new locks hold the angle reached; the state is projected onto the constraints; each
    event function is armed or marked departing (``arm_functions``), and the apex of
    each departing constraint that will come back is predicted (``apex_times``), so that
@@ -31,7 +33,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...contacts.newton import rebounds
+from ...contacts.newton import floor_rebound, rebounds
 from ...core.blocks import reuse_factors
 from ...core.books import PROJECTED_AT_INSTANTS, fill_frame_books, log_row, mechanical_energy
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
@@ -39,6 +41,7 @@ from ...core.kinematics import kinetic_energy, point_positions, project_state, p
 from ...core.rules import (
     GAP_TOL,
     LOG_ANCHOR,
+    LOG_BOUNCE,
     LOG_HOLD,
     LOG_IMPULSE,
     LOG_LANDING,
@@ -110,6 +113,8 @@ Contacts = namedtuple(
         "pre_v",  # (N+1, 3): their velocities before the impact
         "anchor_impulse",  # (N+1, 3): the floor's impulse per point, summed over the rounds
         "fv",  # (N+1,): scratch of the floor functions
+        "bounce",  # (N+1,): the upward velocity of a point that left the floor at this instant (else 0)
+        "az",  # (N+1,): scratch, the points' vertical accelerations
     ],
 )
 Points = namedtuple(
@@ -139,7 +144,14 @@ def new_instant(n: int) -> Instant:
     u8 = lambda: np.zeros(nh, np.uint8)  # noqa: E731
     hs = Hinges(np.zeros(nh), np.zeros(nh), u8(), u8(), u8(), u8(), u8(), u8(), u8(), np.zeros(nh), np.zeros(nh))
     acc = Accel(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(nh), np.zeros(nh))
-    ct = Contacts(np.zeros(n + 1, np.int64), np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros(n + 1))
+    ct = Contacts(
+        np.zeros(n + 1, np.int64),
+        np.zeros((n + 1, 3)),
+        np.zeros((n + 1, 3)),
+        np.zeros(n + 1),
+        np.zeros(n + 1),
+        np.zeros(n + 1),
+    )
     pt = Points(np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n, 3)))
     return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1))
 
@@ -171,13 +183,19 @@ def _unlocks_and_top(t, model, chain, hs, pt, books, log, found):
 
 
 @njit(cache=True)
-def _anchor_contacts(t, model, chain, ct, pt, any_landing):
+def _anchor_contacts(t, model, chain, ct, pt, any_landing, iw):
     """Step 2: the points the floor model lets touch the floor are anchored where they
     touched (marked 2: their neighbours still move during the impact); returns their
-    number (ct.new_anchor, their velocities before the impact in ct.pre_v)."""
+    number (ct.new_anchor, their velocities before the impact in ct.pre_v).  With
+    restitution at the floor, iw.rebound gets the velocity each is to leave it with
+    (``contacts.newton.floor_rebound``)."""
     e, w = chain.Y[0], chain.Y[1]
     velocities(e, w, pt.pv, pt.vel)
     na = floor_contacts(model.floor, e, pt.pts, pt.pv, chain.anchored, any_landing, Z_TOL, ct.new_anchor)
+    iw.n_rebound[0] = 0
+    if model.e_floor > 0.0:
+        for j in range(ct.bounce.shape[0]):
+            ct.bounce[j] = 0.0
     for r in range(na):
         j = ct.new_anchor[r]
         for q in range(3):
@@ -185,7 +203,55 @@ def _anchor_contacts(t, model, chain, ct, pt, any_landing):
         hold_at(chain, j, pt.pts)  # where it touched (|z| < Z_TOL)
         chain.anchored[j] = 2
         chain.anchor_t[j] = t
+        if model.e_floor > 0.0:
+            iw.rebound[j] = floor_rebound(pt.pv[j, 2], model.e_floor)
+            iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
     return na
+
+
+@njit(cache=True)
+def _leave_floor(model, chain, ct, pt, na, iw):
+    """After the first impact, with restitution at the floor: a landing point that
+    rebounds (``contacts.newton.rebounds``) is not anchored (ct.bounce: its upward
+    velocity); the later rounds are inelastic at the floor."""
+    e, w = chain.Y[0], chain.Y[1]
+    velocities(e, w, pt.pv, pt.vel)
+    for r in range(na):
+        j = ct.new_anchor[r]
+        if iw.rebound[j] > 0.0 and rebounds(pt.pv[j, 2], model.e_floor, RATE_TOL):
+            chain.anchored[j] = 0
+            chain.anchor_t[j] = np.nan
+            for q in range(3):
+                chain.anchor_pos[j, q] = np.nan
+            ct.bounce[j] = pt.pv[j, 2]
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
+
+
+@njit(cache=True)
+def _hold_bouncing(t, model, chain, ct, pt, acc):
+    """The accumulation limit at the floor: a point that left the floor at this instant
+    and would come back slower than hold_rate, or after a flight too small to resolve
+    (``rules.must_hold`` on its height), is anchored where it is instead (marked 2: the
+    next round's impact stops it).  Returns the number anchored."""
+    e, w = chain.Y[0], chain.Y[1]
+    n = e.shape[0]
+    az = 0.0  # d2z_j/dt2 = 2 sum_{i>=j} (dw_i x e_i + w_i x de_i)_z
+    ct.az[n] = 0.0
+    for j in range(n - 1, -1, -1):
+        az += 2.0 * (acc.dw[j, 0] * e[j, 1] - acc.dw[j, 1] * e[j, 0] + w[j, 0] * acc.de[j, 1] - w[j, 1] * acc.de[j, 0])
+        ct.az[j] = az
+    velocities(e, w, pt.pv, pt.vel)
+    nheld = 0
+    for j in range(n + 1):
+        if ct.bounce[j] > 0.0 and chain.anchored[j] == 0:
+            if must_hold(pt.pv[j, 2], ct.az[j], model.hold_rate, model.hold_apex):
+                hold_at(chain, j, pt.pts)
+                chain.anchored[j] = 2
+                chain.anchor_t[j] = t
+                ct.bounce[j] = 0.0
+                nheld += 1
+    return nheld
 
 
 @njit(cache=True)
@@ -217,7 +283,7 @@ def _impact_candidates(model, chain, hs, ct):
 @njit(cache=True)
 def _apply_impact(rnd, model, chain, ws, hs, ct, iw, books):
     """Step 3: one impact over the new anchors and the candidates (Moreau's, or Newton's
-    restitution at the limits: ``model.e_lock``; impulses summed into the books, the
+    restitution at the limits, ``model.e_lock``, and at the floor, iw.rebound; impulses summed into the books, the
     hinge log and the floor's impulse); the hinges it keeps at their limit are locked (a
     hinge that rebounds, ``contacts.newton.rebounds``, is not).  Returns False if the
     impact problem failed."""
@@ -295,17 +361,21 @@ def _hold_returning(model, chain, hs, acc):
         if must_hold(hs.rates[k], acc.ddg[k], model.hold_rate, model.hold_apex):
             hs.forced[k] = 1
             nhold += 1
-    if nhold > 0:
-        for k in range(nh):
-            hs.cand[k] = (
-                1
-                if (
-                    (hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0 or hs.forced[k])) and not hs.exclude[k]
-                )
-                else 0
-            )
-            hs.active[k] = 1 if (locked[k] or hs.forced[k]) else 0
     return nhold
+
+
+@njit(cache=True)
+def _next_round(chain, hs):
+    """The candidates and the initial active set of the next round's impact, once the
+    accumulation rule has held a hinge or a point."""
+    locked = chain.locked
+    for k in range(locked.shape[0]):
+        hs.cand[k] = (
+            1
+            if ((hs.in_force[k] and (hs.gaps[k] <= GAP_TOL or locked[k] != 0 or hs.forced[k])) and not hs.exclude[k])
+            else 0
+        )
+        hs.active[k] = 1 if (locked[k] or hs.forced[k]) else 0
 
 
 @njit(cache=True)
@@ -327,8 +397,8 @@ def _log_instant(t, na, chain, hs, ct, pt, log):
     for r in range(na):
         j = ct.new_anchor[r]
         i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
-        lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * ct.pre_v[r, 2])
-        log_row(log, t, LOG_LANDING, j, i0, i1, i2, lost, pts, j)
+        lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * (ct.pre_v[r, 2] + ct.bounce[j]))
+        log_row(log, t, LOG_LANDING if chain.anchored[j] != 0 else LOG_BOUNCE, j, i0, i1, i2, lost, pts, j)
     for j in range(chain.anchored.shape[0]):  # impulses of the floor on points anchored before this instant
         if chain.anchored[j] != 0 and chain.anchor_t[j] != t:
             i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
@@ -349,7 +419,7 @@ def _finish_instant(t, model, chain, watch, ws, sc, books):
     project_state(chain, ws, sc.pt.pts, sc.pt.vel, projection_tol(e.shape[0]), np.int64(5))
     books.projected[PROJECTED_AT_INSTANTS] += mechanical_energy(e, w, sc.pt.pv, sc.pt.vel) - before
     hinge_gaps(e, model.cos_alpha, sc.hs.gaps)
-    fall_ended(books, t, False, not top_event(model.floor) and chain.anchored[0] != 0)
+    fall_ended(books, t, False, not top_event(model.floor) and (chain.anchored[0] != 0 or sc.ct.bounce[0] > 0.0))
     arm_functions(model, chain, watch, sc.hs.gaps, sc.acc.lam, not math.isnan(books.t_fall[0]), sc.ct.fv)
     hinge_rates(e, w, sc.hs.rates)
     velocities(e, w, sc.pt.pv, sc.pt.vel)
@@ -366,18 +436,25 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     reuse_factors(ws.S, np.bool_(True))  # the axes stay (off after the next evaluation: integrator.advance)
     point_positions(e, pt.pts)  # (positions do not change at an instant)
     any_landing = _unlocks_and_top(t, model, chain, hs, pt, books, log, found)
-    na = _anchor_contacts(t, model, chain, ct, pt, any_landing)
+    na = _anchor_contacts(t, model, chain, ct, pt, any_landing, sc.iw)
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
     T0 = kinetic_energy(e, w, pt.pv, pt.vel)
-    for rnd in range(chain.locked.shape[0] + 1):  # each round holds at least one more hinge
+    settle = True
+    for rnd in range(chain.locked.shape[0] + chain.anchored.shape[0] + 1):  # each round holds one more
         if impact and not _apply_impact(rnd, model, chain, ws, hs, ct, sc.iw, books):
             return ERR_IMPACT_LCP
-        if rnd == 0:
+        if rnd == 0 and model.e_floor > 0.0:
+            _leave_floor(model, chain, ct, pt, na, sc.iw)
+        if settle:
             _settle_anchors(model, chain, hs)
         if not _lock_set(chain, ws, hs, acc):
             return ERR_LOCK_LCP
-        if _hold_returning(model, chain, hs, acc) == 0:
+        nhold = _hold_returning(model, chain, hs, acc)
+        npts = _hold_bouncing(t, model, chain, ct, pt, acc) if model.e_floor > 0.0 else 0
+        if nhold + npts == 0:
             break
+        _next_round(chain, hs)
+        settle = npts > 0
         impact = True
     if kinetic_energy(e, w, pt.pv, pt.vel) > T0 * (1 + 1e-9) + 1e-12:
         return ERR_ENERGY

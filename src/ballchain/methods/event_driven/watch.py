@@ -90,7 +90,7 @@ def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
 @njit(cache=True)
 def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
     """Predicted apex time of every departing constraint that accelerates back, and of
-    every armed hinge that approaches its limit while turning back: a hinge
+    every armed hinge or point that approaches its limit while turning back: a hinge
     (or a free point, floor ``all``) that leaves its zero at rate v > 0 while its
     acceleration a < 0 pulls it back peaks at t + v/|a| and returns at t + 2v/|a|.  The
     integrator samples a departing function there, so that a return within one step is
@@ -115,6 +115,10 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
         apex_land[j] = math.inf
         if arm_land[j] == DEPARTING and az < 0.0 and pv[j, 2] > 0.0 and pv[j, 2] ** 2 > -2.0 * ZERO_BAND * az:
             apex_land[j] = t + pv[j, 2] / -az
+        elif arm_land[j] == ARMED and pv[j, 2] < 0.0 and az > 0.0:
+            # an armed point heading for the floor and turning back (one that has just
+            # bounced off it): where it comes closest, sampled as for the hinges
+            apex_land[j] = t - pv[j, 2] / az
 
 
 @njit(cache=True)
