@@ -186,7 +186,7 @@ def test_progress_bar_on_its_console_and_quiet(run_file, tmp_path, monkeypatch):
     from rich.console import Console
 
     buf = io.StringIO()
-    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=100))
+    monkeypatch.setattr(cli.running, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=100))
     assert invoke("animate", run_file, "--out", tmp_path / "a.gif", "--frames", 3).exit_code == 0
     assert "animating" in buf.getvalue() and "3/3" in buf.getvalue()
     buf.truncate(0)

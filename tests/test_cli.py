@@ -389,7 +389,7 @@ def test_progress_bar_goes_to_its_console_and_survives_odd_reports(monkeypatch):
     from rich.console import Console
 
     buf = io.StringIO()
-    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=100))
+    monkeypatch.setattr(cli.running, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=100))
     seen = []
 
     def simulate(params, ic, options, *, progress=None, state=None):
@@ -566,12 +566,12 @@ def test_the_compile_notice_counts_the_seconds(monkeypatch):
     from rich.console import Console
 
     buf = io.StringIO()
-    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=120))
+    monkeypatch.setattr(cli.running, "_progress_console", lambda: Console(file=buf, force_terminal=True, width=120))
     cli._compile_with_notice(lambda: _t.sleep(1.3), show_progress=True)
     drawn = buf.getvalue()
     assert "compiling the numba kernels" in drawn and ": 1 s" in drawn  # redrawn after a second
     plain = io.StringIO()
-    monkeypatch.setattr(cli, "_progress_console", lambda: Console(file=plain, force_terminal=False))
+    monkeypatch.setattr(cli.running, "_progress_console", lambda: Console(file=plain, force_terminal=False))
     lines = []
     monkeypatch.setattr(cli.typer, "echo", lambda msg, err=False: lines.append(msg))
     cli._compile_with_notice(lambda: None, show_progress=True)

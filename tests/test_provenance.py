@@ -20,7 +20,7 @@ def test_the_fingerprint_follows_the_engine_sources(tmp_path):
     assert fingerprint_of(copy) == engine_fingerprint()  # the same sources, the same engine
     names = {p.relative_to(copy).as_posix() for p in engine_sources(copy)}
     assert {"engine.py", "core/dynamics.py", "methods/event_driven/events.py", "floors/pivot.py"} <= names
-    (copy / "cli.py").write_text((copy / "cli.py").read_text() + "\n# not the engine\n")
+    (copy / "cli" / "app.py").write_text((copy / "cli" / "app.py").read_text() + "\n# not the engine\n")
     assert fingerprint_of(copy) == engine_fingerprint()  # the applications are not the engine
     kernel = copy / "core" / "rules.py"
     kernel.write_text(kernel.read_text() + "\n# an edit\n")

@@ -1,0 +1,5 @@
+"""``python -m ballchain.cli``."""
+
+from . import main
+
+main()
