@@ -222,3 +222,22 @@ def test_restitution_at_the_floor_needs_the_floor_that_watches_every_point():
         ChainParams(segments=4, floor="pivot", restitution_floor=0.5)
     res = CliRunner().invoke(app, ["simulate", "-N", "4", "--restitution-floor", "0.5", "--json", "-q"])
     assert res.exit_code == 0 and json.loads(res.stdout)["restitution_floor"] == 0.5
+
+
+def test_a_point_kicked_down_at_the_floor_lands_at_once_and_every_series_of_bounces_ends():
+    """A point that has just bounced and is turned back down by a neighbour's lock lands
+    at that instant (it does not sink a round-off band deeper at each of its returns: a
+    start of N = 128 once made 687000 bounces and went 2.8e-7 b into the floor). Each
+    series of bounces is geometric (ratio E), so no point bounces more than a few
+    series' worth; every point stays above the floor to round-off."""
+    r = simulate(
+        ChainParams(segments=128, restitution_floor=0.3),
+        InitialCondition(kind="random", seed=2026, spawn_key=(6,)),
+        SolverOptions(),
+    )
+    assert r.status == "landed", r.message
+    bounces = r.event_kind == EVENT_CODES["bounce"]
+    assert bounces.sum() > 500
+    assert np.bincount(r.event_index[bounces]).max() < 200
+    assert r.max_depth <= 1e-10
+    assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]

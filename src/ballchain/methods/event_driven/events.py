@@ -115,6 +115,7 @@ Contacts = namedtuple(
         "fv",  # (N+1,): scratch of the floor functions
         "bounce",  # (N+1,): the upward velocity of a point that left the floor at this instant (else 0)
         "az",  # (N+1,): scratch, the points' vertical accelerations
+        "touch",  # (N+1,) int64: scratch, points touching the floor after a round
     ],
 )
 Points = namedtuple(
@@ -151,6 +152,7 @@ def new_instant(n: int) -> Instant:
         np.zeros(n + 1),
         np.zeros(n + 1),
         np.zeros(n + 1),
+        np.zeros(n + 1, np.int64),
     )
     pt = Points(np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n, 3)))
     return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1))
@@ -211,9 +213,9 @@ def _anchor_contacts(t, model, chain, ct, pt, any_landing, iw):
 
 @njit(cache=True)
 def _leave_floor(model, chain, ct, pt, na, iw):
-    """After the first impact, with restitution at the floor: a landing point that
-    rebounds (``contacts.newton.rebounds``) is not anchored (ct.bounce: its upward
-    velocity); the later rounds are inelastic at the floor."""
+    """After a round's impact, with restitution at the floor: a point that landed in it
+    and rebounds (``contacts.newton.rebounds``) is not anchored (ct.bounce: its upward
+    velocity)."""
     e, w = chain.Y[0], chain.Y[1]
     velocities(e, w, pt.pv, pt.vel)
     for r in range(na):
@@ -229,10 +231,43 @@ def _leave_floor(model, chain, ct, pt, na, iw):
 
 
 @njit(cache=True)
+def _touch_floor(t, model, chain, ct, pt, na, iw):
+    """With restitution at the floor, after a round: a free point at the floor that this
+    instant's impulses have turned down (``floor_contacts`` on the new velocities) lands
+    now, in the next round, not a round-off band deeper at the next step (otherwise a
+    point kicked down again and again by its neighbours' locks would creep into the
+    floor); one that has touched before in this instant lands inelastically, so that
+    the rounds end.  Returns the new count of the instant's touches (ct.new_anchor) and
+    the number of points that touch now."""
+    e, w = chain.Y[0], chain.Y[1]
+    velocities(e, w, pt.pv, pt.vel)
+    n_new = floor_contacts(model.floor, e, pt.pts, pt.pv, chain.anchored, np.bool_(True), Z_TOL, ct.touch)
+    for s in range(n_new):
+        j = ct.touch[s]
+        r = 0
+        while r < na and ct.new_anchor[r] != j:
+            r += 1
+        again = r < na
+        if not again:
+            ct.new_anchor[na] = j
+            for q in range(3):
+                ct.pre_v[na, q] = pt.pv[j, q]
+            na += 1
+        hold_at(chain, j, pt.pts)
+        chain.anchored[j] = 2
+        chain.anchor_t[j] = t
+        ct.bounce[j] = 0.0
+        iw.rebound[j] = 0.0 if again else floor_rebound(pt.pv[j, 2], model.e_floor)
+        iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
+    return na, n_new
+
+
+@njit(cache=True)
 def _hold_bouncing(t, model, chain, ct, pt, acc):
     """The accumulation limit at the floor: a point that left the floor at this instant
     and would come back slower than hold_rate, or after a flight too small to resolve
-    (``rules.must_hold`` on its height), is anchored where it is instead (marked 2: the
+    (``rules.must_hold`` on its height), or that a later round's impulses have turned
+    back down (it no longer rebounds), is anchored where it is instead (marked 2: the
     next round's impact stops it).  Returns the number anchored."""
     e, w = chain.Y[0], chain.Y[1]
     n = e.shape[0]
@@ -245,7 +280,8 @@ def _hold_bouncing(t, model, chain, ct, pt, acc):
     nheld = 0
     for j in range(n + 1):
         if ct.bounce[j] > 0.0 and chain.anchored[j] == 0:
-            if must_hold(pt.pv[j, 2], ct.az[j], model.hold_rate, model.hold_apex):
+            vz = pt.pv[j, 2]  # (a later round's impulses may have turned it back down)
+            if not rebounds(vz, model.e_floor, RATE_TOL) or must_hold(vz, ct.az[j], model.hold_rate, model.hold_apex):
                 hold_at(chain, j, pt.pts)
                 chain.anchored[j] = 2
                 chain.anchor_t[j] = t
@@ -440,17 +476,22 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
     T0 = kinetic_energy(e, w, pt.pv, pt.vel)
     settle = True
-    for rnd in range(chain.locked.shape[0] + chain.anchored.shape[0] + 1):  # each round holds one more
+    # each round holds one more hinge, anchors one more point or makes one bounce
+    for rnd in range(chain.locked.shape[0] + 2 * chain.anchored.shape[0] + 1):
         if impact and not _apply_impact(rnd, model, chain, ws, hs, ct, sc.iw, books):
             return ERR_IMPACT_LCP
-        if rnd == 0 and model.e_floor > 0.0:
+        if model.e_floor > 0.0:
             _leave_floor(model, chain, ct, pt, na, sc.iw)
         if settle:
             _settle_anchors(model, chain, hs)
         if not _lock_set(chain, ws, hs, acc):
             return ERR_LOCK_LCP
         nhold = _hold_returning(model, chain, hs, acc)
-        npts = _hold_bouncing(t, model, chain, ct, pt, acc) if model.e_floor > 0.0 else 0
+        npts = 0
+        if model.e_floor > 0.0:
+            npts = _hold_bouncing(t, model, chain, ct, pt, acc)
+            na, n_touch = _touch_floor(t, model, chain, ct, pt, na, sc.iw)
+            npts += n_touch
         if nhold + npts == 0:
             break
         _next_round(chain, hs)
