@@ -1,6 +1,8 @@
-"""Restitution at the bend limit against the fall (the numbers of docs/restitution.md).
+"""Restitution at the bend limit, or at the floor, against the fall (the numbers of
+docs/restitution.md and docs/restitution-floor.md).
 
     python benchmarks/restitution_study.py docs/data/restitution-lock.parquet [--plot FILE]
+    python benchmarks/restitution_study.py docs/data/restitution-floor.parquet --law restitution_floor [--plot FILE]
 
 Per (N, restitution E), over the runs that landed (a run that ended as an error, its
 books or constraints broken, is listed and not counted): the runs and how many landed;
@@ -10,7 +12,11 @@ with its Wilson interval; the medians of E_lock/E0 (what the lock impacts dissip
 E_land/E0, of the lock events per segment and of the wall time of a fall; the worst
 |imbalance|/E0.  Then the mean
 difference of t_fall/t_ff from E = 0, paired by start (the same 16 starts at every E),
-with its 95% bootstrap interval.  ``--plot``: the mean t_fall/t_ff against E, one line per N, with its intervals.
+with its 95% bootstrap interval.  ``--law restitution_floor``: the same per restitution
+at the floor, with the bounces per segment instead of the lock events, and the braking
+coefficient gamma measured from the floor (mean, 95%) and inferred from t_fall/t_ff (the
+Hamm-Geminard formula), with their paired differences too.  ``--plot``: the mean
+t_fall/t_ff against E, one line per N, with its intervals.
 """
 
 from __future__ import annotations
@@ -22,28 +28,43 @@ import pandas as pd
 
 from ballchain.sweeps.stats import mean_interval, wilson_interval
 
+GAMMAS = ("gamma_measured", "gamma_inferred")
+
+
+def _interval(x) -> str:
+    """Mean [95% bootstrap interval] of a column's finite values (gamma_inferred is NaN for a
+    fall slower than the Hamm-Geminard formula reaches: their number is given)."""
+    x = x.to_numpy(dtype=float)
+    ok = x[np.isfinite(x)]
+    lo, hi = mean_interval(ok)
+    return f"{ok.mean():.3f} [{lo:.3f}, {hi:.3f}]" + (f" ({ok.size} of {x.size})" if ok.size < x.size else "")
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("table")
     ap.add_argument("--plot")
+    ap.add_argument("--law", default="restitution_lock", choices=["restitution_lock", "restitution_floor"])
     a = ap.parse_args()
+    law, floor = a.law, a.law == "restitution_floor"
     df = pd.read_parquet(a.table)
     df["elock"] = df.energy_lost_locking / df.energy_initial
     df["eland"] = df.energy_lost_landing / df.energy_initial
     df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
-    df["locks_per_seg"] = df.events_lock / df.segments
+    df["per_seg"] = (df.events_bounce if floor else df.events_lock) / df.segments
     print(f"{len(df)} runs: " + ", ".join(f"{v} {k}" for k, v in df.status.value_counts().items()))
     for _, r in df[df.status != "landed"].iterrows():
         print(f"  not counted: {r.run_id} ({r.status}): {r.message}")
     print()
+    what = "bounces" if floor else "lock events"
     print(
         "| N | E | runs | landed | t_fall/t_ff [95%] | faster than free fall [95%] | E_lock/E0 (median) | "
-        "E_land/E0 (median) | lock events per segment (median) | worst imbalance/E0 | wall per fall (median) |"
+        f"E_land/E0 (median) | {what} per segment (median) | worst imbalance/E0 | wall per fall (median) |"
+        + (" gamma measured [95%] | gamma inferred [95%] |" if floor else "")
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|" if floor else ""))
     curves = {}
-    for (n, e), g in df.groupby(["segments", "restitution_lock"]):
+    for (n, e), g in df.groupby(["segments", law]):
         x = g[g.status == "landed"].ratio.to_numpy(dtype=float)  # (a run that broke the model: not counted)
         lo, hi = mean_interval(x)
         k = int(np.sum(x < 1.0))
@@ -51,19 +72,27 @@ def main() -> None:
         print(
             f"| {n} | {e:g} | {len(g)} | {(g.status == 'landed').sum()} | {x.mean():.3f} [{lo:.3f}, {hi:.3f}] | "
             f"{k / x.size:.2f} [{flo:.2f}, {fhi:.2f}] | {g.elock.median():.3f} | {g.eland.median():.3f} | "
-            f"{g.locks_per_seg.median():.0f} | {g.imb.max():.1e} | {g.wall_seconds.median():.1f} s |"
+            f"{g.per_seg.median():.0f} | {g.imb.max():.1e} | {g.wall_seconds.median():.1f} s |"
+            + "".join(f" {_interval(g[g.status == 'landed'][c])} |" for c in GAMMAS if floor)
         )
         curves.setdefault(n, []).append((e, x.mean(), lo, hi))
-    print("\nPaired by start, t_fall/t_ff minus at E = 0 (mean [95%]):\n")
-    print("| N | E | pairs | difference [95%] |")
-    print("|---|---|---|---|")
+    cols = ["ratio"] + (list(GAMMAS) if floor else [])
+    print("\nPaired by start, minus at E = 0 (mean [95%]):\n")
+    print("| N | E | pairs | " + " | ".join(f"{c if c != 'ratio' else 't_fall/t_ff'} [95%]" for c in cols) + " |")
+    print("|---|---|---|" + "---|" * len(cols))
     for n, g in df.groupby("segments"):
         g = g[g.status == "landed"]
-        base = g[g.restitution_lock == 0.0].set_index("run_index").ratio
-        for e, h in g[g.restitution_lock > 0.0].groupby("restitution_lock"):
-            d = (h.set_index("run_index").ratio - base).dropna().to_numpy()
-            lo, hi = mean_interval(d)
-            print(f"| {n} | {e:g} | {d.size} | {d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}] |")
+        base = g[g[law] == 0.0].set_index("run_index")
+        for e, h in g[g[law] > 0.0].groupby(law):
+            h = h.set_index("run_index")
+            cells, pairs = [], 0
+            for c in cols:
+                d = (h[c] - base[c]).dropna().to_numpy(dtype=float)
+                d = d[np.isfinite(d)]
+                lo, hi = mean_interval(d)
+                cells.append(f"{d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}]" + ("" if c == "ratio" else f" ({d.size})"))
+                pairs = d.size if c == "ratio" else pairs  # (the fall times' pairs)
+            print(f"| {n} | {e:g} | {pairs} | " + " | ".join(cells) + " |")
     if a.plot:
         import matplotlib
 
@@ -75,7 +104,7 @@ def main() -> None:
             e, m, lo, hi = (np.array(v) for v in zip(*pts))
             ax.errorbar(e, m, yerr=[m - lo, hi - m], marker="o", capsize=3, label=f"N = {n}")
         ax.axhline(1.0, color="0.5", lw=0.8, ls="--")
-        ax.set_xlabel("restitution at the bend limit, E")
+        ax.set_xlabel("restitution at the floor, E" if floor else "restitution at the bend limit, E")
         ax.set_ylabel("t_fall / t_ff (mean, 95%)")
         ax.legend(frameon=False)
         fig.tight_layout()
