@@ -202,13 +202,20 @@ def _anchor_contacts(t, model, chain, ct, pt, any_landing, iw):
         j = ct.new_anchor[r]
         for q in range(3):
             ct.pre_v[r, q] = pt.pv[j, q]
-        hold_at(chain, j, pt.pts)  # where it touched (|z| < Z_TOL)
-        chain.anchored[j] = 2
-        chain.anchor_t[j] = t
-        if model.e_floor > 0.0:
-            iw.rebound[j] = floor_rebound(pt.pv[j, 2], model.e_floor)
-            iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
+        _touch(t, chain, j, pt, iw, model.e_floor)
     return na
+
+
+@njit(cache=True)
+def _touch(t, chain, j, pt, iw, e_floor):
+    """Point j touches the floor at t: anchored where it touched (|z| < Z_TOL; marked 2
+    while its impact is solved) and, with restitution at the floor (``e_floor`` > 0), given
+    the velocity it is to leave with (iw.rebound, ``contacts.newton.floor_rebound``)."""
+    hold_at(chain, j, pt.pts)
+    chain.anchored[j] = 2
+    chain.anchor_t[j] = t
+    iw.rebound[j] = floor_rebound(pt.pv[j, 2], e_floor)  # (0 for e_floor = 0)
+    iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
 
 
 @njit(cache=True)
@@ -253,12 +260,8 @@ def _touch_floor(t, model, chain, ct, pt, na, iw):
             for q in range(3):
                 ct.pre_v[na, q] = pt.pv[j, q]
             na += 1
-        hold_at(chain, j, pt.pts)
-        chain.anchored[j] = 2
-        chain.anchor_t[j] = t
         ct.bounce[j] = 0.0
-        iw.rebound[j] = 0.0 if again else floor_rebound(pt.pv[j, 2], model.e_floor)
-        iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
+        _touch(t, chain, j, pt, iw, 0.0 if again else model.e_floor)
     return na, n_new
 
 
