@@ -223,6 +223,8 @@ def _leave_floor(model, chain, ct, pt, na, iw):
     """After a round's impact, with restitution at the floor: a point that landed in it
     and rebounds (``contacts.newton.rebounds``) is not anchored (ct.bounce: its upward
     velocity)."""
+    if iw.n_rebound[0] == 0:  # (no landing of this round rebounds)
+        return
     e, w = chain.Y[0], chain.Y[1]
     velocities(e, w, pt.pv, pt.vel)
     for r in range(na):
@@ -266,7 +268,7 @@ def _touch_floor(t, model, chain, ct, pt, na, iw):
 
 
 @njit(cache=True)
-def _hold_bouncing(t, model, chain, ct, pt, acc):
+def _hold_bouncing(t, model, chain, ct, pt, acc, iw):
     """The accumulation limit at the floor: a point that left the floor at this instant
     and would come back slower than hold_rate, or after a flight too small to resolve
     (``rules.must_hold`` on its height), or that a later round's impulses have turned
@@ -285,9 +287,7 @@ def _hold_bouncing(t, model, chain, ct, pt, acc):
         if ct.bounce[j] > 0.0 and chain.anchored[j] == 0:
             vz = pt.pv[j, 2]  # (a later round's impulses may have turned it back down)
             if not rebounds(vz, model.e_floor, RATE_TOL) or must_hold(vz, ct.az[j], model.hold_rate, model.hold_apex):
-                hold_at(chain, j, pt.pts)
-                chain.anchored[j] = 2
-                chain.anchor_t[j] = t
+                _touch(t, chain, j, pt, iw, 0.0)
                 ct.bounce[j] = 0.0
                 nheld += 1
     return nheld
@@ -492,7 +492,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
         nhold = _hold_returning(model, chain, hs, acc)
         npts = 0
         if model.e_floor > 0.0:
-            npts = _hold_bouncing(t, model, chain, ct, pt, acc)
+            npts = _hold_bouncing(t, model, chain, ct, pt, acc, sc.iw)
             na, n_touch = _touch_floor(t, model, chain, ct, pt, na, sc.iw)
             npts += n_touch
         if nhold + npts == 0:
