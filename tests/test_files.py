@@ -62,6 +62,8 @@ def make_result(
         frame_pile_pull=rng.normal(size=(frames, 3)),
         frame_scale_force=rng.normal(size=frames),
         frame_floor_impulse=np.cumsum(rng.normal(size=(frames, 3)), axis=0),
+        frame_base=np.zeros((frames, 3)),
+        frame_base_velocity=np.zeros((frames, 3)),
         event_t=np.sort(rng.uniform(0, 3, size=events)),
         event_kind=rng.integers(1, 9, size=events).astype(np.int8),
         event_index=rng.integers(0, n + 1, size=events).astype(np.int64),
@@ -145,7 +147,7 @@ def test_file_is_self_describing(tmp_path):
     save_result(r, path)
     with h5py.File(path, "r") as f:
         assert f.attrs["format"] == FORMAT_NAME
-        assert int(f.attrs["format_version"]) == 2
+        assert int(f.attrs["format_version"]) == 3
         assert f.attrs["units"] == "SI"
         assert "created" in f.attrs and "package_version" in f.attrs
         assert int(f.attrs["seed"]) == 7
@@ -193,6 +195,21 @@ def test_version_1_file_loads_with_the_new_datasets_as_nan(tmp_path):
     assert back.frame_pile_pull.shape == (7, 3) and np.all(np.isnan(back.frame_pile_pull))
     assert back.event_pos.shape == (5, 3) and np.all(np.isnan(back.floor_impulse_total))
     np.testing.assert_array_equal(back.frame_e, r.frame_e)
+
+
+def test_version_2_file_loads_with_the_bottom_end_at_the_origin(tmp_path):
+    """A file written before the frictionless floor lacks the bottom end's record: every
+    run then stood on the origin, so it loads as zeros and its points are as they were."""
+    r = make_result(n=6, frames=7, events=5)
+    path = tmp_path / "v2.h5"
+    save_result(r, path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = np.int64(2)
+        del f["frames/frame_base"], f["frames/frame_base_velocity"]
+    back = load_result(path)
+    assert back.frame_base.shape == back.frame_base_velocity.shape == (7, 3)
+    assert np.all(back.frame_base == 0.0) and np.all(back.frame_base_velocity == 0.0)
+    np.testing.assert_array_equal(back.points(), r.points())
 
 
 def test_units_nondimensional():
@@ -352,7 +369,7 @@ def test_file_info(tmp_path):
     p = tmp_path / "run.h5"
     save_result(make_result(), p)
     info = files.file_info(p)
-    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 2
+    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 3
     assert info["units"] == "nondimensional" and info["status"] == "landed"
 
 

@@ -116,7 +116,9 @@ def _pile_and_hanging_part(n=12, landed=4, seed=3):
     vc, ve = 0.5 * (V[:-1] + V[1:]), 0.5 * (V[:-1] - V[1:])
     anchored = np.zeros(n + 1, np.uint8)
     anchored[k:] = 1
-    return Motion(c, e, vc, ve, anchored, P.copy(), np.zeros(n + 1), np.zeros(n - 1, np.uint8))
+    return Motion(
+        c, e, vc, ve, anchored, P.copy(), np.zeros(n + 1), np.zeros(n - 1, np.uint8), np.zeros(n + 1, np.uint8)
+    )
 
 
 def test_the_landed_part_takes_no_part_in_a_step():

@@ -297,7 +297,7 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
     e, w = chain.Y
     n = params.segments
     T_end = out.kinetic if out.kinetic is not None else kinetic_energy(e, w, np.zeros((n + 1, 3)), np.zeros((n, 3)))
-    U_end = potential_energy(e)
+    U_end = out.potential if out.potential is not None else potential_energy(e)
     lost_locking, lost_landing = float(books.lost_locking[0]), float(books.lost_landing[0])
     energy = {
         "initial": setup.E0 * eu,
@@ -343,6 +343,8 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         frame_pile_pull=fr["pile_pull"] * fu,
         frame_scale_force=fr["scale_force"] * fu,
         frame_floor_impulse=fr["floor_impulse"] * iu,
+        frame_base=fr["base"] * lu,
+        frame_base_velocity=fr["base_velocity"] * lu / tu,
         event_t=log_t * tu,
         event_kind=log_kind.astype(np.int8),
         event_index=log_index.copy(),

@@ -115,6 +115,16 @@ class _Chain:
                 f"restitution_floor {self.restitution_floor:g} needs floor all (a point that rebounds must "
                 f"be watched again; floor {self.floor} watches only the bottom airborne segment)"
             )
+        if self.friction != math.inf and self.floor not in WATCHES_EVERY_POINT:
+            raise ParameterError(
+                f"friction {self.friction:g} needs floor all (a point that slides must be watched; floor "
+                f"{self.floor} watches only the bottom airborne segment)"
+            )
+        if self.friction != math.inf and self.restitution_floor != 0.0:
+            raise ParameterError(
+                f"friction {self.friction:g} with restitution_floor {self.restitution_floor:g}: a sliding "
+                "point that bounces is not built yet (set one of them to its default)"
+            )
 
     @classmethod
     def from_chain(cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81, **kw):

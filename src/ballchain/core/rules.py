@@ -7,7 +7,7 @@ the kernels in ``dynamics`` and ``impacts`` act on the masks these rules produce
 * which hinge limits are in force: ``limit_in_force``;
 * the lock function of a hinge (``bend_gap``, ``hinge_gap``), the height of a point
   (``point_height``), which segments have landed (``is_landed``, ``landed_or_landing``);
-* when the fall ends (``fall_ended``);
+* when the fall ends (``fall_ended``) and when the run does (``fall_over``);
 * the event kinds of the log (``EVENT_KINDS``, ``EVENT_CODES``, ``EVENT_MEANINGS``);
 * the thresholds that say when a constraint is *at* its limit, when an approach is an
   impact rather than a touch, and when a series of impacts is taken to its limit:
@@ -138,6 +138,19 @@ def all_anchored(anchored):
     """Every point anchored: the fall is over (t_landed)."""
     for j in range(anchored.shape[0]):
         if anchored[j] == 0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def fall_over(anchored, anchor_t, friction):
+    """The run is over: every point anchored (the anchor: ``all_anchored``), or, on a
+    frictionless floor (friction 0: nothing is anchored, the pile slides on), every point
+    has touched the floor (its first touch in ``anchor_t``)."""
+    if friction != 0.0:
+        return all_anchored(anchored)
+    for j in range(anchor_t.shape[0]):
+        if not anchor_t[j] == anchor_t[j]:
             return False
     return True
 

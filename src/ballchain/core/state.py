@@ -46,17 +46,29 @@ Model = namedtuple(
         "v_ff",  # time-stepping, dt_rule landing: g t_ff, the speed of free fall at t_ff (sqrt(g b))
         "e_lock",  # Newton's restitution at the bend limit (contacts.newton; 0: the hinge locks)
         "e_floor",  # Newton's restitution at the floor (contacts.newton; 0: a landing point is anchored)
+        "friction",  # Coulomb's friction coefficient at the floor (contacts.coulomb; inf: the anchor)
     ],
 )
 
 
 def new_model(
-    alpha, floor, cone, options, t_stop, zeno_window, return_every, dt_rule=0, v_ff=0.0, e_lock=0.0, e_floor=0.0
+    alpha,
+    floor,
+    cone,
+    options,
+    t_stop,
+    zeno_window,
+    return_every,
+    dt_rule=0,
+    v_ff=0.0,
+    e_lock=0.0,
+    e_floor=0.0,
+    friction=math.inf,
 ) -> Model:
     """The constant model of a run (``options``: ``model.SolverOptions``; ``dt_rule``,
     ``v_ff``: the time-stepper's step rule, as its code, and g t_ff; ``e_lock``: the
     restitution at the bend limit, ``ChainParams.restitution_lock``; ``e_floor``: at the floor,
-    ``ChainParams.restitution_floor``)."""
+    ``ChainParams.restitution_floor``; ``friction``: ``ChainParams.friction``)."""
     return Model(
         float(alpha),
         math.cos(alpha),
@@ -76,6 +88,7 @@ def new_model(
         float(v_ff),
         float(e_lock),
         float(e_floor),
+        float(friction),
     )
 
 
@@ -199,6 +212,8 @@ Frames = namedtuple(
         "floor_impulse",
         "lost_locking",
         "lost_landing",
+        "base",  # (3,): the position of point N (the bottom end): 0 unless it slides (a frictionless floor)
+        "base_velocity",  # (3,): its velocity
     ],
 )
 FRAME_FIELDS = Frames._fields[4:]  # the per-frame arrays, in the order of the fields
@@ -225,6 +240,8 @@ def new_frames(n: int, dt: float, cap: int) -> Frames:
         np.zeros((cap, 3)),
         np.zeros(cap),
         np.zeros(cap),
+        np.zeros((cap, 3)),
+        np.zeros((cap, 3)),
     )
 
 

@@ -249,3 +249,6 @@ class RunOutput:
     # time-stepper's centre velocities V: ``stepper.kinetic_energy_maximal``, as its
     # frames record it); None: from the axes and rates (``kinematics.kinetic_energy``)
     kinetic: float | None = None
+    # the potential energy at the end, when the chain's bottom end may have left the origin
+    # (a frictionless floor: U = sum of the centres' heights); None: from the axes
+    potential: float | None = None

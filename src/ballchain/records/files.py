@@ -1,6 +1,6 @@
 """Result files: one self-describing HDF5 file per run.
 
-Layout (format ``ballchain-result``, version 1)::
+Layout (format ``ballchain-result``, version 3)::
 
     /                 attrs: format, format_version, package_version, version (of the
                       run), units, created (UTC, ISO 8601), status, message, seed,
@@ -14,7 +14,8 @@ Layout (format ``ballchain-result``, version 1)::
     /frames           frame_t, frame_e, frame_omega, frame_anchored, frame_locked,
                       frame_floor_force, frame_pile_pull, frame_scale_force,
                       frame_floor_impulse, frame_kinetic, frame_potential,
-                      frame_lost_locking, frame_lost_landing
+                      frame_lost_locking, frame_lost_landing, frame_base,
+                      frame_base_velocity
                       attrs: conventions (numbering, directions, positions, axes)
     /events           event_t, event_kind, event_index, event_impulse, event_energy,
                       event_pos; attrs: kinds (JSON code -> name), kind_meanings
@@ -49,14 +50,16 @@ from ..model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from .result import EVENT_KINDS, EVENT_MEANINGS, Result, unit_of
 
 FORMAT_NAME = "ballchain-result"
-FORMAT_VERSION = 2  # 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
+FORMAT_VERSION = 3  # 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
+# 3: the bottom end's position and velocity (a frictionless floor); version 1 and 2 files load (zeros)
 
 CONVENTIONS = (
     "Segments i = 0..N-1 are numbered from the top end of the chain, points j = 0..N "
     "from the top too: segment i joins point i (its upper end) and point i+1 (its lower "
     "end); hinge k (0..N-2) is point k+1. frame_e[:, i] is the unit axis e_i of segment i, "
     "pointing up the chain (from point i+1 to point i). Point N, the original pivot, is at "
-    "the origin and is anchored from t = 0; point j is at r_j = 2 b sum_{i>=j} e_i "
+    "the origin and is anchored from t = 0 (on a frictionless floor, params friction 0, it "
+    "slides: it is at frame_base); point j is at r_j = r_N + 2 b sum_{i>=j} e_i "
     "(Result.points()). z points up, the floor is z = 0, gravity is -g e_z. b is the "
     "half-length of a segment (params.half_length; 1 in nondimensional units), m its mass."
 )
@@ -94,6 +97,8 @@ GROUPS = {
         "frame_potential",
         "frame_lost_locking",
         "frame_lost_landing",
+        "frame_base",
+        "frame_base_velocity",
     ),
     "events": ("event_t", "event_kind", "event_index", "event_impulse", "event_energy", "event_pos"),
     "anchors": ("anchor_t", "anchor_pos"),
@@ -105,6 +110,11 @@ _NEW_IN_V2 = {
     "frame_scale_force": lambda nf, ne: (nf,),
     "frame_floor_impulse": lambda nf, ne: (nf, 3),
     "event_pos": lambda nf, ne: (ne, 3),
+}
+# datasets that version 1 and 2 files lack (read back as zeros: the bottom end then never left the origin)
+_NEW_IN_V3 = {
+    "frame_base": lambda nf, ne: (nf, 3),
+    "frame_base_velocity": lambda nf, ne: (nf, 3),
 }
 _FLOAT_SCALARS = ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "wall_seconds")
 _INT_SCALARS = ("n_steps", "n_evals", "n_instants")
@@ -136,6 +146,8 @@ DESCRIPTIONS = {
     "frame_scale_force": "vertical force a scale under the floor reads: the anchors' z force plus the weight "
     "of the landed segments (impulses excluded)",
     "frame_floor_impulse": "the floor's cumulative impulse on the chain from t = 0 (F, 3), impacts included",
+    "frame_base": "the position of point N, the bottom end (F, 3): zero unless it slides (a frictionless floor)",
+    "frame_base_velocity": "the velocity of point N, the bottom end (F, 3): zero unless it slides",
     "frame_kinetic": "kinetic energy",
     "frame_potential": "potential energy",
     "frame_lost_locking": "cumulative kinetic energy lost in hinge locking",
@@ -408,12 +420,14 @@ def _read(f, where: str) -> Result:
     kw = {}
     for gname, names in GROUPS.items():
         for name in names:
-            if name in _NEW_IN_V2 and f"{gname}/{name}" not in f:
-                continue  # a version 1 file: filled in below
+            if (name in _NEW_IN_V2 or name in _NEW_IN_V3) and f"{gname}/{name}" not in f:
+                continue  # a version 1 or 2 file: filled in below
             kw[name] = need(gname, name)
     nf, ne = kw["frame_t"].shape[0], kw["event_t"].shape[0]
     for name, shape in _NEW_IN_V2.items():
         kw.setdefault(name, np.full(shape(nf, ne), np.nan))
+    for name, shape in _NEW_IN_V3.items():
+        kw.setdefault(name, np.zeros(shape(nf, ne)))
     for name in _FLOAT_SCALARS:
         kw[name] = float(kw[name])
     for name in _INT_SCALARS:

@@ -31,13 +31,15 @@ import numpy as np
 
 def segment_velocities(r) -> np.ndarray:
     """Velocity of each segment's centre at every frame (F, N, 3), from the frames' axes
-    and angular velocities: v_i = v_point(i+1) + b w_i x e_i, point N fixed."""
+    and angular velocities: v_i = v_point(i+1) + b w_i x e_i, point N at rest or, on a
+    frictionless floor, at ``frame_base_velocity``."""
     b = r.params.half_length
     e, w = np.asarray(r.frame_e), np.asarray(r.frame_omega)
     de = b * np.cross(w, e)
-    upper = 2.0 * np.cumsum(de[:, ::-1], axis=1)[:, ::-1]  # velocity of point i
+    upper = 2.0 * np.cumsum(de[:, ::-1], axis=1)[:, ::-1]  # velocity of point i relative to point N
     lower = np.concatenate([upper[:, 1:], np.zeros_like(upper[:, :1])], axis=1)
-    return lower + de
+    base = getattr(r, "frame_base_velocity", None)  # (records without it: the bottom end at rest)
+    return lower + de + (0.0 if base is None else np.asarray(base)[:, None, :])
 
 
 def momentum(r) -> np.ndarray:

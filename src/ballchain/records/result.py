@@ -40,6 +40,8 @@ QUANTITY = {
     "frame_pile_pull": "force",
     "frame_scale_force": "force",
     "frame_floor_impulse": "impulse",
+    "frame_base": "length",
+    "frame_base_velocity": "velocity",
     "event_t": "time",
     "event_kind": "1",
     "event_index": "1",
@@ -65,6 +67,7 @@ _UNITS_SI = {
     "impulse": "N s",
     "energy": "J",
     "1/time": "1/s",
+    "velocity": "m/s",
     "1": "1",
     "s": "s",
 }
@@ -75,6 +78,7 @@ _UNITS_ND = {
     "impulse": "m sqrt(g b)",
     "energy": "m g b",
     "1/time": "sqrt(g/b)",
+    "velocity": "sqrt(g b)",
     "1": "1",
     "s": "s",
 }
@@ -108,8 +112,10 @@ class Result:
     anchors' plus the weight of the landed segments; impulses excluded),
     ``frame_floor_impulse`` (F, 3: the floor's whole impulse on the chain from t = 0,
     impacts included), energies ``frame_kinetic``, ``frame_potential``,
-    ``frame_lost_locking``, ``frame_lost_landing`` (cumulative).  ``points()`` gives the
-    positions of the points at every frame.
+    ``frame_lost_locking``, ``frame_lost_landing`` (cumulative), ``frame_base`` and
+    ``frame_base_velocity`` (F, 3: the position and velocity of point N, the bottom end:
+    zero unless it slides, on a frictionless floor).  ``points()`` gives the positions of
+    the points at every frame.
     Events, one row per constraint that acted: ``event_t``, ``event_kind`` (see
     EVENT_KINDS), ``event_index`` (hinge k = 0..N-2 between segments k and k+1, or point
     j = 0..N; points counted from the top, point N the original pivot), ``event_impulse``
@@ -155,6 +161,8 @@ class Result:
     frame_pile_pull: np.ndarray
     frame_scale_force: np.ndarray
     frame_floor_impulse: np.ndarray
+    frame_base: np.ndarray
+    frame_base_velocity: np.ndarray
     event_t: np.ndarray
     event_kind: np.ndarray
     event_index: np.ndarray
@@ -195,14 +203,14 @@ class Result:
 
     def points(self, frames=slice(None)) -> np.ndarray:
         """Positions of the points j = 0..N at the frames (F, N+1, 3), in the run's
-        length unit: point N (the original pivot) at the origin, point j at
-        r_j = 2 b sum_{i >= j} e_i (e_i pointing up segment i, from point i + 1 to
-        point i), z up, the floor at z = 0."""
+        length unit: point N (the original pivot) at ``frame_base`` (the origin unless it
+        slid, on a frictionless floor), point j at r_N + 2 b sum_{i >= j} e_i (e_i pointing
+        up segment i, from point i + 1 to point i), z up, the floor at z = 0."""
         e = np.asarray(self.frame_e)[frames]
         two_b = 2.0 * self.params.half_length
         r = np.zeros(e.shape[:-2] + (e.shape[-2] + 1, 3))
         r[..., :-1, :] = two_b * np.cumsum(e[..., ::-1, :], axis=-2)[..., ::-1, :]
-        return r
+        return r + np.asarray(self.frame_base)[frames][..., None, :]
 
     @property
     def first_lock_time(self) -> float:
@@ -279,8 +287,8 @@ class Result:
             "alpha": p.alpha,
             "floor": p.floor,
             "anchor_cone": p.anchor_cone,
-            **{  # the contact laws' parameters (contacts.registry: those with a key)
-                name: getattr(p, name) for name, prm in contact_params().items() if prm.json is not None
+            **{  # the contact laws' parameters (contacts.registry: those with a key; inf: null)
+                name: num(getattr(p, name)) for name, prm in contact_params().items() if prm.json is not None
             },
             "ic": None if self.ic is None else self.ic.to_dict(),
             "units": self.units,

@@ -13,6 +13,8 @@ above it (a = j - 1, columns 0:6 = (c_a, e_a)) and the one below (c = j, columns
   kind 9     the axis of c:         (|e_c|^2 - 1) / 2 = 0                  quadratic
   kind 10    bend limit of hinge a: e_a . e_c - cos(alpha) >= 0            bilinear, unilateral
   kind 11    floor under point j:   z_j = c_c,z + e_c,z >= 0               linear, unilateral
+  kind 12    floor under point j, on the segment above (point N, the bottom end, on a
+             frictionless floor: no segment below it): z_j = c_a,z - e_a,z >= 0
 
 At most 8 rows a point (an anchor between two airborne segments: 6 + axis + bend).
 Which rows a point has is its *layout* (``layout``): the anchors, the bend rows and
@@ -32,7 +34,13 @@ from ...jit import njit
 
 RMAX = 8  # rows per point at most
 K_JOINT, K_ANCHOR_LOWER, K_ANCHOR_UPPER = 0, 3, 6  # + the component 0, 1, 2
-K_AXIS, K_BEND, K_FLOOR = 9, 10, 11
+K_AXIS, K_BEND, K_FLOOR, K_FLOOR_LOWER = 9, 10, 11, 12
+
+
+@njit(cache=True, inline="always")
+def is_floor(k):
+    """A floor row (``K_FLOOR`` or, at the bottom end, ``K_FLOOR_LOWER``)?"""
+    return k == K_FLOOR or k == K_FLOOR_LOWER
 
 
 @njit(cache=True)
@@ -66,8 +74,8 @@ def layout(anchored, bend, floor_on, kind, nrow):
         if a >= 0 and c < n and bend[a] != 0:
             kind[j, r] = K_BEND
             r += 1
-        if anchored[j] == 0 and c < n and floor_on[j] != 0:
-            kind[j, r] = K_FLOOR
+        if anchored[j] == 0 and floor_on[j] != 0 and (c_air or a_air):
+            kind[j, r] = K_FLOOR if c_air else K_FLOOR_LOWER
             r += 1
         nrow[j] = r
 
@@ -90,6 +98,8 @@ def has_columns(k, below):
     if k == K_BEND or (K_JOINT <= k < K_ANCHOR_LOWER):
         return True
     if K_ANCHOR_LOWER <= k < K_ANCHOR_UPPER:
+        return not below
+    if k == K_FLOOR_LOWER:
         return not below
     return below  # an upper anchor, the axis, the floor: on the segment below only
 
@@ -116,8 +126,10 @@ def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
                 v = 0.5 * (e[j, 0] * e[j, 0] + e[j, 1] * e[j, 1] + e[j, 2] * e[j, 2] - 1.0)
             elif k == K_BEND:
                 v = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - cos_alpha
-            else:
+            elif k == K_FLOOR:
                 v = c[j, 2] + e[j, 2]
+            else:
+                v = c[a, 2] - e[a, 2]
             out[j, r] = v
             if not abs(v) <= worst:  # (NaN too: a non-finite value is never small)
                 worst = abs(v) if abs(v) == abs(v) else np.inf
@@ -155,9 +167,12 @@ def row_gradients(e, kind, nrow, J, j_from):
                 for q in range(3):
                     J[j, r, 3 + q] = e[j, q]
                     J[j, r, 9 + q] = e[a, q]
-            else:
+            elif k == K_FLOOR:
                 J[j, r, 8] = 1.0
                 J[j, r, 11] = 1.0
+            else:
+                J[j, r, 2] = 1.0
+                J[j, r, 5] = -1.0
 
 
 @njit(cache=True, inline="always")
@@ -178,7 +193,7 @@ def _row_rate(J, kind, j, r, n, vc, ve):
         if j >= 1 and has_columns(k, False):
             for q in range(3):
                 acc += J[j, r, q] * vc[j - 1, q] + J[j, r, 3 + q] * ve[j - 1, q]
-        if j < n:
+        if j < n and has_columns(k, True):
             for q in range(3):
                 acc += J[j, r, 6 + q] * vc[j, q] + J[j, r, 9 + q] * ve[j, q]
     return acc

@@ -45,6 +45,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...contacts.coulomb import anchors, closes, released, slides
 from ...core.blocks import _weights
 from ...core.books import log_row, lowest_point
 from ...core.kinematics import potential_energy, rates_for_axes
@@ -52,9 +53,9 @@ from ...core.rules import (
     LOG_LANDING,
     LOG_LOCK,
     LOG_UNLOCK,
-    all_anchored,
     bottom_airborne,
     fall_ended,
+    fall_over,
     hold_at,
     is_landed,
     landed_count,
@@ -72,6 +73,7 @@ from .rows import (
     booked_rates,
     carry_over,
     copy_layout,
+    is_floor,
     layout,
     row_gradients,
     row_rates,
@@ -117,6 +119,7 @@ Motion = namedtuple(
         "anchor_pos",  # (N+1, 3)
         "anchor_t",  # (N+1,)
         "locked",  # (N-1,) uint8: bend rows active (stage 1), taking impulse (stage 2)
+        "touching",  # (N+1,) uint8: on a frictionless floor, the point's floor row is active (after stage 2)
     ],
 )
 
@@ -141,6 +144,7 @@ Scratch = namedtuple(
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
+        "fcand",  # (N+1,) uint8: on a frictionless floor, stage 2's candidates at the floor
     ],
 )  # fmt: skip
 
@@ -159,7 +163,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3),
+        np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
     )  # fmt: skip
 
 
@@ -179,6 +183,7 @@ def new_motion(n: int) -> Motion:
     return Motion(
         np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
         np.zeros(p, np.uint8), np.zeros((p, 3)), np.zeros(p), np.zeros(max(n - 1, 0), np.uint8),
+        np.zeros(p, np.uint8),
     )  # fmt: skip
 
 
@@ -235,6 +240,7 @@ def copy_motion(a, b):
     for j in range(a.anchored.shape[0]):
         b.anchored[j] = a.anchored[j]
         b.anchor_t[j] = a.anchor_t[j]
+        b.touching[j] = a.touching[j]
     for k in range(a.locked.shape[0]):
         b.locked[k] = a.locked[k]
 
@@ -276,13 +282,16 @@ def add_impulses(h, mo, ws, sc, move):
 
 @njit(cache=True)
 def _work(kind, nrow, x, before, after, which):
-    """sum over the rows of kind ``which`` (K_BEND, K_FLOOR; -1: anchor rows) of
+    """sum over the rows of kind ``which`` (K_BEND, K_FLOOR: both floor kinds; -1: anchor rows) of
     P (rate before + rate after) / 2: what their impulses did to T."""
     s = 0.0
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
             k = kind[j, r]
-            hit = k == which if which >= 0 else (K_ANCHOR_LOWER <= k < K_AXIS)
+            if which == K_FLOOR:
+                hit = is_floor(k)
+            else:
+                hit = k == which if which >= 0 else (K_ANCHOR_LOWER <= k < K_AXIS)
             if hit:
                 s += 0.5 * x[j, r] * (before[j, r] + after[j, r])
     return s
@@ -310,7 +319,7 @@ def _anchor_impulse(kind, nrow, x, acc):
             k = kind[j, r]
             if K_ANCHOR_LOWER <= k < K_AXIS:
                 acc[2 + (k - K_ANCHOR_LOWER) % 3] += x[j, r]
-            elif k == K_FLOOR:
+            elif is_floor(k):
                 acc[4] += x[j, r]
 
 
@@ -341,7 +350,7 @@ def _switch_stage1(model, mo, ws, sc, tol):
                 if k == K_BEND:
                     mo.locked[j - 1] = 0
                     changed = True
-                elif k == K_FLOOR:
+                elif is_floor(k):
                     sc.floor_on[j] = 0
                     changed = True
     return switch_on_violated(model, mo, sc, tol) or changed
@@ -353,7 +362,7 @@ def switch_on_violated(model, mo, sc, margin):
     ``margin`` is switched on.  Inside stage 1's Newton iteration the margin is far beyond
     what the iterate's residual can account for: the set is known wrong before the
     iteration has met its rows.  Returns whether any was."""
-    anchored, locked, e, c = mo.anchored, mo.locked, mo.e, mo.c
+    anchored, locked, e = mo.anchored, mo.locked, mo.e
     changed = False
     for k in range(locked.shape[0]):
         if locked[k] == 0:
@@ -361,11 +370,28 @@ def switch_on_violated(model, mo, sc, margin):
             if g < -margin and limit_in_force(anchored, k, model.cone, model.alpha):
                 locked[k] = 1
                 changed = True
-    for j in range(e.shape[0]):
-        if anchored[j] == 0 and sc.floor_on[j] == 0 and c[j, 2] + e[j, 2] < -margin:
+    for j in range(e.shape[0] + 1):  # (the last point: the bottom end, free on a frictionless floor)
+        if anchored[j] == 0 and sc.floor_on[j] == 0 and point_height(mo, j) < -margin:
             sc.floor_on[j] = 1
             changed = True
     return changed
+
+
+@njit(cache=True, inline="always")
+def point_height(mo, j):
+    """z_j: the upper end of segment j, or, for the last point (j = the number of segments),
+    the lower end of the segment above it."""
+    if j < mo.e.shape[0]:
+        return mo.c[j, 2] + mo.e[j, 2]
+    return mo.c[j - 1, 2] - mo.e[j - 1, 2]
+
+
+@njit(cache=True, inline="always")
+def point_vz(mo, j):
+    """dz_j/dt (``point_height``'s rate)."""
+    if j < mo.e.shape[0]:
+        return mo.vc[j, 2] + mo.ve[j, 2]
+    return mo.vc[j - 1, 2] - mo.ve[j - 1, 2]
 
 
 @njit(cache=True)
@@ -556,10 +582,14 @@ def _release_unmet_bend(mo, ws, sc):
 
 
 @njit(cache=True)
-def land(t, mo, sc):
+def land(t, model, mo, sc):
     """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
-    their number (listed in sc.new_anchor)."""
+    their number (listed in sc.new_anchor).  On a frictionless floor (``coulomb.slides``)
+    nothing is anchored: the points that stage 1 stopped and that were not touching it
+    are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
+    stay on for stage 2."""
+    slide = slides(model.friction)
     c, e = mo.c, mo.e
     n = e.shape[0]
     for j in range(n):
@@ -569,6 +599,13 @@ def land(t, mo, sc):
         sc.pts[n, q] = c[n - 1, q] - e[n - 1, q]
     na = 0
     for j in range(n + 1):
+        if slide:
+            if sc.floor_on[j] != 0 and mo.touching[j] == 0:
+                if not mo.anchor_t[j] == mo.anchor_t[j]:  # (NaN: its first touch)
+                    mo.anchor_t[j] = t
+                sc.new_anchor[na] = j
+                na += 1
+            continue
         if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
             hold_at(mo, j, sc.pts)
             mo.anchored[j] = 2
@@ -582,7 +619,9 @@ def land(t, mo, sc):
 @njit(cache=True)
 def _switch_stage2(mo, ws, sc):
     """The inelastic law of stage 2: a hinge whose impulse pulls is released; a candidate
-    released that closes (dg/dt < -RATE_TOL) is put back.  Returns whether the set changed."""
+    released that closes (dg/dt < -RATE_TOL) is put back; the same for the floor's rows on
+    a frictionless floor (``coulomb.released``, ``coulomb.closes``).  Returns whether the
+    set changed."""
     e, ve, locked = mo.e, mo.ve, mo.locked
     changed = False
     for j in range(ws.nrow.shape[0]):
@@ -590,6 +629,13 @@ def _switch_stage2(mo, ws, sc):
             if ws.kind[j, r] == K_BEND and ws.x[j, r] < 0.0:
                 locked[j - 1] = 0
                 changed = True
+            elif is_floor(ws.kind[j, r]) and released(ws.x[j, r]):
+                sc.floor_on[j] = 0
+                changed = True
+    for j in range(sc.fcand.shape[0]):
+        if sc.fcand[j] != 0 and sc.floor_on[j] == 0 and closes(point_vz(mo, j), RATE_TOL):
+            sc.floor_on[j] = 1
+            changed = True
     for k in range(locked.shape[0]):
         if sc.cand[k] != 0 and locked[k] == 0:
             rate = 0.0
@@ -615,8 +661,13 @@ def stage2(h, model, mo, ws, sc):
         cand = (locked[k] != 0 or g <= tol) and limit_in_force(anchored, k, model.cone, model.alpha)
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
+    slide = slides(model.friction)  # (else sc.floor_on is all 0 after ``land``: no floor rows)
+    for j in range(sc.fcand.shape[0]):  # the floor's candidates: active in stage 1, or at the floor
+        on = slide and anchored[j] == 0 and (sc.floor_on[j] != 0 or point_height(mo, j) <= tol)
+        sc.fcand[j] = 1 if on else 0
+        sc.floor_on[j] = sc.fcand[j]
     for rnd in range(ROUNDS_MAX):
-        _factor(mo, ws, sc, e, False, True, rnd > 0)  # (sc.floor_on is all 0 after ``land``: no floor rows)
+        _factor(mo, ws, sc, e, False, True, rnd > 0)
         row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
@@ -626,6 +677,8 @@ def stage2(h, model, mo, ws, sc):
         if not _switch_stage2(mo, ws, sc):  # (a singular solve: U + T is not finite, ``rattle_step``)
             booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
+            for j in range(sc.fcand.shape[0]):  # (on a frictionless floor: its contacts after the step)
+                mo.touching[j] = sc.floor_on[j]
             return 0
     return ERR_ACTIVE_SET
 
@@ -713,7 +766,7 @@ def motion_view(mo, p):
     s = p - 1
     return Motion(
         mo.c[:s], mo.e[:s], mo.vc[:s], mo.ve[:s], mo.anchored[:p], mo.anchor_pos[:p], mo.anchor_t[:p],
-        mo.locked[: max(s - 1, 0)],
+        mo.locked[: max(s - 1, 0)], mo.touching[:p],
     )  # fmt: skip
 
 
@@ -734,7 +787,7 @@ def scratch_view(sc, p):
         motion_view(sc.start, p), sc.ukc[:s], sc.uke[:s], sc.val[:p], sc.rate[:p], sc.floor_on[:p], sc.cand[:k],
         sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
-        sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet,
+        sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p],
     )  # fmt: skip
 
 
@@ -752,8 +805,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
     na, touched = 0, 0
-    if landings:
-        na = land(t + h, mo, sc)
+    if landings or slides(model.friction):  # (a frame's step on a frictionless floor too: it anchors nothing)
+        na = land(t + h, model, mo, sc)
     else:
         for j in range(sc.floor_on.shape[0]):
             touched += sc.floor_on[j]
@@ -770,10 +823,11 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         return ERR_MERGED, na
     lock_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_BEND)
     land_work -= _new_anchor_work(mo.anchored, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
+    land_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_FLOOR)  # (a frictionless floor's rows)
     lock_after = lock_loss_after_landing(mo, ws, sc) if na > 0 else -1.0
     _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
     _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, sc.pull)
-    if na > 0:  # (landed segments do not move: nothing else to settle)
+    if na > 0 and anchors(model.friction):  # (landed segments do not move: nothing else to settle)
         settle(model, mo)
         ws.valid[0] = 0  # landed segments: the columns of the factors are not the state's
     lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve)
@@ -961,14 +1015,30 @@ def commit(t, h, na, mo, ws, sc, books, log):
                 log, t + h, LOG_LANDING, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],
                 share * sc.acc[1], sc.pts, j,
             )  # fmt: skip
-        if anchored[0] != 0 and sc.start.anchored[0] == 0:  # the top end landed: when, within the step
+        if _top_touched(na, anchored, sc):  # the top end landed: when, within the step
             zs = sc.start.c[0, 2] + sc.start.e[0, 2]
             zf = zs + h * (sc.start.vc[0, 2] + sc.start.ve[0, 2]) - 0.5 * h * h
             s = zs / (zs - zf) if zf < 0.0 < zs else 1.0
             fall_ended(books, t + min(max(s, 0.0), 1.0) * h, False, True)
     books.n_steps[0] += 1
     books.n_evals[0] += np.int64(sc.acc[5])
-    lowest_point(mo.e, books.lowest)
+    if mo.anchored[mo.anchored.shape[0] - 1] != 0:
+        lowest_point(mo.e, books.lowest)  # (heights from the anchored bottom end)
+    else:
+        for j in range(mo.anchored.shape[0]):  # (a frictionless floor: the bottom end moves)
+            books.lowest[0] = min(books.lowest[0], point_height(mo, j))
+
+
+@njit(cache=True)
+def _top_touched(na, anchored, sc):
+    """Did the top end reach the floor in this step (anchored, or, on a frictionless floor,
+    a new contact: listed in sc.new_anchor)?"""
+    if anchored[0] != 0 and sc.start.anchored[0] == 0:
+        return True
+    for r in range(na):
+        if sc.new_anchor[r] == 0 and sc.start.anchor_t[0] != sc.start.anchor_t[0]:
+            return True
+    return False
 
 
 # frame info (fb, FB_SIZE): [0] lost at hinges, [1] at landings, [2:5] the floor's impulse
@@ -1025,7 +1095,16 @@ def record_frame(t, mo, fb, frames):
         frames.floor_impulse[k, q] = fb[2 + q]
     frames.scale_force[k] = fb[7] + landed_count(mo.anchored)
     frames.kinetic[k] = kinetic_energy_rattle(mo.vc, mo.ve)
-    frames.potential[k] = potential_energy(e)
+    if mo.anchored[n] != 0:
+        frames.potential[k] = potential_energy(e)  # (from the axes, point N at the origin)
+    else:  # a frictionless floor: the bottom end moves (U = sum c_z)
+        u = 0.0
+        for i in range(n):
+            u += mo.c[i, 2]
+        frames.potential[k] = u
+        for q in range(3):
+            frames.base[k, q] = mo.c[n - 1, q] - mo.e[n - 1, q]
+            frames.base_velocity[k, q] = mo.vc[n - 1, q] - mo.ve[n - 1, q]
     frames.lost_locking[k] = fb[0]
     frames.lost_landing[k] = fb[1]
     frames.count[0] = k + 1
@@ -1198,7 +1277,7 @@ def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         code = frame_substeps(model, sc, fr.ws, fr.motion, fr.sc, fb, frames)  # the last step's, if pending
         if code != 0:
             return code, t
-        if all_anchored(mo.anchored):
+        if fall_over(mo.anchored, mo.anchor_t, model.friction):
             books.t_landed[0] = t
             fall_ended(books, t, True, True)
             return RT_LANDED, t
@@ -1214,5 +1293,5 @@ def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         if code < 0:
             return code, t
         taken += 1
-        if taken >= model.return_every and not all_anchored(mo.anchored):
+        if taken >= model.return_every and not fall_over(mo.anchored, mo.anchor_t, model.friction):
             return RT_RETURN, t

@@ -1,0 +1,120 @@
+"""A frictionless floor against the anchor (the numbers of docs/friction-floor.md).
+
+    python benchmarks/friction_study.py docs/data/friction-floor.parquet [--plot FILE]
+
+The table holds falls of the same starts with ``--friction 0`` and ``--friction inf``
+(the anchor, the model's law), by one method.  Per (N, mu), over the runs that landed (a
+run that ended otherwise is listed and not counted): the runs and how many landed; the
+mean t_fall/t_ff with its 95% bootstrap interval (``sweeps.stats.mean_interval``); the
+braking coefficient gamma measured from the floor's momentum record and inferred from
+t_fall/t_ff (the Hamm-Geminard formula), means with their intervals; the medians of
+E_lock/E0 and E_land/E0 (what the locks and the floor's impacts dissipate) and of the
+wall time of a fall; the worst |imbalance|/E0 and the deepest point.  Then, paired by
+start (mu 0 minus inf), the mean differences of t_fall/t_ff, of gamma measured and of
+E_lock/E0, with their 95% bootstrap intervals.  ``--plot``: t_fall/t_ff against N for
+both floors, with the intervals.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+import pandas as pd
+
+from ballchain.sweeps.stats import mean_interval
+
+
+def _interval(x, digits: int = 3) -> str:
+    """Mean [95% bootstrap interval] of the finite values (gamma inferred is NaN for a fall
+    slower than the Hamm-Geminard formula reaches: their number is given)."""
+    x = np.asarray(x, dtype=float)
+    ok = x[np.isfinite(x)]
+    if ok.size == 0:
+        return "n/a"
+    lo, hi = mean_interval(ok)
+    f = f"{{:+.{digits}f}}" if np.any(ok < 0) else f"{{:.{digits}f}}"
+    text = f"{f.format(ok.mean())} [{f.format(lo)}, {f.format(hi)}]"
+    return text + (f" ({ok.size} of {x.size})" if ok.size < x.size else "")
+
+
+def _mu(v: float) -> str:
+    return "inf" if math.isinf(v) else f"{v:g}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("table")
+    ap.add_argument("--plot")
+    a = ap.parse_args()
+    df = pd.read_parquet(a.table)
+    df["friction"] = df["friction"].fillna(math.inf)  # (tables written before the column: the anchor)
+    df["elock"] = df.energy_lost_locking / df.energy_initial
+    df["eland"] = df.energy_lost_landing / df.energy_initial
+    df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
+    print(f"{len(df)} runs ({', '.join(sorted(df.method.unique()))}): "
+          + ", ".join(f"{v} {k}" for k, v in df.status.value_counts().items()))  # fmt: skip
+    for _, r in df[df.status != "landed"].iterrows():
+        print(f"  not counted: {r.run_id} ({r.status}): {r.message}")
+    ok = df[df.status == "landed"]
+    print()
+    print(
+        "| N | friction | runs (landed) | t_fall/t_ff [95%] | gamma measured [95%] | gamma inferred [95%] "
+        "| E_lock/E0 (median) | E_land/E0 (median) | worst imbalance/E0 | deepest point (b) | wall per fall |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for (n, mu), g in df.groupby(["segments", "friction"]):
+        gl = g[g.status == "landed"]
+        print(
+            f"| {n} | {_mu(mu)} | {len(g)} ({len(gl)}) | {_interval(gl.ratio)} | {_interval(gl.gamma_measured)} "
+            f"| {_interval(gl.gamma_inferred)} | {gl.elock.median():.3f} | {gl.eland.median():.3f} "
+            f"| {gl.imb.max():.1e} | {gl.max_depth.max():.1e} | {gl.wall_seconds.median():.1f} s |"
+        )
+    print()
+    print("Paired by start, frictionless minus the anchor:")
+    print()
+    print("| N | pairs | t_fall/t_ff [95%] | gamma measured [95%] | E_lock/E0 [95%] |")
+    print("|---|---|---|---|---|")
+    for n, g in ok.groupby("segments"):
+        base = g[np.isinf(g.friction)].set_index("run_index")
+        free = g[g.friction == 0.0].set_index("run_index")
+        idx = base.index.intersection(free.index)
+        if idx.empty:
+            continue
+        d = free.loc[idx]
+        b = base.loc[idx]
+        print(
+            f"| {n} | {len(idx)} | {_interval(d.ratio - b.ratio, 4)} "
+            f"| {_interval(d.gamma_measured - b.gamma_measured)} | {_interval(d.elock - b.elock, 4)} |"
+        )
+    if a.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6.0, 4.0))
+        for mu, g in ok.groupby("friction"):
+            ns, mean, lo, hi = [], [], [], []
+            for n, h in g.groupby("segments"):
+                lo_, hi_ = mean_interval(h.ratio.to_numpy(dtype=float))
+                ns.append(n)
+                mean.append(h.ratio.mean())
+                lo.append(lo_)
+                hi.append(hi_)
+            mean, lo, hi = map(np.asarray, (mean, lo, hi))
+            label = "anchor (friction inf)" if math.isinf(mu) else f"frictionless (friction {_mu(mu)})"
+            ax.errorbar(ns, mean, yerr=[mean - lo, hi - mean], marker="o", capsize=3, label=label)
+        ax.axhline(1.0, color="0.6", lw=0.8, ls="--")
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("N (segments)")
+        ax.set_ylabel("t_fall / t_ff (mean, 95% interval)")
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(a.plot, dpi=120)
+        print(f"\nwrote {a.plot}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""Coulomb's friction at the floor (``--friction``): the frictionless floor (mu = 0) with
+the RATTLE method, against independent truths: the rod standing on a frictionless floor
+(its equation of motion integrated by scipy, its fall time by quadrature: ``theory``), the
+conservation of horizontal momentum (nothing horizontal acts), the momentum balance of
+the floor's impulse record, the energy books.  The anchor (mu = inf) is the default."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from typer.testing import CliRunner
+
+from ballchain.cli import app
+from ballchain.engine import simulate
+from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
+from ballchain.records.measures import momentum
+from ballchain.theory import sliding_rod_fall_time, sliding_rod_normal_force
+
+THETA0 = 0.3  # rad from the vertical: the rod's start
+
+
+def _rod(**opts):
+    """N = 1 standing on a frictionless floor at THETA0, released at rest."""
+    e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
+    return simulate(
+        ChainParams(segments=1, friction=0.0), state=(e0, None), options=SolverOptions(method="rattle", **opts)
+    )
+
+
+def _rod_angle(t_end):
+    """theta(t) of the sliding rod from its own equation of motion (module ``theory``:
+    thetaddot = 3 sin(theta) (1 - cos(theta) thetadot^2) / (1 + 3 sin^2 theta), m = b = g = 1),
+    integrated by scipy to 1e-13."""
+
+    def rhs(t, y):
+        s, c = math.sin(y[0]), math.cos(y[0])
+        return [y[1], 3.0 * s * (1.0 - c * y[1] ** 2) / (1.0 + 3.0 * s * s)]
+
+    return solve_ivp(rhs, (0.0, t_end), [THETA0, 0.0], rtol=1e-13, atol=1e-14, dense_output=True).sol
+
+
+def test_a_rod_on_a_frictionless_floor_falls_as_its_equation_says_to_second_order():
+    """Its angle at the frames (before the landing) against the integrated equation: the
+    error shrinks about fourfold per halving of dt (three halvings); its centre stays on a
+    vertical line and its foot on the floor (the floor's force, 0.18 m g at least, never
+    pulls); its top end lands when the quadrature says."""
+    t_end = 1.9  # (the top end lands at 2.0004 sqrt(b/g))
+    ref = _rod_angle(t_end)
+    errors = []
+    for dt in (0.04, 0.02, 0.01, 0.005):
+        r = _rod(dt=dt, step_energy_tol=0.0, frames_per_tff=20)
+        assert r.status == "landed"
+        ft = np.asarray(r.frame_t)
+        sel = ft < t_end
+        theta = np.arccos(np.asarray(r.frame_e)[sel, 0, 2])
+        errors.append(np.max(np.abs(theta - ref(ft[sel])[0])))
+        pts = r.points()
+        centre_x = 0.5 * (pts[:, 0, 0] + pts[:, 1, 0])
+        np.testing.assert_allclose(centre_x, math.sin(THETA0), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(pts[:, :, 1], 0.0, atol=1e-12)
+        assert np.max(np.abs(np.asarray(r.frame_base)[:, 2])) < 1e-9  # the foot never leaves the floor
+        assert np.all(sliding_rod_normal_force(theta, THETA0) > 0.17)  # (... as the theory says it must not)
+        assert abs(r.t_fall - sliding_rod_fall_time(THETA0)) < 4e-4
+        assert r.event_counts()["landing"] == 1  # the top end: the foot touched at t = 0 and stayed
+    ratios = [errors[i] / errors[i + 1] for i in range(3)]
+    assert all(3.5 < q < 4.5 for q in ratios), (errors, ratios)
+
+
+def test_a_rod_on_a_frictionless_floor_lands_when_the_quadrature_says():
+    """The top end's first touch, located within the step, against the quadrature."""
+    r = _rod(dt=0.00625, step_energy_tol=0.0)
+    assert abs(r.t_fall - sliding_rod_fall_time(THETA0)) < 1e-5
+    assert abs(r.energy["imbalance"]) < 1e-5 * r.energy["initial"]
+
+
+START = InitialCondition(kind="random", seed=11)
+
+
+@pytest.fixture(scope="module")
+def sliding_fall():
+    return simulate(ChainParams(segments=16, friction=0.0), START, SolverOptions(method="rattle", frames_per_tff=200))
+
+
+def test_a_chain_on_a_frictionless_floor_keeps_its_horizontal_momentum_and_closes_its_books(sliding_fall):
+    """Nothing horizontal acts on the chain: its horizontal momentum (from the frames'
+    axes, rates and the bottom end's velocity) stays zero, the floor's impulse has no
+    horizontal part; vertically the floor's record is the momentum change plus the weight's
+    impulse at every frame; the books close, no point goes below the floor."""
+    r = sliding_fall
+    assert r.status == "landed", r.message
+    p = momentum(r)
+    ft = np.asarray(r.frame_t)
+    M = r.params.segments
+    assert np.max(np.abs(p[:, :2])) < 1e-8 * M
+    assert np.all(np.asarray(r.floor_impulse_total)[:2] == 0.0)
+    record = np.asarray(r.frame_floor_impulse)[:, 2]
+    np.testing.assert_allclose(record, p[:, 2] - p[0, 2] + M * ft, rtol=0, atol=1e-6 * M * ft[-1])
+    assert abs(r.energy["imbalance"]) < 1e-3 * r.energy["initial"]
+    assert r.max_depth < 1e-8
+    base = np.asarray(r.frame_base)
+    assert np.max(np.abs(base[:, :2])) > 0.1  # (the bottom end did slide)
+    assert np.all(np.isfinite(r.anchor_t)) and r.anchor_t[-1] == 0.0  # every point touched; the foot at t = 0
+    assert r.t_fall == pytest.approx(r.anchor_t[0], abs=r.t_ff / r.params.segments)
+
+
+def test_the_default_is_the_anchor_and_moves_nothing():
+    """friction inf is today's law: the same fall to every digit, the bottom end at the origin."""
+    a = simulate(ChainParams(segments=16), START, SolverOptions(method="rattle"))
+    b = simulate(ChainParams(segments=16, friction=math.inf), START, SolverOptions(method="rattle"))
+    assert a.status == b.status == "landed"
+    assert a.t_fall == b.t_fall and a.energy == b.energy
+    np.testing.assert_array_equal(a.frame_e, b.frame_e)
+    assert np.all(np.asarray(a.frame_base) == 0.0) and np.all(np.asarray(a.frame_base_velocity) == 0.0)
+
+
+@pytest.mark.parametrize("method", ["event", "timestep"])
+def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method):
+    with pytest.raises(ParameterError, match=f"not honoured by --method {method}"):
+        simulate(ChainParams(segments=4, friction=0.0), START, SolverOptions(method=method))
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", method, "--friction", "0", "-q"])
+    assert res.exit_code == 2
+    assert len(res.stderr.strip().splitlines()) == 1 and "--friction 0" in res.stderr and "rattle" in res.stderr
+
+
+@pytest.mark.parametrize(
+    "kw, words",
+    [
+        ({"friction": 0.5}, "not built yet"),
+        ({"friction": -1.0}, "must be in [0, inf]"),
+        ({"friction": 0.0, "floor": "pivot"}, "needs floor all"),
+        ({"friction": 0.0, "restitution_floor": 0.5}, "not built yet"),
+    ],
+)
+def test_what_is_not_built_is_refused(kw, words):
+    with pytest.raises(ParameterError, match=words.replace("[", r"\[").replace("]", r"\]")):
+        ChainParams(segments=4, **kw)
+
+
+def test_the_parameter_in_the_json_the_file_and_the_sweep_table(tmp_path):
+    from ballchain.records.files import load_result, save_result
+    from ballchain.sweeps import SweepSpec
+    from ballchain.sweeps.execute import run_sweep
+    from ballchain.sweeps.table import read_table
+
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", "rattle", "--friction", "0", "--json", "-q"])
+    assert res.exit_code == 0, res.stderr
+    assert json.loads(res.stdout)["friction"] == 0.0
+    r = simulate(ChainParams(segments=4, friction=0.0), START, SolverOptions(method="rattle"))
+    save_result(r, tmp_path / "r.h5")
+    back = load_result(tmp_path / "r.h5")
+    assert back.params == r.params
+    np.testing.assert_array_equal(back.frame_base, r.frame_base)
+    np.testing.assert_array_equal(back.frame_base_velocity, r.frame_base_velocity)
+    out = tmp_path / "t.parquet"
+    for mu in (0.0, math.inf):
+        spec = SweepSpec(segments=(4,), alphas=(0.8,), runs=2, friction=mu, method="rattle")
+        run_sweep(spec, out, workers=1, progress=False)
+    rows = read_table(out)
+    assert sorted(r["friction"] for r in rows) == [0.0, 0.0, math.inf, math.inf]
+    assert sum(r["run_id"].endswith("_friction0") for r in rows) == 2
