@@ -458,8 +458,8 @@ def stage1(h, model, mo, ws, sc, budget):
     n = mo.e.shape[0]
     tol = position_tol(n)
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
-    for j in range(sc.floor_on.shape[0]):
-        sc.floor_on[j] = 0
+    for j in range(sc.floor_on.shape[0]):  # (a point that touched the floor at the last step starts on it)
+        sc.floor_on[j] = 1 if (mo.touching[j] != 0 and mo.anchored[j] == 0) else 0
     newt_valid = False  # ws.newt holds the factors of the last round's Newton matrix
     for rnd in range(ROUNDS_MAX):
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
