@@ -149,6 +149,10 @@ def test_the_parameter_in_the_json_the_file_and_the_sweep_table(tmp_path):
     res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", "rattle", "--friction", "0", "--json", "-q"])
     assert res.exit_code == 0, res.stderr
     assert json.loads(res.stdout)["friction"] == 0.0
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", "rattle", "--friction", "0"])
+    assert res.exit_code == 0 and "contact laws       --friction 0" in res.stdout
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", "rattle", "--json", "-q"])
+    assert json.loads(res.stdout)["friction"] is None  # (inf, the anchor: null in JSON)
     r = simulate(ChainParams(segments=4, friction=0.0), START, SolverOptions(method="rattle"))
     save_result(r, tmp_path / "r.h5")
     back = load_result(tmp_path / "r.h5")

@@ -235,7 +235,9 @@ def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
     assert sorted(q for q in quoted if q not in printed) == []
 
 
-@pytest.mark.parametrize("name", ["rattle.md", "notes/rattle-engines.md", "restitution.md", "restitution-floor.md"])
+@pytest.mark.parametrize(
+    "name", ["rattle.md", "notes/rattle-engines.md", "restitution.md", "restitution-floor.md", "friction-floor.md"]
+)
 def test_the_rattle_page_quotes_what_its_command_prints(name):
     """Every interval the RATTLE method's page quotes (its ensembles against the exact
     method, the paired differences; and the engines' history in the notes), and the page

@@ -42,6 +42,21 @@ def _div(a, b):
     return a / b
 
 
+def _contact_lines(s: dict) -> list[str]:
+    """'  contact laws  ...': the contact laws' parameters away from their defaults (none: no line;
+    a key the JSON gives as null is inf)."""
+    from ..contacts.registry import all_params
+
+    away = []
+    for name, prm in all_params().items():
+        if name not in s:
+            continue
+        v = math.inf if s[name] is None else float(s[name])
+        if v != prm.default:
+            away.append(f"{prm.flag} {v:g}")
+    return [f"  contact laws       {', '.join(away)}"] if away else []
+
+
 def human_summary(s: dict, output: str | None = None, header: str = "ballchain") -> str:
     """A short human-readable summary of ``Result.summary()``."""
     ic = s.get("ic")
@@ -75,6 +90,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         + (", anchor cone" if s.get("anchor_cone") else "")
         + f", units = {units}",
         f"  initial condition  {ic_text}",
+        *_contact_lines(s),
         f"  method             {_method_text(s)}",
         f"  status             {s.get('status')}" + (f" ({s['message']})" if s.get("message") else ""),
         f"  free-fall time     t_ff = {_fmt(s.get('t_ff'))} {u_t} (top end at z0 = {_fmt(s.get('z0'))} {u_l})",
