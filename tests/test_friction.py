@@ -166,3 +166,8 @@ def test_the_parameter_in_the_json_the_file_and_the_sweep_table(tmp_path):
     rows = read_table(out)
     assert sorted(r["friction"] for r in rows) == [0.0, 0.0, math.inf, math.inf]
     assert sum(r["run_id"].endswith("_friction0") for r in rows) == 2
+    res = CliRunner().invoke(app, ["stats", str(out)])  # two points, never pooled; inf named so
+    assert res.exit_code == 0 and "friction" in res.stdout
+    assert [ln.split()[3] for ln in res.stdout.splitlines()[2:4]] == ["0", "inf"]
+    res = CliRunner().invoke(app, ["stats", str(out), "--json"])
+    assert sorted(str(p["friction"]) for p in json.loads(res.stdout)["points"]) == ["0.0", "None"]

@@ -162,7 +162,13 @@ def stats_text(res: dict) -> str:
         if k not in ("segments", "alpha", "floor") and len({repr(p.get(k)) for p in res["points"]}) > 1
     ]
 
-    def cell(v):
+    from ..contacts.registry import all_params
+
+    laws = all_params()
+
+    def cell(k, v):
+        if k in laws and (v is None or v == math.inf):
+            return "inf"  # (a contact law's parameter at infinity: null in the JSON)
         if v is None or (isinstance(v, float) and not math.isfinite(v)) or v == "":
             return "-"  # (not this point's: an option of another method)
         return f"{v:.6g}" if isinstance(v, float) else str(v)
@@ -178,7 +184,7 @@ def stats_text(res: dict) -> str:
         r, lr, fa = p["ratio"], p["landed_ratio"], p["faster_than_free_fall"]
         lines.append(
             f"{p['segments']:>5} {p['alpha_deg']:>6.4g}d {p['floor']:>5} "
-            + "".join(f"{cell(p.get(k)):>{max(len(k), 8)}} " for k in varying)
+            + "".join(f"{cell(k, p.get(k)):>{max(len(k), 8)}} " for k in varying)
             + f"{p['n_runs']:>4} {r['n']:>4} {f(r['mean']):>17} "
             f"{'[' + f(r['ci_low']) + ', ' + f(r['ci_high']) + ']':>17} {f(r['median']):>7} "
             f"{f(lr['mean']):>13} {f(fa['fraction'], '.2f'):>7} "
