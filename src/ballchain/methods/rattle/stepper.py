@@ -371,14 +371,14 @@ def switch_on_violated(model, mo, sc, margin):
                 locked[k] = 1
                 changed = True
     for j in range(e.shape[0] + 1):  # (the last point: the bottom end, free on a frictionless floor)
-        if anchored[j] == 0 and sc.floor_on[j] == 0 and point_height(mo, j) < -margin:
+        if anchored[j] == 0 and sc.floor_on[j] == 0 and point_z(mo, j) < -margin:
             sc.floor_on[j] = 1
             changed = True
     return changed
 
 
 @njit(cache=True, inline="always")
-def point_height(mo, j):
+def point_z(mo, j):
     """z_j: the upper end of segment j, or, for the last point (j = the number of segments),
     the lower end of the segment above it."""
     if j < mo.e.shape[0]:
@@ -388,7 +388,7 @@ def point_height(mo, j):
 
 @njit(cache=True, inline="always")
 def point_vz(mo, j):
-    """dz_j/dt (``point_height``'s rate)."""
+    """dz_j/dt (``point_z``'s rate)."""
     if j < mo.e.shape[0]:
         return mo.vc[j, 2] + mo.ve[j, 2]
     return mo.vc[j - 1, 2] - mo.ve[j - 1, 2]
@@ -617,11 +617,11 @@ def land(t, model, mo, sc):
 
 
 @njit(cache=True)
-def _switch_stage2(mo, ws, sc):
+def _switch_stage2(mo, ws, sc, slide):
     """The inelastic law of stage 2: a hinge whose impulse pulls is released; a candidate
     released that closes (dg/dt < -RATE_TOL) is put back; the same for the floor's rows on
-    a frictionless floor (``coulomb.released``, ``coulomb.closes``).  Returns whether the
-    set changed."""
+    a frictionless floor (``slide``: ``coulomb.released``, ``coulomb.closes``).  Returns
+    whether the set changed."""
     e, ve, locked = mo.e, mo.ve, mo.locked
     changed = False
     for j in range(ws.nrow.shape[0]):
@@ -632,7 +632,7 @@ def _switch_stage2(mo, ws, sc):
             elif is_floor(ws.kind[j, r]) and released(ws.x[j, r]):
                 sc.floor_on[j] = 0
                 changed = True
-    for j in range(sc.fcand.shape[0]):
+    for j in range(sc.fcand.shape[0] if slide else 0):
         if sc.fcand[j] != 0 and sc.floor_on[j] == 0 and closes(point_vz(mo, j), RATE_TOL):
             sc.floor_on[j] = 1
             changed = True
@@ -662,8 +662,8 @@ def stage2(h, model, mo, ws, sc):
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
     slide = slides(model.friction)  # (else sc.floor_on is all 0 after ``land``: no floor rows)
-    for j in range(sc.fcand.shape[0]):  # the floor's candidates: active in stage 1, or at the floor
-        on = slide and anchored[j] == 0 and (sc.floor_on[j] != 0 or point_height(mo, j) <= tol)
+    for j in range(sc.fcand.shape[0] if slide else 0):  # the floor's candidates: active in stage 1, or at it
+        on = anchored[j] == 0 and (sc.floor_on[j] != 0 or point_z(mo, j) <= tol)
         sc.fcand[j] = 1 if on else 0
         sc.floor_on[j] = sc.fcand[j]
     for rnd in range(ROUNDS_MAX):
@@ -674,10 +674,10 @@ def stage2(h, model, mo, ws, sc):
                 ws.rhs[j, r] = -sc.val[j, r]
         solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
         add_impulses(h, mo, ws, sc, False)
-        if not _switch_stage2(mo, ws, sc):  # (a singular solve: U + T is not finite, ``rattle_step``)
+        if not _switch_stage2(mo, ws, sc, slide):  # (a singular solve: U + T is not finite, ``rattle_step``)
             booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
             ws.valid[0] = 1
-            for j in range(sc.fcand.shape[0]):  # (on a frictionless floor: its contacts after the step)
+            for j in range(sc.fcand.shape[0] if slide else 0):  # (on a frictionless floor: its contacts)
                 mo.touching[j] = sc.floor_on[j]
             return 0
     return ERR_ACTIVE_SET
@@ -1026,7 +1026,7 @@ def commit(t, h, na, mo, ws, sc, books, log):
         lowest_point(mo.e, books.lowest)  # (heights from the anchored bottom end)
     else:
         for j in range(mo.anchored.shape[0]):  # (a frictionless floor: the bottom end moves)
-            books.lowest[0] = min(books.lowest[0], point_height(mo, j))
+            books.lowest[0] = min(books.lowest[0], point_z(mo, j))
 
 
 @njit(cache=True)
