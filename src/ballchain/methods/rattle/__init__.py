@@ -23,7 +23,11 @@ AUDIT = AuditBounds(energy_rtol=1e-2, depth_tol=1e-8, hinge_tol=1e-7)
 # step, used: named in that option's help) and ``theta`` (not used; recorded).
 DEFAULTS = {"dt": DEFAULT_DT, "theta": 1.0}
 USES = ("dt",)  # which of those it uses
-CONTACTS = ("friction",)  # the contact laws' parameters it honours away from their defaults (contacts.registry)
+CONTACTS = (
+    "friction",
+    "restitution_lock",
+    "restitution_floor",
+)  # the contact laws' parameters it honours away from their defaults (contacts.registry)
 
 
 def _etol_key(options) -> str:

@@ -16,7 +16,8 @@ above it (a = j - 1, columns 0:6 = (c_a, e_a)) and the one below (c = j, columns
   kind 12    floor under point j, on the segment above (point N, the bottom end, on a
              frictionless floor: no segment below it): z_j = c_a,z - e_a,z >= 0
 
-At most 8 rows a point (an anchor between two airborne segments: 6 + axis + bend).
+At most 8 rows a point (an anchor between two airborne segments: 6 + axis + bend; a
+free point bouncing off the floor in stage 2: 3 joints + axis + bend + its velocity's 3).
 Which rows a point has is its *layout* (``layout``): the anchors, the bend rows and
 floor rows switched on (the active sets), the landed segments (no columns, W = 0).
 Kind codes are unique within a point, so multipliers carry over between layouts
@@ -35,6 +36,8 @@ from ...jit import njit
 RMAX = 8  # rows per point at most
 K_JOINT, K_ANCHOR_LOWER, K_ANCHOR_UPPER = 0, 3, 6  # + the component 0, 1, 2
 K_AXIS, K_BEND, K_FLOOR, K_FLOOR_LOWER = 9, 10, 11, 12
+BOUNCE = 2  # floor_on[j]: a free point bouncing off the floor in stage 2 (restitution at the floor): its
+#   velocity's three rows, an anchor's rows (kinds 6-8, or 3-5 at the bottom end) at a point not anchored
 
 
 @njit(cache=True, inline="always")
@@ -47,7 +50,8 @@ def is_floor(k):
 def layout(anchored, bend, floor_on, kind, nrow):
     """The rows of every point (kind, nrow): joints at free points, anchors at anchored
     points (the ends of airborne segments), an axis row per airborne segment, a bend row
-    where ``bend[k]``, a floor row at free point j where ``floor_on[j]``."""
+    where ``bend[k]``, a floor row at free point j where ``floor_on[j]`` (its velocity's
+    three rows where it is ``BOUNCE``)."""
     n = anchored.shape[0] - 1
     for j in range(n + 1):
         a, c = j - 1, j
@@ -74,7 +78,12 @@ def layout(anchored, bend, floor_on, kind, nrow):
         if a >= 0 and c < n and bend[a] != 0:
             kind[j, r] = K_BEND
             r += 1
-        if anchored[j] == 0 and floor_on[j] != 0 and (c_air or a_air):
+        if anchored[j] == 0 and floor_on[j] == BOUNCE and (c_air or a_air):  # (stage 2 of a bounce)
+            base = K_ANCHOR_UPPER if c_air else K_ANCHOR_LOWER
+            for q in range(3):
+                kind[j, r + q] = base + q
+            r += 3
+        elif anchored[j] == 0 and floor_on[j] != 0 and (c_air or a_air):
             kind[j, r] = K_FLOOR if c_air else K_FLOOR_LOWER
             r += 1
         nrow[j] = r
@@ -211,13 +220,14 @@ def row_rates(J, kind, nrow, vc, ve, out):
 @njit(cache=True)
 def booked_rates(J, kind, nrow, anchored, vc, ve, out):
     """``row_rates`` of the rows whose work the books take: the bend and floor rows, and
-    every row of a point being anchored (marked 2); the other entries of out are left as
-    they were."""
+    every row of a point being anchored (marked 2) or bouncing (anchor rows at a free
+    point); the other entries of out are left as they were."""
     n = vc.shape[0]
     for j in range(nrow.shape[0]):
         every = anchored[j] == 2
         for r in range(nrow[j]):
-            if every or kind[j, r] >= K_BEND:
+            k = kind[j, r]
+            if every or k >= K_BEND or (anchored[j] == 0 and K_ANCHOR_LOWER <= k < K_AXIS):
                 out[j, r] = _row_rate(J, kind, j, r, n, vc, ve)
 
 

@@ -14,8 +14,14 @@ constant inverse mass W and gravity f = -e_z on the centres.  One step from t to
    floor in stage 1 is anchored where it stands, for good (``land``).
 3. **Stage 2** (velocity level): u+ = u_half + h/2 W f + W G(q+)^T P2 with the
    equalities' rates zero (a new anchor's velocity: zero, the landing) and, on every
-   hinge at its limit after stage 1, the model's inelastic law dg/dt+ >= 0, P2 >= 0,
-   complementary (``stage2``).
+   hinge at its limit after stage 1, the model's impact law: Moreau's inelastic
+   dg/dt+ >= 0, P2 >= 0, complementary, or with restitution e (``contacts.newton``)
+   Newton's xi = dg/dt+ + e dg/dt- >= 0 instead on a hinge not locked at the step's start,
+   dg/dt- the rate at which it reached its limit inside the step (``impact_rates``); a
+   point that lands with restitution at the floor leaves it at -e times the vertical
+   velocity it reached it with, its horizontal velocity stopped (``land``,
+   ``rebound_targets``).  A hinge or
+   point that rebounds is not locked or anchored (``leave_limits``) (``stage2``).
 4. **Settle** (``rules.settle_anchors``): new anchors made, a landed segment put on its
    anchors and at rest, a lock whose limit is no longer in force dropped.
 
@@ -46,10 +52,12 @@ from collections import namedtuple
 import numpy as np
 
 from ...contacts.coulomb import anchors, closes, released, slides
+from ...contacts.newton import floor_rebound
 from ...core.blocks import _weights
 from ...core.books import log_row, lowest_point
 from ...core.kinematics import potential_energy, rates_for_axes
 from ...core.rules import (
+    LOG_BOUNCE,
     LOG_LANDING,
     LOG_LOCK,
     LOG_UNLOCK,
@@ -64,6 +72,7 @@ from ...core.rules import (
 from ...jit import entry, njit
 from .blocks import factor_blocks, factors_view, solve_blocks
 from .rows import (
+    BOUNCE,
     K_ANCHOR_LOWER,
     K_ANCHOR_UPPER,
     K_AXIS,
@@ -99,6 +108,11 @@ EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual 
 #   residual) is not switched on again by its own gap (that flip left the set as it was, round
 #   after round: 8% of the steps at N = 256 took 5 rounds or more, 1% with the margin)
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
+REBOUND_TOL = 0.02  # a step with rebounds may raise U + T by this fraction of the energy they carry (the
+#   approach rate is estimated within the step, ``impact_rates``: its error does not shrink with a
+#   shorter step from the same start)
+MAX_NEW = 32  # new contacts in one step whose approach rates are estimated together (``impact_rates``)
+HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
 ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 # run_steps codes (negative: the run cannot go on)
@@ -145,6 +159,9 @@ Scratch = namedtuple(
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
         "fcand",  # (N+1,) uint8: on a frictionless floor, stage 2's candidates at the floor
+        "rebound",  # (N+1,): a point bouncing off the floor in this step: the upward velocity it leaves with
+        "hrebound",  # (N-1,): a hinge that rebounds from its limit in this step: the rate it leaves with
+        "newrow",  # (MAX_NEW, 2) int64: the new contacts of a step (point, row), ``impact_rates``
     ],
 )  # fmt: skip
 
@@ -164,6 +181,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64),
     )  # fmt: skip
 
 
@@ -299,10 +317,11 @@ def _work(kind, nrow, x, before, after, which):
 
 @njit(cache=True)
 def _new_anchor_work(anchored, kind, nrow, x, before, after):
-    """What the anchor rows of the anchors made in this step (marked 2) did to T."""
+    """What the anchor rows of the anchors made in this step (marked 2), and of the points
+    bouncing off the floor in it (anchor rows at a free point: ``rows.BOUNCE``), did to T."""
     s = 0.0
     for j in range(nrow.shape[0]):
-        if anchored[j] != 2:
+        if anchored[j] == 1:
             continue
         for r in range(nrow[j]):
             k = kind[j, r]
@@ -585,7 +604,10 @@ def _release_unmet_bend(mo, ws, sc):
 def land(t, model, mo, sc):
     """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
-    their number (listed in sc.new_anchor).  On a frictionless floor (``coulomb.slides``)
+    their number (listed in sc.new_anchor).  With restitution at the floor a point that
+    would leave it faster than HOLD_RATE (``newton.floor_rebound`` of the vertical velocity
+    it reached the floor with, ``impact_rates``) bounces instead: not anchored, listed, its velocity's rows in
+    stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  On a frictionless floor (``coulomb.slides``)
     nothing is anchored: the points that stage 1 stopped and that were not touching it
     are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
     stay on for stage 2."""
@@ -599,6 +621,8 @@ def land(t, model, mo, sc):
         sc.pts[n, q] = c[n - 1, q] - e[n - 1, q]
     na = 0
     for j in range(n + 1):
+        approach = sc.rebound[j]  # (``impact_rates``: 0 without restitution)
+        sc.rebound[j] = 0.0
         if slide:
             if sc.floor_on[j] != 0 and mo.touching[j] == 0:
                 if not mo.anchor_t[j] == mo.anchor_t[j]:  # (NaN: its first touch)
@@ -607,6 +631,13 @@ def land(t, model, mo, sc):
                 na += 1
             continue
         if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
+            v = floor_rebound(approach, model.e_floor)  # (0 for e_floor 0)
+            if v > HOLD_RATE:  # it bounces: not anchored; stage 2 gives it (0, 0, v)
+                sc.rebound[j] = v
+                sc.floor_on[j] = BOUNCE
+                sc.new_anchor[na] = j
+                na += 1
+                continue
             hold_at(mo, j, sc.pts)
             mo.anchored[j] = 2
             mo.anchor_t[j] = t
@@ -618,8 +649,9 @@ def land(t, model, mo, sc):
 
 @njit(cache=True)
 def _switch_stage2(mo, ws, sc, slide):
-    """The inelastic law of stage 2: a hinge whose impulse pulls is released; a candidate
-    released that closes (dg/dt < -RATE_TOL) is put back; the same for the floor's rows on
+    """The impact law of stage 2: a hinge whose impulse pulls is released; a candidate
+    released that closes (dg/dt < -RATE_TOL), or with restitution separates slower than its
+    rebound (sc.hrebound), is put back; the same for the floor's rows on
     a frictionless floor (``slide``: ``coulomb.released``, ``coulomb.closes``).  Returns
     whether the set changed."""
     e, ve, locked = mo.e, mo.ve, mo.locked
@@ -641,7 +673,7 @@ def _switch_stage2(mo, ws, sc, slide):
             rate = 0.0
             for q in range(3):
                 rate += ve[k, q] * e[k + 1, q] + e[k, q] * ve[k + 1, q]
-            if rate < -RATE_TOL:
+            if rate - sc.hrebound[k] < -RATE_TOL:  # (Newton's law: xi = rate + e rate-, sc.hrebound = -e rate-)
                 locked[k] = 1
                 changed = True
     return changed
@@ -661,6 +693,10 @@ def stage2(h, model, mo, ws, sc):
         cand = (locked[k] != 0 or g <= tol) and limit_in_force(anchored, k, model.cone, model.alpha)
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
+    bounce = model.e_lock > 0.0 or model.e_floor > 0.0
+    for k in range(locked.shape[0] if bounce else 0):  # (sc.hrebound: the approach rates, ``impact_rates``)
+        v = -model.e_lock * sc.hrebound[k] if sc.cand[k] != 0 else 0.0
+        sc.hrebound[k] = v if v > HOLD_RATE else 0.0
     slide = slides(model.friction)  # (else sc.floor_on is all 0 after ``land``: no floor rows)
     for j in range(sc.fcand.shape[0] if slide else 0):  # the floor's candidates: active in stage 1, or at it
         on = anchored[j] == 0 and (sc.floor_on[j] != 0 or point_z(mo, j) <= tol)
@@ -672,6 +708,8 @@ def stage2(h, model, mo, ws, sc):
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
                 ws.rhs[j, r] = -sc.val[j, r]
+        if bounce:
+            rebound_targets(anchored, ws, sc)
         solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
         add_impulses(h, mo, ws, sc, False)
         if not _switch_stage2(mo, ws, sc, slide):  # (a singular solve: U + T is not finite, ``rattle_step``)
@@ -679,8 +717,127 @@ def stage2(h, model, mo, ws, sc):
             ws.valid[0] = 1
             for j in range(sc.fcand.shape[0] if slide else 0):  # (on a frictionless floor: its contacts)
                 mo.touching[j] = sc.floor_on[j]
+            if bounce:
+                leave_limits(mo, sc)
             return 0
     return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def _is_new_contact(mo, ws, sc, j, r):
+    """Is row r of point j, after stage 1, a new contact: the bend row of a hinge not locked
+    at the step's start, or a free point's floor row, with P1 > 0?"""
+    k = ws.kind[j, r]
+    bend = k == K_BEND and sc.start.locked[j - 1] == 0
+    return (bend or (is_floor(k) and mo.anchored[j] == 0)) and ws.x[j, r] > 0.0
+
+
+@njit(cache=True)
+def impact_rates(h, model, mo, ws, sc):
+    """After stage 1, with restitution: the rate at which each new contact reached its
+    limit (``_is_new_contact``), into sc.hrebound (hinges) and sc.rebound (points); 0
+    elsewhere.  The impacts fall inside the step: from a row's gap g0 and rate v0 at the
+    step's start and its free mean rate over the step vbar (the rates at u_half less what
+    the new contacts' impulses P_B did: vbar_B = rate_B - ((G^-1)_BB)^-1 P_B, G = J W J^T
+    at the step's start with the joints, anchors and held rows; one solve per new
+    contact, MAX_NEW at most, else none is estimated: a touch), with d2g/dt2 = a =
+    2 (vbar - v0) / h, the row reaches its limit at -sqrt(v0^2 - 2 a g0).  A row whose free
+    motion would not reach its limit in the step (g0 + h vbar > 0) was pushed there by the
+    others' impulses: 0, it takes the inelastic law (as the event method's second pass
+    does).  Second order in the impact's time into the step; the step start's own rate
+    errs by a tau, which halving the step does not shorten."""
+    for k in range(sc.hrebound.shape[0]):
+        sc.hrebound[k] = 0.0
+    for j in range(sc.rebound.shape[0]):
+        sc.rebound[j] = 0.0
+    m = 0
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            if _is_new_contact(mo, ws, sc, j, r):
+                if m < MAX_NEW:
+                    sc.newrow[m, 0], sc.newrow[m, 1] = j, r
+                m += 1
+    if m == 0 or m > MAX_NEW:
+        return
+    _factor_symmetric(mo, ws, sc, 0)
+    ginv = np.zeros((m, m))
+    for c in range(m):
+        for jj in range(ws.nrow.shape[0]):
+            for rr in range(ws.nrow[jj]):
+                ws.rhs[jj, rr] = 0.0
+        ws.rhs[sc.newrow[c, 0], sc.newrow[c, 1]] = 1.0
+        solve_blocks(ws.nrow, ws.sym, ws.rhs, sc.rate)
+        for b in range(m):
+            ginv[b, c] = sc.rate[sc.newrow[b, 0], sc.newrow[b, 1]]
+    p = np.zeros(m)
+    for b in range(m):
+        p[b] = ws.x[sc.newrow[b, 0], sc.newrow[b, 1]]
+        if not ginv[b, b] > 0.0:  # (a redundant row: no estimate)
+            return
+    y = np.linalg.solve(ginv, p)
+    st = sc.start
+    for b in range(m):
+        j, r = sc.newrow[b, 0], sc.newrow[b, 1]
+        vbar = sc.ra1[j, r] - y[b]
+        bend = ws.kind[j, r] == K_BEND
+        if bend:
+            g0, v0 = -model.cos_alpha, 0.0
+            for q in range(3):
+                g0 += st.e[j - 1, q] * st.e[j, q]
+                v0 += st.ve[j - 1, q] * st.e[j, q] + st.e[j - 1, q] * st.ve[j, q]
+        else:
+            g0, v0 = point_z(st, j), point_vz(st, j)
+        a = 2.0 * (vbar - v0) / h
+        rad = v0 * v0 - 2.0 * a * max(g0, 0.0)
+        v = -math.sqrt(rad) if (rad > 0.0 and g0 + h * vbar <= 0.0) else 0.0  # (else pushed there: inelastic)
+        if bend:
+            sc.hrebound[j - 1] = v
+        else:
+            sc.rebound[j] = v
+
+
+@njit(cache=True)
+def rebound_targets(anchored, ws, sc):
+    """Stage 2's right-hand side with restitution: a rebounding hinge's row and a bouncing
+    point's vertical row aim at the rate they leave with (G P = target - rate before)."""
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            k = ws.kind[j, r]
+            if k == K_BEND:
+                ws.rhs[j, r] += sc.hrebound[j - 1]
+            elif anchored[j] == 0 and (k == K_ANCHOR_UPPER + 2 or k == K_ANCHOR_LOWER + 2):
+                ws.rhs[j, r] += sc.rebound[j]
+
+
+@njit(cache=True)
+def rebound_energy(anchored, ws, sc):
+    """(1/2) sum P2 v over the rows that rebound in stage 2 (v their target rate): about the
+    kinetic energy the rebounds carry away from their limits."""
+    s = 0.0
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            k = ws.kind[j, r]
+            if k == K_BEND:
+                s += 0.5 * abs(ws.x[j, r]) * sc.hrebound[j - 1]
+            elif anchored[j] == 0 and (k == K_ANCHOR_UPPER + 2 or k == K_ANCHOR_LOWER + 2):
+                s += 0.5 * abs(ws.x[j, r]) * sc.rebound[j]
+    return s
+
+
+@njit(cache=True)
+def leave_limits(mo, sc):
+    """After stage 2 with restitution: a hinge that took its impulse and rebounds is not
+    locked (sc.hrebound stays its rate: ``commit`` logs its impact as a lock's); one that
+    was released takes no rebound (0).  A bouncing point's floor rows are off again."""
+    for k in range(mo.locked.shape[0]):
+        if sc.hrebound[k] > 0.0:
+            if mo.locked[k] != 0:
+                mo.locked[k] = 0
+            else:
+                sc.hrebound[k] = 0.0
+    for j in range(sc.floor_on.shape[0]):
+        if sc.floor_on[j] == BOUNCE:
+            sc.floor_on[j] = 0
 
 
 @njit(cache=True)
@@ -787,7 +944,8 @@ def scratch_view(sc, p):
         motion_view(sc.start, p), sc.ukc[:s], sc.uke[:s], sc.val[:p], sc.rate[:p], sc.floor_on[:p], sc.cand[:k],
         sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
-        sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p],
+        sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
+        sc.hrebound[:k], sc.newrow,
     )  # fmt: skip
 
 
@@ -800,6 +958,9 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         code = ERR_NEWTON  # another root of stage 1's equations, not this step's: taken again halved
     if code < 0:
         return code, 0
+    bounce = model.e_lock > 0.0 or model.e_floor > 0.0
+    if bounce:
+        impact_rates(h, model, mo, ws, sc)
     lock_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_BEND)
     land_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_FLOOR)
     _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
@@ -836,7 +997,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         return ERR_STEP_NAN, na
     if na > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
         sc.acc[9] = 1.0
-        if etol > 0.0 and lost < -etol:
+        created = etol + (REBOUND_TOL * rebound_energy(mo.anchored, ws, sc) if bounce else 0.0)
+        if etol > 0.0 and lost < -created:
             return ERR_STEP_ENERGY, na
         _book_impact(lost, lock_work, land_work, lock_after, na + touched, sc.acc)
     elif etol > 0.0 and abs(lost) > etol:
@@ -1000,7 +1162,9 @@ def commit(t, h, na, mo, ws, sc, books, log):
         account[q] += sc.acc[2 + q]
     books.floor_flow[2] += h * landed_count(sc.start.anchored)
     for k in range(locked.shape[0]):
-        if locked[k] and not sc.start.locked[k]:
+        rebounded = sc.hrebound[k] > 0.0  # (restitution: it took its impulse and left its limit)
+        sc.hrebound[k] = 0.0
+        if (locked[k] or rebounded) and not sc.start.locked[k]:
             p, lost = _hinge_impulse(
                 k, sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, ws.kind, ws.nrow, ws.x, sc.val, sc.rate
             )
@@ -1011,8 +1175,10 @@ def commit(t, h, na, mo, ws, sc, books, log):
         share = 1.0 / na
         for r in range(na):
             j = sc.new_anchor[r]
+            kind = LOG_BOUNCE if sc.rebound[j] > 0.0 else LOG_LANDING
+            sc.rebound[j] = 0.0
             log_row(
-                log, t + h, LOG_LANDING, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],
+                log, t + h, kind, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],
                 share * sc.acc[1], sc.pts, j,
             )  # fmt: skip
         if _top_touched(na, anchored, sc):  # the top end landed: when, within the step
