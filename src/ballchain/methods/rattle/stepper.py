@@ -118,6 +118,8 @@ ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) f
 # run_steps codes (negative: the run cannot go on)
 RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS = 0, 2, 11, 10, 5
 ERR_NEWTON, ERR_ACTIVE_SET, ERR_STEP_ENERGY, ERR_STEP_NAN, ERR_NAN = -1, -2, -3, -4, -6
+ERR_REBOUND = -8  # a step's rebounds created energy (Newton's law at several contacts, some held): taken
+#   again with its impacts inelastic (as the event method takes such an impact; not returned by run_steps)
 ERR_MERGED = -7  # a landing and a lock beside it in one step: taken again halved (not returned by run_steps)
 
 # The state a step advances: the centres and their velocities beside the chain's axes,
@@ -162,6 +164,7 @@ Scratch = namedtuple(
         "rebound",  # (N+1,): a point bouncing off the floor in this step: the upward velocity it leaves with
         "hrebound",  # (N-1,): a hinge that rebounds from its limit in this step: the rate it leaves with
         "newrow",  # (MAX_NEW, 2) int64: the new contacts of a step (point, row), ``impact_rates``
+        "inelastic",  # (1,) uint8: 1 while a step is taken again with its impacts inelastic (ERR_REBOUND)
     ],
 )  # fmt: skip
 
@@ -181,7 +184,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
-        np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64),
+        np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8),
     )  # fmt: skip
 
 
@@ -741,10 +744,12 @@ def impact_rates(h, model, mo, ws, sc):
     the new contacts' impulses P_B did: vbar_B = rate_B - ((G^-1)_BB)^-1 P_B, G = J W J^T
     at the step's start with the joints, anchors and held rows; one solve per new
     contact, MAX_NEW at most, else none is estimated: a touch), with d2g/dt2 = a =
-    2 (vbar - v0) / h, the row reaches its limit at -sqrt(v0^2 - 2 a g0).  A row whose free
-    motion would not reach its limit in the step (g0 + h vbar > 0) was pushed there by the
-    others' impulses: 0, it takes the inelastic law (as the event method's second pass
-    does).  Second order in the impact's time into the step; the step start's own rate
+    2 (vbar - v0) / h, the row reaches its limit at -sqrt(v0^2 - 2 a g0).  It takes the
+    inelastic law instead (0) where its free motion would not reach its limit in the step
+    (g0 + h vbar > 0: the others' impulses pushed it there, as in the event method's second
+    pass), and where it was leaving its limit at the step's start (v0 > 0: it rebounded at
+    the last step and is back within one; the series of ever smaller rebounds ends at the
+    step's scale, as the accumulation rule ends it in the event method).  Second order in the impact's time into the step; the step start's own rate
     errs by a tau, which halving the step does not shorten."""
     for k in range(sc.hrebound.shape[0]):
         sc.hrebound[k] = 0.0
@@ -789,7 +794,7 @@ def impact_rates(h, model, mo, ws, sc):
             g0, v0 = point_z(st, j), point_vz(st, j)
         a = 2.0 * (vbar - v0) / h
         rad = v0 * v0 - 2.0 * a * max(g0, 0.0)
-        v = -math.sqrt(rad) if (rad > 0.0 and g0 + h * vbar <= 0.0) else 0.0  # (else pushed there: inelastic)
+        v = -math.sqrt(rad) if (rad > 0.0 and v0 <= 0.0 and g0 + h * vbar <= 0.0) else 0.0
         if bend:
             sc.hrebound[j - 1] = v
         else:
@@ -945,7 +950,7 @@ def scratch_view(sc, p):
         sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
         sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
-        sc.hrebound[:k], sc.newrow,
+        sc.hrebound[:k], sc.newrow, sc.inelastic,
     )  # fmt: skip
 
 
@@ -958,9 +963,12 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         code = ERR_NEWTON  # another root of stage 1's equations, not this step's: taken again halved
     if code < 0:
         return code, 0
-    bounce = model.e_lock > 0.0 or model.e_floor > 0.0
+    bounce = (model.e_lock > 0.0 or model.e_floor > 0.0) and sc.inelastic[0] == 0
     if bounce:
         impact_rates(h, model, mo, ws, sc)
+    elif model.e_lock > 0.0 or model.e_floor > 0.0:  # (taken again inelastic: no approach rates, no rebound)
+        sc.hrebound[:] = 0.0
+        sc.rebound[:] = 0.0
     lock_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_BEND)
     land_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_FLOOR)
     _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
@@ -999,7 +1007,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         sc.acc[9] = 1.0
         created = etol + (REBOUND_TOL * rebound_energy(mo.anchored, ws, sc) if bounce else 0.0)
         if etol > 0.0 and lost < -created:
-            return ERR_STEP_ENERGY, na
+            return (ERR_REBOUND if created > etol else ERR_STEP_ENERGY), na
         _book_impact(lost, lock_work, land_work, lock_after, na + touched, sc.acc)
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
@@ -1405,6 +1413,12 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         h = left if left <= h else 0.5 * left
     etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
+    if code == ERR_REBOUND:  # the same step with its impacts inelastic
+        copy_motion(sc.start, mo)
+        ws.valid[0] = 0
+        sc.inelastic[0] = 1
+        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
+        sc.inelastic[0] = 0
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
         copy_motion(sc.start, mo)
         ws.valid[0] = 0
