@@ -16,7 +16,12 @@ with its 95% bootstrap interval.  ``--law restitution_floor``: the same per rest
 at the floor, with the bounces per segment instead of the lock events, and the braking
 coefficient gamma measured from the floor (mean, 95%) and inferred from t_fall/t_ff (the
 Hamm-Geminard formula), with their paired differences too.  ``--plot``: the mean
-t_fall/t_ff against E, one line per N, with its intervals.
+t_fall/t_ff against E, one line per N, with its intervals.  ``--against TABLE``: the
+table's runs (another method's) minus TABLE's on the same starts, per (N, E): the pairs,
+the mean paired difference of t_fall/t_ff and of E_lock/E0 with their 95% bootstrap
+intervals, and the two-sample KS p of the fall times:
+
+    python benchmarks/restitution_study.py docs/data/rattle-restitution-lock.parquet --against docs/data/restitution-lock.parquet
 """
 
 from __future__ import annotations
@@ -40,14 +45,48 @@ def _interval(x) -> str:
     return f"{ok.mean():.3f} [{lo:.3f}, {hi:.3f}]" + (f" ({ok.size} of {x.size})" if ok.size < x.size else "")
 
 
+def against(df, ref, law) -> None:
+    """df's runs minus ref's on the same starts (N, E, run_index), per (N, E)."""
+    from scipy.stats import ks_2samp
+
+    for d in (df, ref):
+        d["elock"] = d.energy_lost_locking / d.energy_initial
+    print(
+        f"{len(df)} runs ({', '.join(sorted(set(df.method)))}) against {len(ref)} ({', '.join(sorted(set(ref.method)))})"
+    )
+    for _, r in df[df.status != "landed"].iterrows():
+        print(f"  not counted: {r.run_id} ({r.status}): {r.message}")
+    print(
+        "\n| N | E | pairs | t_fall/t_ff, this | against | paired difference [95%] | KS p | E_lock/E0 paired difference [95%] |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    key = ["segments", law, "run_index"]
+    m = df[df.status == "landed"].merge(ref[ref.status == "landed"], on=key, suffixes=("", "_ref"))
+    for (n, e), g in m.groupby(["segments", law]):
+        if e == 0.0 and g.empty:
+            continue
+        dt = (g.ratio - g.ratio_ref).to_numpy(dtype=float)
+        de = (g.elock - g.elock_ref).to_numpy(dtype=float)
+        (tlo, thi), (elo, ehi) = mean_interval(dt), mean_interval(de)
+        p = ks_2samp(g.ratio.to_numpy(dtype=float), g.ratio_ref.to_numpy(dtype=float)).pvalue
+        print(
+            f"| {n} | {e:g} | {len(g)} | {g.ratio.mean():.3f} | {g.ratio_ref.mean():.3f} | {dt.mean():+.3f} "
+            f"[{tlo:+.3f}, {thi:+.3f}] | {p:.2f} | {de.mean():+.4f} [{elo:+.4f}, {ehi:+.4f}] |"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("table")
     ap.add_argument("--plot")
     ap.add_argument("--law", default="restitution_lock", choices=["restitution_lock", "restitution_floor"])
+    ap.add_argument("--against", help="another method's table of the same starts: paired differences")
     a = ap.parse_args()
     law, floor = a.law, a.law == "restitution_floor"
     df = pd.read_parquet(a.table)
+    if a.against:
+        against(df, pd.read_parquet(a.against), law)
+        return
     df["elock"] = df.energy_lost_locking / df.energy_initial
     df["eland"] = df.energy_lost_landing / df.energy_initial
     df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
