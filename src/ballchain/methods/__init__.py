@@ -54,12 +54,19 @@ def method_package(name: str):
 
 def check_contacts(params, method: str) -> None:
     """Refuse, in one line, a contact law's parameter away from its default
-    (``contacts.registry``) that ``method`` does not honour (its package's ``CONTACTS``)."""
+    (``contacts.registry``) that ``method`` does not honour (its package's ``CONTACTS``), or
+    beyond the bound to which it was shown to (``CONTACT_BOUNDS``: name -> (bound, why))."""
     from ..contacts.registry import all_params
     from ..errors import ParameterError
 
     for name, p in all_params().items():
         value = getattr(params, name)
+        bound = getattr(method_package(method), "CONTACT_BOUNDS", {}).get(name)
+        if bound is not None and value > bound[0]:
+            raise ParameterError(
+                f"{p.flag} {value:g} is not honoured by --method {method}: {bound[1]}; it takes at most "
+                f"{bound[0]:g} (--method event takes any)"
+            )
         if value != p.default and name not in getattr(method_package(method), "CONTACTS", ()):
             takers = [m for m in METHODS if name in getattr(method_package(m), "CONTACTS", ())]
             raise ParameterError(
