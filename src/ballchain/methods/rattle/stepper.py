@@ -20,8 +20,8 @@ constant inverse mass W and gravity f = -e_z on the centres.  One step from t to
    dg/dt- the rate at which it reached its limit inside the step (``impact_rates``); a
    point that lands with restitution at the floor leaves it at -e times the vertical
    velocity it reached it with, its horizontal velocity stopped (``land``,
-   ``rebound_targets``).  A hinge or
-   point that rebounds is not locked or anchored (``leave_limits``) (``stage2``).
+   ``rebound_targets``).  A hinge or point that rebounds is not locked or anchored
+   (``leave_limits``) (``stage2``).
 4. **Settle** (``rules.settle_anchors``): new anchors made, a landed segment put on its
    anchors and at rest, a lock whose limit is no longer in force dropped.
 
@@ -609,8 +609,9 @@ def land(t, model, mo, sc):
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
     their number (listed in sc.new_anchor).  With restitution at the floor a point that
     would leave it faster than HOLD_RATE (``newton.floor_rebound`` of the vertical velocity
-    it reached the floor with, ``impact_rates``) bounces instead: not anchored, listed, its velocity's rows in
-    stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  On a frictionless floor (``coulomb.slides``)
+    it reached the floor with, ``impact_rates``) bounces instead: not anchored, listed, its
+    velocity's rows in stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  On a
+    frictionless floor (``coulomb.slides``)
     nothing is anchored: the points that stage 1 stopped and that were not touching it
     are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
     stay on for stage 2."""
@@ -696,7 +697,7 @@ def stage2(h, model, mo, ws, sc):
         cand = (locked[k] != 0 or g <= tol) and limit_in_force(anchored, k, model.cone, model.alpha)
         sc.cand[k] = 1 if cand else 0
         locked[k] = sc.cand[k]
-    bounce = model.e_lock > 0.0 or model.e_floor > 0.0
+    bounce = restitution(model)
     for k in range(locked.shape[0] if bounce else 0):  # (sc.hrebound: the approach rates, ``impact_rates``)
         v = -model.e_lock * sc.hrebound[k] if sc.cand[k] != 0 else 0.0
         sc.hrebound[k] = v if v > HOLD_RATE else 0.0
@@ -749,8 +750,9 @@ def impact_rates(h, model, mo, ws, sc):
     (g0 + h vbar > 0: the others' impulses pushed it there, as in the event method's second
     pass), and where it was leaving its limit at the step's start (v0 > 0: it rebounded at
     the last step and is back within one; the series of ever smaller rebounds ends at the
-    step's scale, as the accumulation rule ends it in the event method).  Second order in the impact's time into the step; the step start's own rate
-    errs by a tau, which halving the step does not shorten."""
+    step's scale, as the accumulation rule ends it in the event method).  Second order in
+    the impact's time into the step; the step start's own rate errs by a tau, which
+    halving the step does not shorten."""
     for k in range(sc.hrebound.shape[0]):
         sc.hrebound[k] = 0.0
     for j in range(sc.rebound.shape[0]):
@@ -801,6 +803,19 @@ def impact_rates(h, model, mo, ws, sc):
             sc.rebound[j] = v
 
 
+@njit(cache=True, inline="always")
+def restitution(model):
+    """Does either restitution law act (``contacts.newton``; 0, the default, is inelastic)?"""
+    return model.e_lock > 0.0 or model.e_floor > 0.0
+
+
+@njit(cache=True, inline="always")
+def _bounce_row(anchored, j, k):
+    """Is a row of kind k at point j the vertical row of a point bouncing off the floor
+    (an anchor's z row at a free point: ``rows.BOUNCE``)?"""
+    return anchored[j] == 0 and (k == K_ANCHOR_UPPER + 2 or k == K_ANCHOR_LOWER + 2)
+
+
 @njit(cache=True)
 def rebound_targets(anchored, ws, sc):
     """Stage 2's right-hand side with restitution: a rebounding hinge's row and a bouncing
@@ -810,7 +825,7 @@ def rebound_targets(anchored, ws, sc):
             k = ws.kind[j, r]
             if k == K_BEND:
                 ws.rhs[j, r] += sc.hrebound[j - 1]
-            elif anchored[j] == 0 and (k == K_ANCHOR_UPPER + 2 or k == K_ANCHOR_LOWER + 2):
+            elif _bounce_row(anchored, j, k):
                 ws.rhs[j, r] += sc.rebound[j]
 
 
@@ -824,7 +839,7 @@ def rebound_energy(anchored, ws, sc):
             k = ws.kind[j, r]
             if k == K_BEND:
                 s += 0.5 * abs(ws.x[j, r]) * sc.hrebound[j - 1]
-            elif anchored[j] == 0 and (k == K_ANCHOR_UPPER + 2 or k == K_ANCHOR_LOWER + 2):
+            elif _bounce_row(anchored, j, k):
                 s += 0.5 * abs(ws.x[j, r]) * sc.rebound[j]
     return s
 
@@ -963,10 +978,10 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         code = ERR_NEWTON  # another root of stage 1's equations, not this step's: taken again halved
     if code < 0:
         return code, 0
-    bounce = (model.e_lock > 0.0 or model.e_floor > 0.0) and sc.inelastic[0] == 0
+    bounce = restitution(model) and sc.inelastic[0] == 0
     if bounce:
         impact_rates(h, model, mo, ws, sc)
-    elif model.e_lock > 0.0 or model.e_floor > 0.0:  # (taken again inelastic: no approach rates, no rebound)
+    elif restitution(model):  # (taken again inelastic: no approach rates, no rebound)
         sc.hrebound[:] = 0.0
         sc.rebound[:] = 0.0
     lock_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_BEND)
