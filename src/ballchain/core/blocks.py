@@ -85,8 +85,12 @@ def _chol_solve(S, j, nr, drop, b):
 
 @njit(cache=True, inline="always")
 def _weights(anchored, i, n):
-    """(1/m, 3/(m b^2)) of segment i, or (0, 0) if landed or outside the chain."""
-    if i < 0 or i >= n or _is_landed(anchored, i):
+    """(1/m, 3/(m b^2)) of segment i, or (0, 0) if landed or outside the chain.  Its ends'
+    marks are read before any branch (clamped into the chain): numba then takes no
+    reference count of ``anchored`` at each call in a loop."""
+    k = min(max(i, 0), n - 1)
+    landed = _is_landed(anchored, k)
+    if i < 0 or i >= n or landed:
         return 0.0, 0.0
     return W_V, W_W
 

@@ -102,16 +102,17 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
     npts = nrow.shape[0]
     n = npts - 1
     ndrop = 0
-    for j in range(j_from, npts):
+    j = j_from
+    while j < npts:
         nr = nrow[j]
-        av, aw = _weights(anchored, j - 1, n)
-        cv, cw = _weights(anchored, j, n)
-        if nr == 4 and kind[j, 0] == K_JOINT:  # most points: a free point without a bend or floor row
-            nd = _factor_free_point(J1, J0, nrow, j, n, F, av, aw, cv, cw, symmetric, drops)
+        if nr == 4 and kind[j, 0] == K_JOINT:  # most points: free, without a bend or floor row
+            j, nd = _factor_free_points(anchored, J1, J0, kind, nrow, j, F, symmetric, drops)
             if nd < 0:
                 return -1
             ndrop += nd
             continue
+        av, aw = _weights(anchored, j - 1, n)
+        cv, cw = _weights(anchored, j, n)
         free = kind[j, 0] == K_JOINT  # the first 4 rows in closed form (``_free_point_blocks``)
         r0 = 4 if free else 0
         if free:
@@ -170,6 +171,7 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
                 for s in range(nn):
                     X[j, r, s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
             _lu_solve_columns(D, j, nr, X, nn)
+        j += 1
     return ndrop
 
 
@@ -189,11 +191,11 @@ def _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw):
     D[j, 0, 3], D[j, 1, 3], D[j, 2, 3] = -cw * e01, -cw * e02, -cw * e03
     D[j, 3, 0], D[j, 3, 1], D[j, 3, 2] = -cw * e11, -cw * e12, -cw * e13
     D[j, 3, 3] = cw * (e11 * e01 + e12 * e02 + e13 * e03)
-    if j >= 1:
-        for p in range(nrow[j - 1]):
-            for q in range(3):
-                L[j, q, p] = av * J0[j - 1, p, 6 + q] - aw * J0[j - 1, p, 9 + q]
-            L[j, 3, p] = 0.0
+    npv = nrow[max(j - 1, 0)] * (j >= 1)  # (no branch around an array's use: no reference counts)
+    for p in range(npv):
+        for q in range(3):
+            L[j, q, p] = av * J0[j - 1, p, 6 + q] - aw * J0[j - 1, p, 9 + q]
+        L[j, 3, p] = 0.0
 
 
 @njit(cache=True, inline="always")
@@ -209,56 +211,68 @@ def _free_point_coupling(J1, J0, nrow, j, X, cv, cw):
 
 
 @njit(cache=True)
-def _factor_free_point(J1, J0, nrow, j, n, F, av, aw, cv, cw, symmetric, drops):
-    """``factor_blocks`` at a free point j with its 4 rows only (joints, the axis below):
-    the blocks of ``_free_point_blocks`` and ``_free_point_coupling``, whose structure
-    leaves L_j X_{j-1} in the joints' 3 x 3 (L_j's axis row is 0; X_{j-1}'s axis column is
-    0: the axis below j has no columns on the segment above it), loops of fixed length.
-    Returns the number of dropped rows, or -1 (singular, not symmetric)."""
+def _factor_free_points(anchored, J1, J0, kind, nrow, j0, F, symmetric, drops):
+    """``factor_blocks`` at the free points with their 4 rows only (joints, the axis
+    below) from j0 on, as long as they last: the blocks of ``_free_point_blocks`` and
+    ``_free_point_coupling``, whose structure leaves L_j X_{j-1} in the joints' 3 x 3
+    (L_j's axis row is 0; X_{j-1}'s axis column is 0: the axis below j has no columns on
+    the segment above it), loops of fixed length.  One call a run of such points, not one
+    a point: a call that takes the arrays costs numba a reference count of each.  Returns
+    (the first point after the run, the number of dropped rows), or (j, -1) where the
+    matrix is singular (not symmetric)."""
     D, L, X, drop = F.D, F.L, F.X, F.drop
-    _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw)
-    if j >= 1 and av + aw > 0.0:
-        npv = nrow[j - 1]
-        for r in range(3):
-            for s in range(3):
-                acc = 0.0
-                for p in range(npv):
-                    acc += L[j, r, p] * X[j - 1, p, s]
-                D[j, r, s] -= acc
-    d00, d11, d22, d33 = abs(D[j, 0, 0]), abs(D[j, 1, 1]), abs(D[j, 2, 2]), abs(D[j, 3, 3])
+    npts = nrow.shape[0]
+    n = npts - 1
     ndrop = 0
-    for k in range(4):
-        d = D[j, k, k]
-        dk0 = d00 if k == 0 else (d11 if k == 1 else (d22 if k == 2 else d33))
-        if symmetric:
-            out = d <= DROP_RTOL * max(dk0, 1e-300)
-        else:
-            out = drops[j, k] != 0
-            if not out and not abs(d) > PIVOT_RTOL * dk0:
-                return -1
-        if out:
-            drop[j, k] = 1
-            ndrop += 1
-            D[j, k, k] = 0.0
+    j = j0
+    while j < npts and nrow[j] == 4 and kind[j, 0] == K_JOINT:
+        av, aw = _weights(anchored, j - 1, n)
+        cv, cw = _weights(anchored, j, n)
+        _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw)
+        if j >= 1 and av + aw > 0.0:
+            npv = nrow[j - 1]
+            for r in range(3):
+                for s in range(3):
+                    acc = 0.0
+                    for p in range(npv):
+                        acc += L[j, r, p] * X[j - 1, p, s]
+                    D[j, r, s] -= acc
+        d00, d11, d22, d33 = abs(D[j, 0, 0]), abs(D[j, 1, 1]), abs(D[j, 2, 2]), abs(D[j, 3, 3])
+        nd = 0
+        for k in range(4):
+            d = D[j, k, k]
+            dk0 = d00 if k == 0 else (d11 if k == 1 else (d22 if k == 2 else d33))
+            if symmetric:
+                out = d <= DROP_RTOL * max(dk0, 1e-300)
+            else:
+                out = drops[j, k] != 0
+                if not out and not abs(d) > PIVOT_RTOL * dk0:
+                    return j, -1
+            if out:
+                drop[j, k] = 1
+                nd += 1
+                D[j, k, k] = 0.0
+                for i in range(k + 1, 4):
+                    D[j, i, k] = 0.0
+                continue
+            drop[j, k] = 0
+            inv = 1.0 / d
+            D[j, k, k] = inv
             for i in range(k + 1, 4):
-                D[j, i, k] = 0.0
-            continue
-        drop[j, k] = 0
-        inv = 1.0 / d
-        D[j, k, k] = inv
-        for i in range(k + 1, 4):
-            f = D[j, i, k] * inv
-            D[j, i, k] = f
-            for c in range(k + 1, 4):
-                D[j, i, c] -= f * D[j, k, c]
-    if j < n:
-        nn = nrow[j + 1]
-        _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
-        for s in range(nn):
-            X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = _lu4_solve(
-                D, j, X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
-            )
-    return ndrop
+                f = D[j, i, k] * inv
+                D[j, i, k] = f
+                for c in range(k + 1, 4):
+                    D[j, i, c] -= f * D[j, k, c]
+        if j < n:
+            nn = nrow[j + 1]
+            _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
+            for s in range(nn):
+                X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = _lu4_solve(
+                    D, j, X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
+                )
+        ndrop += nd
+        j += 1
+    return j, ndrop
 
 
 @njit(cache=True, inline="always")
@@ -289,8 +303,16 @@ def solve_blocks(nrow, F, b, x):
     npts = nrow.shape[0]
     for j in range(npts):
         nr = nrow[j]
-        if nr == 4:  # most points: loops of fixed length
-            _solve_point4(nrow, D, L, j, b, x)
+        if nr == 4:  # most points: loops of fixed length (written out here, not a helper's:
+            # a helper taking the arrays costs numba a reference count per point)
+            x0, x1, x2, x3 = b[j, 0], b[j, 1], b[j, 2], b[j, 3]
+            for p in range(nrow[j - 1] if j >= 1 else 0):
+                xp = x[j - 1, p]
+                x0 -= L[j, 0, p] * xp
+                x1 -= L[j, 1, p] * xp
+                x2 -= L[j, 2, p] * xp
+                x3 -= L[j, 3, p] * xp
+            x[j, 0], x[j, 1], x[j, 2], x[j, 3] = _lu4_solve(D, j, x0, x1, x2, x3)
             continue
         for r in range(nr):
             v = b[j, r]
@@ -323,20 +345,6 @@ def solve_blocks(nrow, F, b, x):
             for s in range(nn):
                 acc += X[j, r, s] * x[j + 1, s]
             x[j, r] -= acc
-
-
-@njit(cache=True, inline="always")
-def _solve_point4(nrow, D, L, j, b, x):
-    """z_j = D'_j^{-1} (b_j - L_j z_{j-1}) at a point of 4 rows (``solve_blocks``)."""
-    x0, x1, x2, x3 = b[j, 0], b[j, 1], b[j, 2], b[j, 3]
-    if j >= 1:
-        for p in range(nrow[j - 1]):
-            xp = x[j - 1, p]
-            x0 -= L[j, 0, p] * xp
-            x1 -= L[j, 1, p] * xp
-            x2 -= L[j, 2, p] * xp
-            x3 -= L[j, 3, p] * xp
-    x[j, 0], x[j, 1], x[j, 2], x[j, 3] = _lu4_solve(D, j, x0, x1, x2, x3)
 
 
 @njit(cache=True, inline="always")
