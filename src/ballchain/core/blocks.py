@@ -83,7 +83,7 @@ def _chol_solve(S, j, nr, drop, b):
         b[k] = s / S[j, k, k]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _weights(anchored, i, n):
     """(1/m, 3/(m b^2)) of segment i, or (0, 0) if landed or outside the chain.  Its ends'
     marks are read before any branch (clamped into the chain): numba then takes no

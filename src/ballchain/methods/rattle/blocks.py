@@ -28,6 +28,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.blocks import DROP_RTOL, _weights
+from ...core.rows import W_V, W_W
 from ...jit import njit
 from .rows import K_AXIS, K_JOINT, end_signs, has_columns
 
@@ -106,7 +107,7 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
     while j < npts:
         nr = nrow[j]
         if nr == 4 and kind[j, 0] == K_JOINT:  # most points: free, without a bend or floor row
-            j, nd = _factor_free_points(anchored, J1, J0, kind, nrow, j, F, symmetric, drops)
+            j, nd = _factor_free_points(J1, J0, kind, nrow, j, F, symmetric, drops)
             if nd < 0:
                 return -1
             ndrop += nd
@@ -116,7 +117,7 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
         free = kind[j, 0] == K_JOINT  # the first 4 rows in closed form (``_free_point_blocks``)
         r0 = 4 if free else 0
         if free:
-            _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw)
+            _free_point_blocks(J1, J0, nrow[j - 1] if j >= 1 else 0, j, D, L, av, aw, cv, cw)
         for r in range(nr):
             for s in range(r0 if r < r0 else 0, nr):
                 D[j, r, s] = _entry(J1, J0, kind, j, r, j, s, False, False, av, aw) + _entry(
@@ -166,7 +167,7 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
         if j < n:
             nn = nrow[j + 1]
             if free:
-                _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
+                _free_point_coupling(J1, J0, nn, j, X, cv, cw)
             for r in range(r0, nr):
                 for s in range(nn):
                     X[j, r, s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
@@ -176,7 +177,7 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
 
 
 @njit(cache=True, inline="always")
-def _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw):
+def _free_point_blocks(J1, J0, npv, j, D, L, av, aw, cv, cw):
     """D_j's first 4 x 4 and L_j's first 4 rows at a free point j: its joint rows q (on the
     segment above: +1 centre, -1 axis; below: -1, -1) and the axis row of the segment
     below (E = J[j, 3, 9:12]):  D[q, q'] = delta (av + aw + cv + cw),  D[q, 3] = -cw E0_q,
@@ -191,27 +192,26 @@ def _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw):
     D[j, 0, 3], D[j, 1, 3], D[j, 2, 3] = -cw * e01, -cw * e02, -cw * e03
     D[j, 3, 0], D[j, 3, 1], D[j, 3, 2] = -cw * e11, -cw * e12, -cw * e13
     D[j, 3, 3] = cw * (e11 * e01 + e12 * e02 + e13 * e03)
-    npv = nrow[max(j - 1, 0)] * (j >= 1)  # (no branch around an array's use: no reference counts)
-    for p in range(npv):
+    for p in range(npv):  # (npv: the rows of point j - 1, 0 at the top)
         for q in range(3):
             L[j, q, p] = av * J0[j - 1, p, 6 + q] - aw * J0[j - 1, p, 9 + q]
         L[j, 3, p] = 0.0
 
 
 @njit(cache=True, inline="always")
-def _free_point_coupling(J1, J0, nrow, j, X, cv, cw):
+def _free_point_coupling(J1, J0, nn, j, X, cv, cw):
     """U_j's first 4 rows at a free point j (``_free_point_blocks``), against the rows s of
     point j + 1 on their segment above (J0[j+1, s, 0:6]):  U[q, s] = -cv J0[j+1, s, q] - cw
     J0[j+1, s, 3+q],  U[3, s] = cw E1 . J0[j+1, s, 3:6]."""
     e11, e12, e13 = J1[j, 3, 9], J1[j, 3, 10], J1[j, 3, 11]
-    for s in range(nrow[j + 1]):
+    for s in range(nn):  # (nn: the rows of point j + 1)
         for q in range(3):
             X[j, q, s] = -cv * J0[j + 1, s, q] - cw * J0[j + 1, s, 3 + q]
         X[j, 3, s] = cw * (e11 * J0[j + 1, s, 3] + e12 * J0[j + 1, s, 4] + e13 * J0[j + 1, s, 5])
 
 
 @njit(cache=True)
-def _factor_free_points(anchored, J1, J0, kind, nrow, j0, F, symmetric, drops):
+def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
     """``factor_blocks`` at the free points with their 4 rows only (joints, the axis
     below) from j0 on, as long as they last: the blocks of ``_free_point_blocks`` and
     ``_free_point_coupling``, whose structure leaves L_j X_{j-1} in the joints' 3 x 3
@@ -225,10 +225,9 @@ def _factor_free_points(anchored, J1, J0, kind, nrow, j0, F, symmetric, drops):
     n = npts - 1
     ndrop = 0
     j = j0
+    av, aw = cv, cw = W_V, W_W  # (a point with joint rows is free: neither segment at it has landed)
     while j < npts and nrow[j] == 4 and kind[j, 0] == K_JOINT:
-        av, aw = _weights(anchored, j - 1, n)
-        cv, cw = _weights(anchored, j, n)
-        _free_point_blocks(J1, J0, nrow, j, D, L, av, aw, cv, cw)
+        _free_point_blocks(J1, J0, nrow[j - 1] if j >= 1 else 0, j, D, L, av, aw, cv, cw)
         if j >= 1 and av + aw > 0.0:
             npv = nrow[j - 1]
             for r in range(3):
@@ -265,7 +264,7 @@ def _factor_free_points(anchored, J1, J0, kind, nrow, j0, F, symmetric, drops):
                     D[j, i, c] -= f * D[j, k, c]
         if j < n:
             nn = nrow[j + 1]
-            _free_point_coupling(J1, J0, nrow, j, X, cv, cw)
+            _free_point_coupling(J1, J0, nn, j, X, cv, cw)
             for s in range(nn):
                 X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = _lu4_solve(
                     D, j, X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]

@@ -184,46 +184,10 @@ def row_gradients(e, kind, nrow, J, j_from):
                 J[j, r, 5] = -1.0
 
 
-@njit(cache=True, inline="always")
-def _row_rate(J, kind, j, r, n, vc, ve):
-    """J[j, r] . u: the rate of row r of point j at velocities (vc, ve) (an end row's: its
-    signed component, ``end_signs``).  Every entry it needs is read first, before any
-    branch: numba then takes no reference count of the arrays at each call."""
-    k = kind[j, r]
-    q = k % 3
-    ia, ic = max(j - 1, 0), min(j, n - 1)  # (the segments above and below, clamped: unused where absent)
-    va0, va1, va2, wa0, wa1, wa2 = vc[ia, 0], vc[ia, 1], vc[ia, 2], ve[ia, 0], ve[ia, 1], ve[ia, 2]
-    vb0, vb1, vb2, wb0, wb1, wb2 = vc[ic, 0], vc[ic, 1], vc[ic, 2], ve[ic, 0], ve[ic, 1], ve[ic, 2]
-    vaq, waq, vbq, wbq = vc[ia, q], ve[ia, q], vc[ic, q], ve[ic, q]
-    g0, g1, g2, g3, g4, g5 = J[j, r, 0], J[j, r, 1], J[j, r, 2], J[j, r, 3], J[j, r, 4], J[j, r, 5]
-    g6, g7, g8, g9, g10, g11 = J[j, r, 6], J[j, r, 7], J[j, r, 8], J[j, r, 9], J[j, r, 10], J[j, r, 11]
-    acc = 0.0
-    if k < K_AXIS:
-        if j >= 1 and has_columns(k, False):
-            sc, se = end_signs(k, False)
-            acc += sc * vaq + se * waq
-        if j < n and has_columns(k, True):
-            sc, se = end_signs(k, True)
-            acc += sc * vbq + se * wbq
-    else:
-        if j >= 1 and has_columns(k, False):
-            acc += g0 * va0 + g3 * wa0
-            acc += g1 * va1 + g4 * wa1
-            acc += g2 * va2 + g5 * wa2
-        if j < n and has_columns(k, True):
-            acc += g6 * vb0 + g9 * wb0
-            acc += g7 * vb1 + g10 * wb1
-            acc += g8 * vb2 + g11 * wb2
-    return acc
-
-
 @njit(cache=True)
 def row_rates(J, kind, nrow, vc, ve, out):
     """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve)."""
-    n = vc.shape[0]
-    for j in range(nrow.shape[0]):
-        for r in range(nrow[j]):
-            out[j, r] = _row_rate(J, kind, j, r, n, vc, ve)
+    _rates(J, kind, nrow, nrow, vc, ve, out, False)  # (every row: no marks read; nrow stands in)
 
 
 @njit(cache=True)
@@ -231,13 +195,41 @@ def booked_rates(J, kind, nrow, anchored, vc, ve, out):
     """``row_rates`` of the rows whose work the books take: the bend and floor rows, and
     every row of a point being anchored (marked 2) or bouncing (anchor rows at a free
     point); the other entries of out are left as they were."""
+    _rates(J, kind, nrow, anchored, vc, ve, out, True)
+
+
+@njit(cache=True)
+def _rates(J, kind, nrow, anchored, vc, ve, out, booked):
+    """out[j, r] = J[j, r] . u at velocities (vc, ve), of every row, or (``booked``) of
+    those ``booked_rates`` names (anchored: the points' marks).  An end row's rate is its
+    signed component (``end_signs``).  Written out in the loop, not in a helper: a helper
+    that takes the arrays costs numba a reference count of each at every row."""
     n = vc.shape[0]
     for j in range(nrow.shape[0]):
-        every = anchored[j] == 2
+        every = (not booked) or anchored[j] == 2
+        free = anchored[j] == 0
+        ia, ic = max(j - 1, 0), min(j, n - 1)  # (the segments above and below, clamped: unused where absent)
         for r in range(nrow[j]):
             k = kind[j, r]
-            if every or k >= K_BEND or (anchored[j] == 0 and K_ANCHOR_LOWER <= k < K_AXIS):
-                out[j, r] = _row_rate(J, kind, j, r, n, vc, ve)
+            if not (every or k >= K_BEND or (free and K_ANCHOR_LOWER <= k < K_AXIS)):
+                continue
+            acc = 0.0
+            if k < K_AXIS:
+                q = k % 3
+                if j >= 1 and has_columns(k, False):
+                    sc, se = end_signs(k, False)
+                    acc += sc * vc[ia, q] + se * ve[ia, q]
+                if j < n and has_columns(k, True):
+                    sc, se = end_signs(k, True)
+                    acc += sc * vc[ic, q] + se * ve[ic, q]
+            else:
+                if j >= 1 and has_columns(k, False):
+                    for q in range(3):
+                        acc += J[j, r, q] * vc[ia, q] + J[j, r, 3 + q] * ve[ia, q]
+                if j < n and has_columns(k, True):
+                    for q in range(3):
+                        acc += J[j, r, 6 + q] * vc[ic, q] + J[j, r, 9 + q] * ve[ic, q]
+            out[j, r] = acc
 
 
 @njit(cache=True, inline="always")
