@@ -727,13 +727,14 @@ def stage2(h, model, mo, ws, sc):
     return ERR_ACTIVE_SET
 
 
-@njit(cache=True)
-def _is_new_contact(mo, ws, sc, j, r):
-    """Is row r of point j, after stage 1, a new contact: the bend row of a hinge not locked
-    at the step's start, or a free point's floor row, with P1 > 0?"""
-    k = ws.kind[j, r]
-    bend = k == K_BEND and sc.start.locked[j - 1] == 0
-    return (bend or (is_floor(k) and mo.anchored[j] == 0)) and ws.x[j, r] > 0.0
+@njit(cache=True, inline="always")
+def _is_new_contact(k, locked0, mark, p):
+    """Is a row of kind k, after stage 1, a new contact: the bend row of a hinge not locked
+    at the step's start (locked0), or the floor row of a free point (its mark in
+    ``anchored``: 0), with impulse p > 0?  (Numbers, not the bundles: a call with them in
+    the loop over the rows costs numba a reference count of each of their arrays.)"""
+    bend = k == K_BEND and locked0 == 0
+    return (bend or (is_floor(k) and mark == 0)) and p > 0.0
 
 
 @njit(cache=True)
@@ -758,9 +759,12 @@ def impact_rates(h, model, mo, ws, sc):
     for j in range(sc.rebound.shape[0]):
         sc.rebound[j] = 0.0
     m = 0
-    for j in range(ws.nrow.shape[0]):
-        for r in range(ws.nrow[j]):
-            if _is_new_contact(mo, ws, sc, j, r):
+    kind, nrow, x, locked0, anchored = ws.kind, ws.nrow, ws.x, sc.start.locked, mo.anchored
+    for j in range(nrow.shape[0]):
+        nk = locked0.shape[0]  # (hinge j - 1, at point j: its mark where it exists, clamped elsewhere, unused there)
+        lock0 = locked0[min(max(j - 1, 0), nk - 1)] if nk > 0 else 0
+        for r in range(nrow[j]):
+            if _is_new_contact(kind[j, r], lock0, anchored[j], x[j, r]):
                 if m < MAX_NEW:
                     sc.newrow[m, 0], sc.newrow[m, 1] = j, r
                 m += 1
