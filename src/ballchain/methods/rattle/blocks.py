@@ -225,10 +225,10 @@ def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
     n = npts - 1
     ndrop = 0
     j = j0
-    av, aw = cv, cw = W_V, W_W  # (a point with joint rows is free: neither segment at it has landed)
+    wv, ww = W_V, W_W  # both segments' weights (a point with joint rows is free: neither segment at it has landed)
     while j < npts and nrow[j] == 4 and kind[j, 0] == K_JOINT:
-        _free_point_blocks(J1, J0, nrow[j - 1] if j >= 1 else 0, j, D, L, av, aw, cv, cw)
-        if j >= 1 and av + aw > 0.0:
+        _free_point_blocks(J1, J0, nrow[j - 1] if j >= 1 else 0, j, D, L, wv, ww, wv, ww)
+        if j >= 1:
             npv = nrow[j - 1]
             for r in range(3):
                 for s in range(3):
@@ -264,7 +264,7 @@ def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
                     D[j, i, c] -= f * D[j, k, c]
         if j < n:
             nn = nrow[j + 1]
-            _free_point_coupling(J1, J0, nn, j, X, cv, cw)
+            _free_point_coupling(J1, J0, nn, j, X, wv, ww)
             for s in range(nn):
                 X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = _lu4_solve(
                     D, j, X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
