@@ -346,7 +346,15 @@ def test_output_round_trip(engine, tmp_path):
     r = load_result(out)
     s = json.loads(res.stdout)
     # the summary of the file read back, plus the measurements the CLI adds to it
-    added = ("gamma_measured", "gamma_inferred", "wall_includes_compile", "setup_seconds", "setup_compiled")
+    added = (
+        "gamma_measured",
+        "gamma_inferred",
+        "pile_radius",
+        "pile_offset",
+        "wall_includes_compile",
+        "setup_seconds",
+        "setup_compiled",
+    )
     assert {k: v for k, v in s.items() if k not in added} == r.summary()
     assert "gamma_measured" in s and "gamma_inferred" in s
     assert [p.name for p in tmp_path.iterdir()] == ["run.h5"]

@@ -110,6 +110,11 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
             f"  gamma              {_fmt(s.get('gamma_measured'), '.4g')} measured from the floor, "
             f"{_fmt(s.get('gamma_inferred'), '.4g')} from t_fall/t_ff (Hamm-Geminard)"
         )
+    if s.get("pile_radius") is not None:
+        lines.append(
+            f"  pile               radius of gyration {_fmt(s.get('pile_radius'), '.4g')} {u_l}, its centre "
+            f"{_fmt(s.get('pile_offset'), '.4g')} {u_l} from the bottom end's start (seen from above)"
+        )
     if s.get("floor") == "pivot":
         depth = s.get("max_depth")
         lines.append(f"  max depth          {_fmt(depth)} {u_l} below the floor")

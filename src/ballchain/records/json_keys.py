@@ -45,6 +45,10 @@ RUN = {
     "engine": "the fingerprint of the engine's sources",
     "gamma_measured": "the Hamm-Geminard gamma measured from the floor's momentum record (null if undefined)",
     "gamma_inferred": "the Hamm-Geminard gamma whose fall takes t_fall / t_ff (null if out of range)",
+    "pile_radius": "the radius of gyration of the pile on the floor at the end, seen from above (null: fewer "
+    "than two points on the floor)",
+    "pile_offset": "the horizontal distance of the pile's centroid from the bottom end's start (null: fewer "
+    "than two points on the floor)",
     "wall_includes_compile": "whether the wall time includes compiling the kernels",
     "setup_seconds": "(runs of the command line) seconds spent loading or compiling the kernels before the run",
     "setup_compiled": "(runs of the command line) whether the kernels were compiled before the run",

@@ -124,11 +124,47 @@ def floor_gamma(r, windows: int = 8, velocities: np.ndarray | None = None) -> Fl
     )
 
 
+@dataclass(frozen=True)
+class PileShape:
+    """The pile the chain leaves on the floor at the end of a run, seen from above (the
+    run's length unit): ``radius``, the radius of gyration of its points in the floor's
+    plane, sqrt(mean |r_j - c|^2) over their horizontal positions r_j about their centroid
+    c; ``offset``, |c|, how far that centroid lies from where the bottom end started (the
+    origin); ``points``, how many points it counts."""
+
+    radius: float
+    offset: float
+    points: int
+
+
+def pile_shape(r) -> PileShape:
+    """``PileShape`` of a run's end.  The pile's points are those that have touched the
+    floor (``anchor_t`` finite; point N, the bottom end, from t = 0).  Where the floor
+    holds what it touches (friction inf: the anchor, and the restitution floor once a
+    point stops bouncing) they are where they were anchored (``anchor_pos``, exact);
+    on a floor that lets them slide they are where the last frame has them (within
+    1/frames_per_tff of the end: such a pile is still moving).  NaN with fewer than two
+    points."""
+    touched = np.isfinite(np.asarray(r.anchor_t, dtype=float))
+    if r.params.friction == math.inf:
+        pos = np.asarray(r.anchor_pos, dtype=float)
+    else:
+        pts = r.points(slice(-1, None)) if len(r.frame_t) else np.zeros((1, touched.size, 3))
+        pos = np.asarray(pts, dtype=float)[0]
+    xy = pos[touched, :2]
+    if xy.shape[0] < 2:
+        return PileShape(math.nan, math.nan, int(xy.shape[0]))
+    c = xy.mean(axis=0)
+    radius = math.sqrt(float(np.mean(np.sum((xy - c) ** 2, axis=1))))
+    return PileShape(radius, float(np.hypot(c[0], c[1])), int(xy.shape[0]))
+
+
 def derived_measures(result) -> dict[str, float]:
     """The measures derived from a run, computed in this one place for the summary,
     ``--json`` and the sweep table: ``gamma_measured`` (``floor_gamma``: the Hamm-Geminard
-    gamma of the floor's momentum record) and ``gamma_inferred`` (the gamma whose fall
-    time is t_fall/t_ff, ``theory.gamma_from_time_ratio``).  NaN where a run does not
+    gamma of the floor's momentum record), ``gamma_inferred`` (the gamma whose fall
+    time is t_fall/t_ff, ``theory.gamma_from_time_ratio``) and the pile's shape at the
+    end (``pile_shape``: ``pile_radius``, ``pile_offset``).  NaN where a run does not
     define them (a partial run, a ratio outside the theory's range)."""
     from ..theory import gamma_from_time_ratio
 
@@ -140,7 +176,13 @@ def derived_measures(result) -> dict[str, float]:
         inferred = float(gamma_from_time_ratio(result.t_fall / result.t_ff))
     except (ValueError, ZeroDivisionError):
         inferred = math.nan
-    return {"gamma_measured": measured, "gamma_inferred": inferred}
+    pile = pile_shape(result)
+    return {
+        "gamma_measured": measured,
+        "gamma_inferred": inferred,
+        "pile_radius": pile.radius,
+        "pile_offset": pile.offset,
+    }
 
 
 @dataclass(frozen=True)

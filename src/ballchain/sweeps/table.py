@@ -84,6 +84,16 @@ COLUMNS: dict[str, tuple[str, str]] = {
         "gamma from the floor's momentum record: removed / carried momentum, "
         "landings before t_fall (analysis.floor_gamma)",
     ),
+    "pile_radius": (
+        "float64",
+        "the pile's radius of gyration in the floor's plane at the end, b (records.measures.pile_shape; "
+        "empty in tables written before the column)",
+    ),
+    "pile_offset": (
+        "float64",
+        "the horizontal distance of the pile's centroid from the bottom end's start, b (empty in tables "
+        "written before the column)",
+    ),
     "wall_seconds": ("float64", "wall time of the run, s"),
     "n_steps": ("int64", "accepted integrator steps"),
     "n_evals": ("int64", "right-hand-side evaluations"),
