@@ -499,6 +499,20 @@ def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
 
 
 @njit(cache=True)
+def stepped_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
+    """A time-stepping method's velocity problem with Newton's law at the limits, in one
+    pass (Moreau-Jean's form): on every candidate lock row, gamma+ + e_lock gamma- >= 0,
+    impulse >= 0, complementary, gamma- = iw.rates_before, which the caller takes as the
+    rates at the step's start clamped to min(gamma, 0) (restitution acts on a limit that
+    is approached; one that is not takes Moreau's law, gamma+ >= 0), so that no row comes
+    out closing and no second pass is needed (``velocity_impact``'s is for an instant of
+    the exact method).  The joint and anchor rows are equalities; iw.dv carries the free
+    motion of the step (gravity's kick).  Returns the number of trials (negative if the
+    pivoting did not converge)."""
+    return _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+
+
+@njit(cache=True)
 def _floor_pulls(iw):
     """Would the floor pull a point down to make it rebound (a negative vertical impulse
     on a rebounding point: its rows are equalities)?"""

@@ -19,6 +19,10 @@ from __future__ import annotations
 from ...options import MethodOption, in_range, number_text, one_of, positive
 from ..bounds import AuditBounds
 
+# The contact laws' parameters it honours away from their defaults (contacts.registry):
+# Newton's restitution at the bend limit, in Moreau-Jean's form (stepper._solve).
+CONTACTS = ("restitution_lock",)
+
 AUDIT = AuditBounds(energy_rtol=0.1, depth_tol=0.1, hinge_tol=0.0, hinge_per_dt=15.0, warn_near=True)
 
 # How the method sizes its steps (``SolverOptions.dt_rule``) -> the code its compiled step

@@ -18,7 +18,9 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
    anchor rows as equalities, J (V+, w+) = 0, and over the index set (the hinges whose
    limit is in force and whose predicted bend g + h dg/dt reaches the limit) the
    inelastic law: dg/dt+ >= 0, impulse >= 0, complementary (a hinge is released when its
-   impulse would pull); warm-started with the whole index set active, each trial's
+   impulse would pull); with restitution at the limits (``--restitution-lock E``) Newton's
+   law in Moreau-Jean's form, dg/dt+ + E min(dg/dt-, 0) >= 0, dg/dt- the rate at the
+   step's start (``_solve``; a hinge that rebounds is not locked); warm-started with the whole index set active, each trial's
    factorisation redone only from the first point whose rows changed
    (``blocks.reuse_factors``).  Every force of
    the step is an impulse of this problem: the tension, the floor's support, the locks.
@@ -53,10 +55,11 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...contacts.newton import rebounds
 from ...core.blocks import fits4, forces4, generalized_forces, reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
 from ...core.dynamics import pile_pull
-from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, velocity_impact
+from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, stepped_impact, velocity_impact
 from ...core.kinematics import (
     drift_removable,
     point_positions,
@@ -69,8 +72,10 @@ from ...core.rows import W_V
 from ...core.rules import (
     LOG_LANDING,
     LOG_LOCK,
+    LOG_RELEASE,
     LOG_TOP,
     LOG_UNLOCK,
+    RATE_TOL,
     all_anchored,
     fall_ended,
     hold_at,
@@ -93,6 +98,7 @@ DT_LANDING = DT_RULES["landing"]  # the code of dt_rule landing
 MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
 ANCHOR_RATE_TOL = 1e-6  # an anchored point faster than this after the impact problem: its rows were not met
 KE_RTOL = 1e-9  # an impact problem may raise the kinetic energy by this fraction at most (round-off)
+REBOUND_SLACK = 0.02  # ... and with restitution by this fraction of what its rebounds give back (the kick's share)
 PROJ_ITERS = 25  # Gauss-Newton iterations of the projection at most
 PROJ_MOVE_MAX = 0.1  # b: a projection that moves a point further is undone
 PROJ_MOVE_RATIO = 1e3  # ... or further than this many times the largest residual it removes
@@ -125,6 +131,7 @@ Scratch = namedtuple(
         "v_pre",  # (N, 3): V at the start of the step
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "removed",  # (1,): the kinetic energy the last impact problem removed (negative: it rose)
+        "e_used",  # (1,): the restitution at the limits the last impact problem took (0: Moreau's law)
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
@@ -174,7 +181,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64),
-        np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n), new_frame_work(n),
+        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n), new_frame_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -359,31 +366,67 @@ def kinetic_energy_maximal(vmax, w):
 
 
 @njit(cache=True)
-def _solve(chain, ws, sc):
+def _solve(model, chain, ws, sc):
     """Part 4: the step's velocity-level problem: w <- w+, and the centres' velocities
     V+ = V_free + (the impulses' force) kept in maximal coordinates (sc.vmax; a loop of
     chain between two anchors can hold rows that are dependent in the new configuration
     and not met by the last step's velocities: V+ then differs from V(e, w+) by what the
-    dropped row could not remove).  Returns 0, or ERR_IMPACT / ERR_ENERGY (the kinetic
-    energy rose: the projection was not exact)."""
+    dropped row could not remove).  With restitution at the limits (``model.e_lock``,
+    ``contacts.newton``) the law on the index set is Newton's in Moreau-Jean's form,
+    gamma+ + e min(gamma-, 0) >= 0 with gamma- the rate at the step's start
+    (``impacts.stepped_impact``); an impact in which it would raise the kinetic energy by
+    more than REBOUND_SLACK of what its rebounds give back, R = 1/2 sum P_k dg_k/dt+
+    (Newton's law at several limits at once can create energy; the free velocity's kick
+    moves the balance by O(h) of it either way), is solved again inelastic, as the exact
+    method takes such an impact (sc.e_used: the law taken).  Returns 0, or ERR_IMPACT /
+    ERR_ENERGY (the kinetic energy rose: the projection was not exact)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    iw = sc.iw
     t0 = kinetic_energy_maximal(sc.vmax, w)  # sc.vmax holds V_free (_free_velocity)
-    # (inelastic: restitution at the limits is not honoured by this method yet, CONTACTS)
-    hinge_rates(e, w, sc.iw.rates_before)
-    if velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, 0.0, ws, sc.iw) < 0:
-        return ERR_IMPACT
-    if fits4(ws.nrow):
-        forces4(ws.kind, ws.nrow, ws.x, ws.gf)
-    else:
-        generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
-    t1 = 0.0
+    hinge_rates(e, w, iw.rates_before)
+    e_lock = model.e_lock
+    if e_lock > 0.0:
+        for k in range(iw.rates_before.shape[0]):
+            iw.rates_before[k] = min(iw.rates_before[k], 0.0)  # (restitution acts on an approach)
+    t1 = t0
+    allowed = t0 * (1.0 + KE_RTOL) + 1e-12
+    for _ in range(2):  # Newton's law, then (if it raised the energy) Moreau's
+        if e_lock > 0.0:
+            it = stepped_impact(e, w, anchored, sc.cand, sc.forced, sc.active, e_lock, ws, iw)
+        else:
+            it = velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, 0.0, ws, iw)
+        if it < 0:
+            return ERR_IMPACT
+        if fits4(ws.nrow):
+            forces4(ws.kind, ws.nrow, ws.x, ws.gf)
+        else:
+            generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
+        t1 = 0.0
+        for i in range(e.shape[0]):
+            landed = is_landed(anchored, i)
+            for q in range(3):
+                v = 0.0 if landed else sc.vmax[i, q] + W_V * ws.gf[i, q]
+                t1 += 0.5 * v * v + w[i, q] ** 2 / 6.0
+        if e_lock == 0.0:
+            break
+        given_back = 0.0
+        for k in range(sc.active.shape[0]):
+            if sc.active[k]:
+                given_back += 0.5 * iw.impulse[k] * max(iw.rates_after[k], 0.0)
+        if t1 <= allowed + REBOUND_SLACK * given_back:
+            allowed += REBOUND_SLACK * given_back
+            break
+        e_lock = 0.0  # Newton's law raised the energy: the step's impact inelastic
+        _copy3(sc.w_pre, w)
+        for k in range(sc.cand.shape[0]):
+            sc.active[k] = sc.cand[k]
+    sc.e_used[0] = e_lock
     for i in range(e.shape[0]):
         landed = is_landed(anchored, i)
         for q in range(3):
             sc.vmax[i, q] = 0.0 if landed else sc.vmax[i, q] + W_V * ws.gf[i, q]
-            t1 += 0.5 * sc.vmax[i, q] ** 2 + w[i, q] ** 2 / 6.0
     sc.removed[0] = t0 - t1
-    if t1 > t0 * (1.0 + KE_RTOL) + 1e-12:
+    if t1 > allowed:
         return ERR_ENERGY
     return 0
 
@@ -419,12 +462,15 @@ def _book(t, h, na, chain, ws, sc, books, log):
     for q in range(3):
         sc.pull[q] /= h
     for k in range(locked.shape[0]):
+        bounced = sc.active[k] == 1 and rebounds(iw.rates_after[k], sc.e_used[0], RATE_TOL)
         if sc.active[k] and not sc.was[k]:
             lost = -0.5 * iw.impulse[k] * (sc.rates[k] + iw.rates_after[k])
             log_row(log, t, LOG_LOCK, k, iw.impulse[k], 0.0, 0.0, lost, sc.pts, k + 1)
         elif sc.was[k] and not sc.active[k]:
             log_row(log, t, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
-        locked[k] = sc.active[k]
+        if bounced:  # restitution: it took an impulse and leaves its limit (not locked)
+            log_row(log, t, LOG_RELEASE, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
+        locked[k] = 0 if bounced else sc.active[k]
     if na > 0:  # the landings share the step's floor impulse and its loss at landing equally
         share = 1.0 / na
         lost = share * (sc.removed[0] - iw.split[0])
@@ -670,7 +716,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
             _copy3(sc.w_pre, w)
         _free_velocity(h, chain, sc)
         _index_set(h, model, chain, sc)
-        code = _solve(chain, ws, sc)
+        code = _solve(model, chain, ws, sc)
         if code < 0:
             reuse_factors(ws.S, np.bool_(False))
             return code, t
