@@ -83,6 +83,28 @@ def test_a_rod_bounces_on_its_top_end_as_the_rigid_rods_closed_forms_say():
     assert abs(en["imbalance"]) < 1e-5 * en["initial"]
 
 
+@pytest.mark.parametrize("e", [0.3, 0.6])
+def test_a_series_of_bounces_ends_where_a_flight_would_last_fewer_than_four_steps(e):
+    """The rod of the test above: its top end lands at v0 = 2 b omega and rebounds at e^k v0
+    after its k-th bounce; RATTLE makes a rebound only if its flight under gravity, 2v/g,
+    lasts four steps h or more (v > 2 g h; shorter flights are not resolved by the steps),
+    so the series has the k bounces with e^k v0 > 2 g h, counted from the closed form."""
+    theta0, dt = 0.4, 0.0125
+    e0 = np.array([[np.sin(theta0), 0.0, np.cos(theta0)]])
+    r = simulate(
+        ChainParams(segments=1, restitution_floor=e), state=(e0, None),
+        options=SolverOptions(method="rattle", dt=dt, step_energy_tol=0.0, max_time=8.0),
+    )  # fmt: skip
+    v0 = 2.0 * np.sqrt(1.5 * np.cos(theta0))  # the top end's speed at the first touch (b = g = 1)
+    h = dt * r.t_ff
+    top = r.event_index == 0
+    bounces = (top & (r.event_kind == EVENT_CODES["bounce"])).sum()
+    k = np.arange(1, 200)
+    expected = int(np.sum(e**k * v0 > 2.0 * h))
+    assert r.status == "landed"
+    assert abs(bounces - expected) <= 1, (bounces, expected)
+
+
 @pytest.mark.parametrize("e_floor, e_lock", [(0.5, 0.0), (0.0, 0.5), (0.6, 0.3)])
 def test_whole_falls_with_restitution_close_their_books_and_stay_above_the_floor(e_floor, e_lock):
     """N = 16 at the default step: the fall lands (every series of bounces ends; a top end's

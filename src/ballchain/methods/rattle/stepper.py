@@ -113,6 +113,9 @@ REBOUND_TOL = 0.02  # a step with rebounds may raise U + T by this fraction of t
 #   shorter step from the same start)
 MAX_NEW = 32  # new contacts in one step whose approach rates are estimated together (``impact_rates``)
 HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
+FLIGHT_STEPS = 4.0  # ... nor one off the floor whose flight, 2 v / g, would last fewer steps than this: a
+#   point resting on the floor reaches it again at g h a step, and at HOLD_RATE alone bounced every other
+#   step for good (N = 512 at E = 0.3: the step cut to 1/500 of its size and 600 000 bounces a point)
 ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 # run_steps codes (negative: the run cannot go on)
@@ -604,18 +607,22 @@ def _release_unmet_bend(mo, ws, sc):
 
 
 @njit(cache=True)
-def land(t, model, mo, sc):
+def land(t, h, model, mo, sc):
     """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
     their number (listed in sc.new_anchor).  With restitution at the floor a point that
     would leave it faster than HOLD_RATE (``newton.floor_rebound`` of the vertical velocity
-    it reached the floor with, ``impact_rates``) bounces instead: not anchored, listed, its
-    velocity's rows in stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  On a
+    it reached the floor with, ``impact_rates``), on a flight of FLIGHT_STEPS steps of h
+    or more (v > FLIGHT_STEPS g h / 2), bounces instead: not anchored, listed, its
+    velocity's rows in stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  A
+    shorter flight is not resolved by the steps: the series of bounces ends there, at
+    the step's scale, and the point is anchored.  On a
     frictionless floor (``coulomb.slides``)
     nothing is anchored: the points that stage 1 stopped and that were not touching it
     are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
     stay on for stage 2."""
     slide = slides(model.friction)
+    v_min = max(HOLD_RATE, 0.5 * FLIGHT_STEPS * h)  # (g = 1)
     c, e = mo.c, mo.e
     n = e.shape[0]
     for j in range(n):
@@ -636,7 +643,7 @@ def land(t, model, mo, sc):
             continue
         if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
             v = floor_rebound(approach, model.e_floor)  # (0 for e_floor 0)
-            if v > HOLD_RATE:  # it bounces: not anchored; stage 2 gives it (0, 0, v)
+            if v > v_min:  # it bounces: not anchored; stage 2 gives it (0, 0, v)
                 sc.rebound[j] = v
                 sc.floor_on[j] = BOUNCE
                 sc.new_anchor[na] = j
@@ -994,7 +1001,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
     na, touched = 0, 0
     if landings or slides(model.friction):  # (a frame's step on a frictionless floor too: it anchors nothing)
-        na = land(t + h, model, mo, sc)
+        na = land(t + h, h, model, mo, sc)
     else:
         for j in range(sc.floor_on.shape[0]):
             touched += sc.floor_on[j]
