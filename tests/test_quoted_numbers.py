@@ -236,7 +236,15 @@ def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
 
 
 @pytest.mark.parametrize(
-    "name", ["rattle.md", "notes/rattle-engines.md", "restitution.md", "restitution-floor.md", "friction-floor.md"]
+    "name",
+    [
+        "rattle.md",
+        "notes/rattle-engines.md",
+        "restitution.md",
+        "restitution-floor.md",
+        "friction-floor.md",
+        "experiment.md",
+    ],
 )
 def test_the_rattle_page_quotes_what_its_command_prints(name):
     """Every interval the RATTLE method's page quotes (its ensembles against the exact
