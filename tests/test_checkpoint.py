@@ -1,6 +1,6 @@
 """Checkpoints: a run killed mid-fall resumes from its last checkpoint and ends exactly
 as the same run left alone (on one machine the same steps give the same numbers), with
-either method, from the command line and in a sweep; a checkpoint of another run or
+any method, from the command line and in a sweep; a checkpoint of another run or
 of another engine is refused, never mixed in."""
 
 import json
@@ -22,6 +22,7 @@ CASES = {
     # (chain, options): falls with several returns from compiled code before t_ff / 2
     "event": (ChainParams(segments=24), SolverOptions()),
     "timestep": (ChainParams(segments=24), SolverOptions(method="timestep", dt=0.005)),
+    "rattle": (ChainParams(segments=24), SolverOptions(method="rattle", dt=0.005)),
 }
 FIELDS = (
     "t", "z_top", "frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked", "frame_floor_force",

@@ -99,6 +99,7 @@ def run(setup, progress, stop) -> RunOutput:
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
     state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve, "touching": touching}, "scratch": sc}
+    state["rows"] = ws  # (the last stage 2's rows and factors: the next stage 1 iterates on them)
     state["frame_scratch"] = fr.sc
     state.update({"books": books, "frame_info": fb})
     out = drive(setup, progress, stop, advance, out, 4 * (3 * n + 8), state)
