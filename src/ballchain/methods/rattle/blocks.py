@@ -27,7 +27,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.blocks import DROP_RTOL, _weights
+from ...core.blocks import DROP_RTOL
 from ...core.rows import W_V, W_W
 from ...jit import njit
 from .rows import K_AXIS, K_JOINT, end_signs, has_columns
@@ -112,8 +112,13 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
                 return -1
             ndrop += nd
             continue
-        av, aw = _weights(anchored, j - 1, n)
-        cv, cw = _weights(anchored, j, n)
+        # the weights of segments j - 1 and j (``core.blocks._weights``: 0 if landed or
+        # outside the chain), read here: a call a point would cost numba a reference count
+        ia, ic = min(max(j - 1, 0), n - 1), min(j, n - 1)
+        a_out = (j < 1) | ((anchored[ia] == 1) & (anchored[ia + 1] == 1))
+        c_out = (j >= n) | ((anchored[ic] == 1) & (anchored[ic + 1] == 1))
+        av, aw = (0.0, 0.0) if a_out else (W_V, W_W)
+        cv, cw = (0.0, 0.0) if c_out else (W_V, W_W)
         free = kind[j, 0] == K_JOINT  # the first 4 rows in closed form (``_free_point_blocks``)
         r0 = 4 if free else 0
         if free:

@@ -363,26 +363,28 @@ def _pile_impulse(anchored, kind, nrow, x, pull):
 
 
 @njit(cache=True)
-def _switch_stage1(model, mo, ws, sc, tol):
-    """The complementarity of stage 1 at q+: a bend or floor row whose impulse pulls is
-    switched off; a hinge in force or a free point found past its limit by more than tol
-    switched on (``switch_on_violated``).  Returns whether the active set changed."""
+def _switch_stage1(model, mo, kind, nrow, x, floor_on, tol):
+    """The complementarity of stage 1 at q+ (rows ``kind``, ``nrow``, impulses ``x``): a
+    bend or floor row whose impulse pulls is switched off; a hinge in force or a free
+    point found past its limit by more than tol switched on (``switch_on_violated``).
+    Returns whether the active set changed.  (Arrays, not the scratch bundle: a call
+    with a bundle costs numba a reference count of each of its arrays.)"""
     changed = False
-    for j in range(ws.nrow.shape[0]):
-        for r in range(ws.nrow[j]):
-            k = ws.kind[j, r]
-            if ws.x[j, r] < 0.0:
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if x[j, r] < 0.0:
                 if k == K_BEND:
                     mo.locked[j - 1] = 0
                     changed = True
                 elif is_floor(k):
-                    sc.floor_on[j] = 0
+                    floor_on[j] = 0
                     changed = True
-    return switch_on_violated(model, mo, sc, tol) or changed
+    return switch_on_violated(model, mo, floor_on, tol) or changed
 
 
 @njit(cache=True)
-def switch_on_violated(model, mo, sc, margin):
+def switch_on_violated(model, mo, floor_on, margin):
     """A hinge in force past its limit, or a free point below the floor, by more than
     ``margin`` is switched on.  Inside stage 1's Newton iteration the margin is far beyond
     what the iterate's residual can account for: the set is known wrong before the
@@ -396,8 +398,8 @@ def switch_on_violated(model, mo, sc, margin):
                 locked[k] = 1
                 changed = True
     for j in range(e.shape[0] + 1):  # (the last point: the bottom end, free on a frictionless floor)
-        if anchored[j] == 0 and sc.floor_on[j] == 0 and point_z(mo, j) < -margin:
-            sc.floor_on[j] = 1
+        if anchored[j] == 0 and floor_on[j] == 0 and point_z(mo, j) < -margin:
+            floor_on[j] = 1
             changed = True
     return changed
 
@@ -420,24 +422,25 @@ def point_vz(mo, j):
 
 
 @njit(cache=True)
-def _factor(mo, ws, sc, e, reuse, factor, keep):
+def _factor(anchored, locked, floor_on, kind_old, nrow_old, acc, ws, e, reuse, factor, keep):
     """The rows of the current layout at axes e, and (with ``factor``) the factors of
     J W J^T; with ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its
     layout is this one: a step's stage 1 starts where the last stage 2 ended, with its
     active set.  With ``keep`` (ws holds the rows at these axes of the last layout, and
     the factors of J W J^T if ``factor``) only the points from the one before the first
     changed point are done again.  Returns (whether ws holds the factors of J W J^T for
-    these rows (without them, no row is marked redundant), that first point done again)."""
-    layout(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old)
-    first = first_change(sc.kind_old, sc.nrow_old, ws.kind, ws.nrow)
+    these rows (without them, no row is marked redundant), that first point done again).
+    (kind_old, nrow_old: scratch for the layout; acc[5] counts the factorisations.)"""
+    layout(anchored, locked, floor_on, kind_old, nrow_old)
+    first = first_change(kind_old, nrow_old, ws.kind, ws.nrow)
     if reuse and ws.valid[0] != 0 and first == ws.nrow.shape[0]:
         return True, first
     ws.valid[0] = 0
     j0 = max(first - 1, 0) if keep else 0
-    layout(mo.anchored, mo.locked, sc.floor_on, ws.kind, ws.nrow)
+    layout(anchored, locked, floor_on, ws.kind, ws.nrow)
     row_gradients(e, ws.kind, ws.nrow, ws.J, j0)
     if factor:
-        _factor_symmetric(mo, ws, sc, j0)
+        _factor_symmetric(anchored, ws, acc, j0)
     else:
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
@@ -446,11 +449,11 @@ def _factor(mo, ws, sc, e, reuse, factor, keep):
 
 
 @njit(cache=True)
-def _factor_symmetric(mo, ws, sc, j0):
+def _factor_symmetric(anchored, ws, acc, j0):
     """The factors of J W J^T for the rows in ws (ws.sym), its redundant rows dropped, from
-    point j0 on (``blocks.factor_blocks``)."""
-    factor_blocks(mo.anchored, ws.J, ws.J, ws.kind, ws.nrow, ws.sym.drop, ws.sym, True, j0)
-    sc.acc[5] += 1.0
+    point j0 on (``blocks.factor_blocks``); acc[5] counts it."""
+    factor_blocks(anchored, ws.J, ws.J, ws.kind, ws.nrow, ws.sym.drop, ws.sym, True, j0)
+    acc[5] += 1.0
 
 
 @njit(cache=True)
@@ -490,8 +493,9 @@ def stage1(h, model, mo, ws, sc, budget):
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
         have_sym, j0 = _factor(
-            mo, ws, sc, sc.start.e, rnd == 0, False, rnd > 0
-        )  # (J W J^T only if the last stage 2's serves)
+            mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, sc.start.e, rnd == 0, False,
+            rnd > 0,
+        )  # (J W J^T only if the last stage 2's serves)  # fmt: skip
         restart = j0 if newt_valid else 0  # the Newton matrix's factors kept for the points before j0
         if rnd == 0:  # warm start: the last stage 2's impulses, h/2 times the forces at this step's start
             carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
@@ -520,8 +524,11 @@ def stage1(h, model, mo, ws, sc, budget):
             if not math.isfinite(res):
                 break
             if rnd < EARLY_ROUNDS and (
-                switch_on_violated(model, mo, sc, max(tol, EARLY_MARGIN * res))
-                or (res <= EARLY_RES and _switch_stage1(model, mo, ws, sc, max(tol, EARLY_MARGIN * res)))
+                switch_on_violated(model, mo, sc.floor_on, max(tol, EARLY_MARGIN * res))
+                or (
+                    res <= EARLY_RES
+                    and _switch_stage1(model, mo, ws.kind, ws.nrow, ws.x, sc.floor_on, max(tol, EARLY_MARGIN * res))
+                )
             ):
                 switched = True
                 break  # a limit or the floor passed by far more than the residual: the set is wrong, not yet the iterate
@@ -537,7 +544,7 @@ def stage1(h, model, mo, ws, sc, budget):
                     restart = 0
                     singular = not exact
                     if singular and not have_sym:  # J W J^T, its redundant rows dropped, and A again
-                        _factor_symmetric(mo, ws, sc, 0)
+                        _factor_symmetric(mo.anchored, ws, sc.acc, 0)
                         have_sym = True
                         sc.acc[5] += 1.0
                         exact = _factor_newton(mo, ws, 0)
@@ -565,7 +572,7 @@ def stage1(h, model, mo, ws, sc, budget):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
             continue
         copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
-        if not _switch_stage1(model, mo, ws, sc, tol):
+        if not _switch_stage1(model, mo, ws.kind, ws.nrow, ws.x, sc.floor_on, tol):
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind1, sc.nrow1, sc.x1)
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, sc.ukc, sc.uke, sc.rb1)
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, mo.vc, mo.ve, sc.ra1)
@@ -714,7 +721,7 @@ def stage2(h, model, mo, ws, sc):
         sc.fcand[j] = 1 if on else 0
         sc.floor_on[j] = sc.fcand[j]
     for rnd in range(ROUNDS_MAX):
-        _factor(mo, ws, sc, e, False, True, rnd > 0)
+        _factor(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, e, False, True, rnd > 0)
         row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
@@ -777,7 +784,7 @@ def impact_rates(h, model, mo, ws, sc):
                 m += 1
     if m == 0 or m > MAX_NEW:
         return
-    _factor_symmetric(mo, ws, sc, 0)
+    _factor_symmetric(mo.anchored, ws, sc.acc, 0)
     ginv = np.zeros((m, m))
     for c in range(m):
         for jj in range(ws.nrow.shape[0]):
