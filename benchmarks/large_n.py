@@ -1,9 +1,10 @@
-"""t_fall/t_ff against N from sweep tables of either method: the table, a fit, a figure.
+"""t_fall/t_ff against N from sweep tables of any method: the table, a fit, a figure.
 
     python benchmarks/large_n.py TABLE.parquet [TABLE.parquet ...] [--plot FIG.png] [--json]
 
 Reads every landed run of the tables at one alpha and floor (``--alpha-deg 45``, ``--floor
-all``) (``ballchain sweep`` output, any mix of methods and
+all``) and the model's contact laws (the anchor, no restitution; rows with other laws are
+left out) (``ballchain sweep`` output, any mix of methods and
 N; rows are grouped by N, method, dt, rtol and engine; a run found in several tables,
 the same ``run_id`` made by the same engine, counts once; ``--pool-engines A,B`` counts the
 rows of the engines named as one where they ran different starts) and prints, per group: the runs, the
@@ -22,11 +23,16 @@ and of E_lock/E0 (time-stepping - event-driven) with 95% bootstrap intervals, an
 two-sample Kolmogorov-Smirnov p of t_fall/t_ff.
 
 Then a fit of the means against N, ratio(N) = r_inf + c N^(-p), weighted by their
-standard errors, over one group (of two runs or more) at each N: the event-driven
-method's where both methods ran (``--fit-method timestep``: the time-stepper's), then
+standard errors, over one group (of two runs or more) at each N: the most exact
+method's where several ran (the event-driven, then RATTLE, then the time-stepper;
+``--fit-method timestep`` or ``rattle``: that one first), then
 rows of a known engine, then the one with the most runs, then the smallest dt; r_inf's 95% interval comes from
-refitting on bootstrap resamples of the runs.  ``--plot`` draws the means with their
-intervals against N (log axis), both methods, and the fit.  ``--cost`` adds the cost of
+refitting on bootstrap resamples of the runs.  ``--fit-each`` adds one such fit per
+method through its own ensembles at its default step (RATTLE dt 0.05; the time-stepper
+dt 0.01, theta 1/2 below N = 1024 and dt 0.02, theta 1 from there), where it has four
+N: the limit by each method, where they overlap and beyond.  ``--plot`` draws the means with their
+intervals against N (log axis), one ensemble per N and method (the one that would stand
+for it), and the fit.  ``--cost`` adds the cost of
 a fall per group (the median wall seconds of its runs, the time-stepper's median steps and
 its cost per step and segment) and, per method, the exponent q of wall ~ N^q fitted to
 the group that stands for each N from 64 up; ``--cost-plot`` draws those walls log-log.
@@ -144,14 +150,25 @@ def _step_label(g: dict) -> str:
     )
 
 
+EXACTNESS = {"event": 2, "rattle": 1, "timestep": 0}  # the exact method, then second order, then first
+
+
 def _fit_rank(g: dict, method: str, theta: float = 0.5) -> tuple:
     """Which group stands for its N in the fit: the method asked for (``--fit-method``)
-    where it ran, then the time-stepper's theta asked for (``--fit-theta``), then fixed
-    steps (dt_rule), then rows of a known engine, then the most runs, then the finest
-    step (smallest dt)."""
+    where it ran, then the most exact method that ran it (``EXACTNESS``), then the
+    time-stepper's theta asked for (``--fit-theta``), then fixed steps (dt_rule), then rows
+    of a known engine, then the most runs, then the finest step (smallest dt)."""
     g_theta = 0.5 if g["theta"] is None else g["theta"]
     fixed = g["dt_rule"] in (None, "fixed")
-    return (g["method"] == method, g_theta == theta, fixed, g["engine"] != "unknown", g["runs"], -(g["dt"] or 0.0))
+    return (
+        g["method"] == method,
+        EXACTNESS.get(g["method"], -1),
+        g_theta == theta,
+        fixed,
+        g["engine"] != "unknown",
+        g["runs"],
+        -(g["dt"] or 0.0),
+    )
 
 
 def _best_per_n(groups: list[dict], method: str, theta: float = 0.5) -> dict:
@@ -221,15 +238,86 @@ def _cost_figure(slopes: dict, path: str) -> None:
     _save(fig, ax, "wall seconds per fall (one core)", "cost of a fall, alpha = 45 deg, floor all", path)
 
 
-def _save(fig, ax, ylabel: str, title: str, path: str) -> None:
-    """Log-2 N axis, labels, legend; the figure written to path."""
+def _style(ax, ylabel: str, title: str) -> None:
+    """Log-2 N axis, labels, legend."""
     ax.set_xscale("log", base=2)
     ax.set_xlabel("N (segments)")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.legend(fontsize=8)
+
+
+def _save(fig, ax, ylabel: str, title: str, path: str) -> None:
+    """``_style``d; the figure written to path."""
+    _style(ax, ylabel, title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+
+
+def _default_contacts(df: pd.DataFrame) -> pd.Series:
+    """The rows run with the model's contact laws (the anchor, no restitution): a table
+    with other laws (``--friction``, ``--restitution-*``) holds other falls, not the
+    model's large-N limit.  Tables written before those columns ran the defaults."""
+    keep = pd.Series(True, index=df.index)
+    for col, default in (("friction", math.inf), ("restitution_floor", 0.0), ("restitution_lock", 0.0)):
+        if col in df:
+            keep &= df[col].isna() | (df[col] == default)
+    return keep
+
+
+def _own_per_n(groups: list[dict], method: str) -> dict:
+    """At each N, the method's ensemble of two runs or more at its default step (RATTLE's
+    dt; the time-stepper's ``default_step(N)``, the short one below N = 1024 and the long
+    one from there, fixed; the exact method any rtol) that ranks first (``_fit_rank``: a
+    known engine, then the most runs)."""
+    from ballchain.methods.rattle import DEFAULT_DT
+    from ballchain.methods.timestep import default_step
+
+    def default(g: dict) -> bool:
+        if g["method"] == "rattle":
+            return g["dt"] == DEFAULT_DT
+        if g["method"] == "timestep":
+            return (g["dt"], g["theta"]) == default_step(g["segments"]) and g["dt_rule"] == "fixed"
+        return True
+
+    return _best_per_n([g for g in groups if g["method"] == method and g["runs"] >= 2 and default(g)], method)
+
+
+def _fits_each(groups: list[dict]) -> list[dict]:
+    """One fit of the limit per method through its own ensembles only (``_own_per_n``),
+    where it has four N (the main fit joins them: ``_fit_rank``)."""
+    out = []
+    for method in ("event", "rattle", "timestep"):
+        by_n = _own_per_n(groups, method)
+        ns = sorted(by_n)
+        if len(ns) < 4:
+            continue
+        popt, ci, nb = _fit(ns, [by_n[n]["ratios"] for n in ns])
+        out.append(
+            {
+                "method": method,
+                "step": _step_label(by_n[ns[-1]]),
+                "N": ns,
+                "runs": [by_n[n]["runs"] for n in ns],
+                "r_inf": float(popt[0]),
+                "c": float(popt[1]),
+                "p": float(popt[2]),
+                "r_inf_95": ci,
+                "boot": nb,
+            }
+        )
+    return out
+
+
+def _runs_of_methods(ns: list[int], by_n: dict) -> list[str]:
+    """Which method carries which N, as runs: ["event 16-4096", "rattle 8192", ...]."""
+    out, start = [], 0
+    for i in range(1, len(ns) + 1):
+        if i == len(ns) or by_n[ns[i]]["method"] != by_n[ns[start]]["method"]:
+            span = f"{ns[start]}" if i - 1 == start else f"{ns[start]}-{ns[i - 1]}"
+            out.append(f"{by_n[ns[start]]['method']} {span}")
+            start = i
+    return out
 
 
 def _law(n, r_inf, c, p):
@@ -283,8 +371,13 @@ def main() -> None:
     ap.add_argument(
         "--fit-method",
         default="event",
-        choices=["event", "timestep"],
-        help="the method whose rows stand for an N in the fit where both ran (default: event, the exact one)",
+        choices=["event", "timestep", "rattle"],
+        help="the method whose rows stand for an N in the fit where several ran (default: event, the exact one)",
+    )
+    ap.add_argument(
+        "--fit-each",
+        action="store_true",
+        help="also one fit per method, through its own ensembles at its default step (where it has four N)",
     )
     ap.add_argument(
         "--fit-theta",
@@ -322,6 +415,7 @@ def main() -> None:
     if "run_id" in df:  # a run in several tables (the same run by the same engine) counts once
         df = df.drop_duplicates(subset=["run_id", "engine"])
     df = df[(np.abs(df["alpha_deg"] - args.alpha_deg) < 1e-6) & (df["floor"] == args.floor)]
+    df = df[_default_contacts(df)]
     if args.pool_engines:
         df = _pool_engines(df, [e.strip() for e in args.pool_engines.split(",") if e.strip()])
     ok = (df["status"] == "landed") & np.isfinite(df["ratio"])
@@ -344,10 +438,20 @@ def main() -> None:
     fit = None
     if len(ns) >= 4:
         popt, ci, nb = _fit(ns, [by_n[n]["ratios"] for n in ns])
-        fit = {"r_inf": float(popt[0]), "c": float(popt[1]), "p": float(popt[2]), "r_inf_95": ci, "boot": nb, "N": ns}
+        fit = {
+            "r_inf": float(popt[0]),
+            "c": float(popt[1]),
+            "p": float(popt[2]),
+            "r_inf_95": ci,
+            "boot": nb,
+            "N": ns,
+            "methods": _runs_of_methods(ns, by_n),
+        }
+    fits = _fits_each(groups) if args.fit_each else []
     if args.json:
         hidden = ("ratios", "by_start")
-        print(json.dumps({"groups": [{k: v for k, v in g.items() if k not in hidden} for g in groups], "fit": fit}))
+        groups_out = [{k: v for k, v in g.items() if k not in hidden} for g in groups]
+        print(json.dumps({"groups": groups_out, "fit": fit, "fits_each": fits}))
     else:
         print(
             "| N | method | dt (t_ff/N) / rtol | engine | runs | t_fall/t_ff [95%] | faster than free fall "
@@ -392,8 +496,18 @@ def main() -> None:
         if fit:
             print(
                 f"\nfit over N = {fit['N']}: t_fall/t_ff = {fit['r_inf']:.3f} + {fit['c']:.3g} N^-{fit['p']:.2f}; "
-                f"r_inf 95% [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}] ({fit['boot']} bootstrap refits)"
+                f"r_inf 95% [{fit['r_inf_95'][0]:.3f}, {fit['r_inf_95'][1]:.3f}] ({fit['boot']} bootstrap refits; "
+                f"{', '.join(fit['methods'])})"
             )
+        if fits:
+            print("\n| method | step | N | starts at each N | r_inf [95%] | c | p |")
+            print("|---|---|---|---|---|---|---|")
+            for f in fits:
+                print(
+                    f"| {f['method']} | {f['step']} | {f['N'][0]}-{f['N'][-1]} ({len(f['N'])} N) "
+                    f"| {', '.join(str(r) for r in f['runs'])} "
+                    f"| {f['r_inf']:.3f} [{f['r_inf_95'][0]:.3f}, {f['r_inf_95'][1]:.3f}] | {f['c']:.3g} | {f['p']:.2f} |"
+                )
     if args.cost_plot:
         _cost_figure(_cost_slopes(groups), args.cost_plot)
     if args.plot:
@@ -402,22 +516,36 @@ def main() -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(6.4, 4.2))
-        for method, marker, shift in (("event", "o", 0.97), ("timestep", "s", 1.03)):
-            gs = [g for g in groups if g["method"] == method]
-            if not gs:
-                continue
-            x = np.array([g["segments"] for g in gs]) * shift
-            y = np.array([g["mean"] for g in gs])
-            err = np.array([[g["mean"] - g["lo"] for g in gs], [g["hi"] - g["mean"] for g in gs]])
-            label = "event-driven" if method == "event" else "time-stepping"
-            ax.errorbar(x, y, yerr=err, fmt=marker, capsize=3, label=label)
-        if fit:
-            xs = np.geomspace(min(ns), 16 * max(ns), 200)
-            ax.plot(xs, _law(xs, fit["r_inf"], fit["c"], fit["p"]), "k--", lw=1, label="fit r_inf + c N^-p")
-            ax.axhspan(*fit["r_inf_95"], color="0.85", zorder=0, label="r_inf, 95%")
-        ax.axhline(1.0, color="0.5", lw=0.8)
-        _save(fig, ax, "t_fall / t_ff", "alpha = 45 deg, floor all, random starts", args.plot)
+        names = {"event": "event-driven", "timestep": "time-stepping", "rattle": "RATTLE"}
+        marks = {"event": ("o", 0.96, "C0"), "timestep": ("s", 1.0, "C1"), "rattle": ("^", 1.04, "C2")}
+        fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.2))
+        for ax, n_min in zip(axes, (0, 512), strict=True):
+            for method, (marker, shift, color) in marks.items():
+                own = _own_per_n(groups, method)  # (one ensemble per N: its default step)
+                gs = [own[n] for n in sorted(own) if n >= n_min]
+                if not gs:
+                    continue
+                x = np.array([g["segments"] for g in gs]) * shift
+                y = np.array([g["mean"] for g in gs])
+                err = np.array([[g["mean"] - g["lo"] for g in gs], [g["hi"] - g["mean"] for g in gs]])
+                ax.errorbar(x, y, yerr=err, fmt=marker, color=color, capsize=3, label=names[method])
+            if fit:
+                xs = np.geomspace(max(min(ns), n_min / 1.5), 16 * max(ns), 200)
+                ax.plot(xs, _law(xs, fit["r_inf"], fit["c"], fit["p"]), "k--", lw=1, label="fit r_inf + c N^-p")
+                ax.axhspan(*fit["r_inf_95"], color="0.85", zorder=0, label="r_inf, 95%")
+            if n_min:
+                for f in fits:  # each method's own fit
+                    xs = np.geomspace(n_min / 1.5, 16 * max(ns if fit else f["N"]), 200)
+                    ax.plot(
+                        xs, _law(xs, f["r_inf"], f["c"], f["p"]), ":", lw=1.2, color=marks[f["method"]][2],
+                        label=f"{names[f['method']]} alone: r_inf {f['r_inf']:.3f}",
+                    )  # fmt: skip
+            else:
+                ax.axhline(1.0, color="0.5", lw=0.8)
+            title = "alpha = 45 deg, floor all, random starts" if not n_min else f"N >= {n_min}, each method's fit"
+            _style(ax, "t_fall / t_ff", title)
+        fig.tight_layout()
+        fig.savefig(args.plot, dpi=120)
 
 
 if __name__ == "__main__":
