@@ -65,11 +65,15 @@ OPTIONS = (
         "hold_rate",
         float,
         1e-6,
-        "The accumulation threshold, in sqrt(g/b): a hinge released at an event instant that "
-        "accelerates back to its limit and would return slower than this is held at its limit (the "
-        "limit of the converging series of impacts it would start; docs/model.md shows that results "
-        "converge as it goes to zero).",
+        "The accumulation threshold (sqrt(g/b) for a hinge's bend rate, sqrt(g b) for a point's speed): a hinge released at an event instant that "
+        "accelerates back to its limit and would return slower than this is held at its limit, and a "
+        "point bouncing off the floor (--restitution-floor) that would come back slower is anchored "
+        "(the limit of the converging series of impacts it would start; docs/model.md shows that "
+        "results converge as it goes to zero).",
         positive(),
+        flag="--hold-rate",
+        json="the event-driven integrator's accumulation threshold (sqrt(g/b) at a hinge, sqrt(g b) at the floor)",
+        column="accumulation threshold",
     ),
     MethodOption(
         "hold_apex",
