@@ -480,7 +480,8 @@ def main() -> None:
             best_event = _best_per_n([g for g in groups if g["method"] == "event"], "event")
             best_rattle = _own_per_n(groups, "rattle")  # (where the exact method did not run)
             print(
-                "\n| N | time-stepping | engine | against event-driven | pairs | t_fall/t_ff: ts - ed [95%] | KS p | E_lock/E0: ts - ed [95%] |"
+                "\n| N | time-stepping | engine | against (event-driven; else RATTLE) | pairs | t_fall/t_ff: difference [95%] "
+                "| KS p | E_lock/E0: difference [95%] |"
             )
             print("|---|---|---|---|---|---|---|---|")
             for g in groups:
