@@ -9,6 +9,7 @@ them in one line."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -178,6 +179,36 @@ def test_a_rod_bounces_on_its_top_end_until_the_accumulation_rule_anchors_it():
     en = r.energy
     assert en["lost_landing"] == pytest.approx(en["initial"], rel=1e-9) and en["lost_locking"] == 0.0
     assert abs(en["imbalance"]) < 1e-10 * en["initial"]
+
+
+@pytest.mark.parametrize(
+    "opts, floor_rate", [(dict(hold_rate_floor=0.2), 0.2), (dict(hold_rate=0.2, hold_rate_floor=1e-6), 1e-6)]
+)
+def test_the_floor_has_its_own_accumulation_threshold(opts, floor_rate):
+    """--hold-rate-floor alone ends the series of bounces: the top end is anchored at the
+    first bounce that would leave slower than it (the closed form's speeds 2 omega e^k),
+    whatever the hinges' threshold; the books still hold all of E0."""
+    theta0, e = 0.4, 0.5
+    r = _rod(theta0, e, **opts)
+    assert r.status == "landed", r.message
+    top = r.event_index == 0
+    bounce = top & (r.event_kind == EVENT_CODES["bounce"])
+    omega = np.sqrt(1.5 * np.cos(theta0))
+    v = 2.0 * omega * e ** np.arange(1, 60)
+    held = (v < floor_rate) | (v**2 < 2.0 * SolverOptions().hold_apex * 1.5)
+    assert bounce.sum() == np.argmax(held) and (top & (r.event_kind == EVENT_CODES["landing"])).sum() == 1
+    assert r.energy["lost_landing"] == pytest.approx(r.energy["initial"], rel=1e-9)
+
+
+def test_the_floor_threshold_leaves_the_hinges_alone():
+    """With no bounces (restitution 0 at the floor) the floor's threshold has nothing to
+    hold: a fall with locks, unlocks and landings is the same fall, event for event."""
+    kw = dict(segments=12, alpha=math.pi / 4)
+    a = simulate(ChainParams(**kw), options=SolverOptions(until=1.0))
+    b = simulate(ChainParams(**kw), options=SolverOptions(until=1.0, hold_rate_floor=0.5))
+    assert (a.event_kind == EVENT_CODES["unlock"]).sum() > 0 and (a.event_kind == EVENT_CODES["lock"]).sum() > 0
+    np.testing.assert_array_equal(a.event_kind, b.event_kind)
+    np.testing.assert_allclose(a.event_t, b.event_t, rtol=0, atol=1e-9)
 
 
 def test_an_elastic_floor_under_a_rod_gives_back_every_bounce():

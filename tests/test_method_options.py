@@ -140,7 +140,15 @@ def test_the_registry_states_every_method_option_once():
         assert getattr(SolverOptions(), name) == opt.default, name
     flags = [o.flag for o in opts.values() if o.flag]
     assert len(flags) == len(set(flags))
-    assert methods.option_names("simulate") == ["rtol", "hold_rate", "dt", "theta", "dt_rule", "step_energy_tol"]
+    assert methods.option_names("simulate") == [
+        "rtol",
+        "hold_rate",
+        "hold_rate_floor",
+        "dt",
+        "theta",
+        "dt_rule",
+        "step_energy_tol",
+    ]
     assert methods.option_names("sweep") == methods.option_names("simulate")
 
 

@@ -12,7 +12,8 @@ the kernels in ``dynamics`` and ``impacts`` act on the masks these rules produce
 * the thresholds that say when a constraint is *at* its limit, when an approach is an
   impact rather than a touch, and when a series of impacts is taken to its limit:
   ``GAP_TOL``, ``RATE_TOL``, ``Z_TOL``, ``ZERO_BAND`` and the options
-  ``SolverOptions.hold_rate``, ``hold_apex`` (``must_hold``);
+  ``SolverOptions.hold_rate``, ``hold_apex`` (``must_hold``; at the floor
+  ``hold_rate_floor``, hold_rate's unless set);
 * how an event function is watched after an event: ``arm_state``;
 * what a touch creates once its impact is solved: ``settle_anchors``.
 
@@ -51,7 +52,9 @@ COINCIDE_DEPTHS = 10.0  # ... plus this many times its depth at the touch (its e
 # the option ``hold_apex`` (too small to resolve: ten ZERO_BANDs by default), is held
 # at its limit instead
 # (``must_hold``).  The series of ever smaller impacts it replaces converges to that
-# state; docs/model.md gives the convergence study.
+# state; docs/model.md gives the convergence study.  A point bouncing off the floor is
+# held (anchored) by the same rule with the option ``hold_rate_floor`` (``hold_rate``'s
+# value unless it is set) and its height's acceleration.
 
 # how an event function is watched (arm_state)
 ARMED = 1  # positive: fires when it reaches zero

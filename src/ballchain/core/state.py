@@ -36,6 +36,7 @@ Model = namedtuple(
         "xtol",  # event-time tolerance (sqrt(b/g))
         "hold_rate",  # accumulation rule: hold a returning hinge slower than this (sqrt(g/b))
         "hold_apex",  # accumulation rule: hold a hinge whose excursion stays below this
+        "hold_rate_floor",  # accumulation rule at the floor: anchor a bouncing point returning slower (sqrt(g b))
         "t_stop",  # stop time (sqrt(b/g))
         "max_steps",  # integrator steps at most
         "max_events",  # event instants at most
@@ -78,6 +79,7 @@ def new_model(
         float(options.event_xtol),
         float(options.hold_rate),
         float(options.hold_apex),
+        float(options.hold_rate if options.hold_rate_floor is None else options.hold_rate_floor),
         float(t_stop),
         np.int64(options.max_steps),
         np.int64(options.max_events),

@@ -76,6 +76,18 @@ OPTIONS = (
         column="accumulation threshold",
     ),
     MethodOption(
+        "hold_rate_floor",
+        float,
+        None,
+        "The accumulation threshold at the floor alone (sqrt(g b)): a point bouncing off the floor "
+        "(--restitution-floor) that would come back slower than this is anchored; the hinges keep "
+        "--hold-rate's. Default: --hold-rate's value (one threshold for both).",
+        positive(),
+        flag="--hold-rate-floor",
+        json="the event-driven integrator's accumulation threshold at the floor, sqrt(g b) (null: --hold-rate's)",
+        column="accumulation threshold at the floor (NaN: the accumulation threshold's)",
+    ),
+    MethodOption(
         "hold_apex",
         float,
         1e-11,

@@ -15,7 +15,8 @@ and the handler without returning to Python.
    would return slower than ``hold_rate``, or after an excursion below
    ``hold_apex``, is held at its limit (``rules.must_hold``: the limit of the
    converging series of impacts it would start), and so is a point that rebounded from
-   the floor (anchored); steps 3-4 are then solved again;
+   the floor and would come back slower than ``hold_rate_floor`` (anchored); steps 3-4
+   are then solved again;
 5. new locks hold the angle reached; the state is projected onto the constraints; each
    event function is armed or marked departing (``arm_functions``), and the apex of
    each departing constraint that will come back is predicted (``apex_times``), so that
@@ -270,7 +271,8 @@ def _touch_floor(t, model, chain, ct, pt, na, iw):
 @njit(cache=True)
 def _hold_bouncing(t, model, chain, ct, pt, acc, iw):
     """The accumulation limit at the floor: a point that left the floor at this instant
-    and would come back slower than hold_rate, or after a flight too small to resolve
+    and would come back slower than hold_rate_floor (``--hold-rate-floor``; hold_rate's by
+    default), or after a flight too small to resolve
     (``rules.must_hold`` on its height), or that a later round's impulses have turned
     back down (it no longer rebounds), is anchored where it is instead (marked 2: the
     next round's impact stops it).  Returns the number anchored."""
@@ -286,7 +288,9 @@ def _hold_bouncing(t, model, chain, ct, pt, acc, iw):
     for j in range(n + 1):
         if ct.bounce[j] > 0.0 and chain.anchored[j] == 0:
             vz = pt.pv[j, 2]  # (a later round's impulses may have turned it back down)
-            if not rebounds(vz, model.e_floor, RATE_TOL) or must_hold(vz, ct.az[j], model.hold_rate, model.hold_apex):
+            if not rebounds(vz, model.e_floor, RATE_TOL) or must_hold(
+                vz, ct.az[j], model.hold_rate_floor, model.hold_apex
+            ):
                 _touch(t, chain, j, pt, iw, 0.0)
                 ct.bounce[j] = 0.0
                 nheld += 1
