@@ -14,6 +14,11 @@ of it).  Blocks per point j (rows of j against the impulses of j - 1, j or j + 1
   0 for a dropped row, whose column of l is 0: its unknown comes out 0),
   X_j = D'_j^{-1} U_j,   z_j = D'_j^{-1} (b_j - L_j z_{j-1}),   x_j = z_j - X_j x_{j+1}
 
+Each block is stored packed, row by row at the stride of its own row count (D_j: nr_j x
+nr_j at D[j, r nr_j + s]; L_j: nr_j x nr_{j-1}; X_j: nr_j x nr_{j+1}), so that a point's
+blocks are contiguous: the common point of 4 rows touches 2 cache lines a block, not 4 of
+the 8 rows of RMAX (at large N the step waits on memory).
+
 A *dropped* row has unknown 0 and its equation left out: a row the factorisation of
 J W J^T finds redundant (its pivot below DROP_RTOL of its diagonal: a chain folded
 between anchors, two limits that say the same), and in stage 1 the rows dropped by the
@@ -35,16 +40,17 @@ from .rows import K_AXIS, K_JOINT, end_signs, has_columns
 PIVOT_RTOL = 1e-12  # stage 1: a pivot of A below this fraction of its diagonal (not dropped): A is singular
 
 # The factors of one matrix: D (l, u and the inverse pivots), L (the lower blocks, kept for
-# the solves), X, which rows are dropped, and the diagonal before the elimination (scratch).
+# the solves), X, each (points, RMAX^2) packed (module docstring), which rows are dropped,
+# and the diagonal before the elimination (scratch).
 Factors = namedtuple("Factors", ["D", "L", "X", "drop", "d0"])
 
 
 def new_factors(points: int, rmax: int) -> Factors:
     """Room for the factors of ``points`` blocks of up to rmax rows."""
     return Factors(
-        np.zeros((points, rmax, rmax)),
-        np.zeros((points, rmax, rmax)),
-        np.zeros((points, rmax, rmax)),
+        np.zeros((points, rmax * rmax)),
+        np.zeros((points, rmax * rmax)),
+        np.zeros((points, rmax * rmax)),
         np.zeros((points, rmax), np.uint8),
         np.zeros(rmax),
     )
@@ -121,32 +127,32 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
         cv, cw = (0.0, 0.0) if c_out else (W_V, W_W)
         free = kind[j, 0] == K_JOINT  # the first 4 rows in closed form (``_free_point_blocks``)
         r0 = 4 if free else 0
+        npv = nrow[j - 1] if j >= 1 else 0
         if free:
-            _free_point_blocks(J1, J0, nrow[j - 1] if j >= 1 else 0, j, D, L, av, aw, cv, cw)
+            _free_point_blocks(J1, J0, npv, nr, j, D, L, av, aw, cv, cw)
         for r in range(nr):
             for s in range(r0 if r < r0 else 0, nr):
-                D[j, r, s] = _entry(J1, J0, kind, j, r, j, s, False, False, av, aw) + _entry(
+                D[j, r * nr + s] = _entry(J1, J0, kind, j, r, j, s, False, False, av, aw) + _entry(
                     J1, J0, kind, j, r, j, s, True, True, cv, cw
                 )
         if j >= 1 and av + aw > 0.0:
-            npv = nrow[j - 1]
             for r in range(r0, nr):
                 for p in range(npv):
-                    L[j, r, p] = _entry(J1, J0, kind, j, r, j - 1, p, False, True, av, aw)
+                    L[j, r * npv + p] = _entry(J1, J0, kind, j, r, j - 1, p, False, True, av, aw)
             for r in range(nr):
                 for s in range(nr):
                     acc = 0.0
                     for p in range(npv):
-                        acc += L[j, r, p] * X[j - 1, p, s]
-                    D[j, r, s] -= acc
+                        acc += L[j, r * npv + p] * X[j - 1, p * nr + s]
+                    D[j, r * nr + s] -= acc
         elif j >= 1:
             for r in range(nr):
-                for p in range(nrow[j - 1]):
-                    L[j, r, p] = 0.0
+                for p in range(npv):
+                    L[j, r * npv + p] = 0.0
         for k in range(nr):
-            d0[k] = abs(D[j, k, k])
+            d0[k] = abs(D[j, k * nr + k])
         for k in range(nr):  # LU of D'_j in place, no pivoting
-            d = D[j, k, k]
+            d = D[j, k * nr + k]
             if symmetric:
                 out = d <= DROP_RTOL * max(d0[k], 1e-300)
             else:
@@ -156,63 +162,64 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
             if out:  # its unknown 0: no multipliers, inverse pivot 0 (the solves need not ask)
                 drop[j, k] = 1
                 ndrop += 1
-                D[j, k, k] = 0.0
+                D[j, k * nr + k] = 0.0
                 for i in range(k + 1, nr):
-                    D[j, i, k] = 0.0
+                    D[j, i * nr + k] = 0.0
                 continue
             drop[j, k] = 0
             inv = 1.0 / d
-            D[j, k, k] = inv
+            D[j, k * nr + k] = inv
             for i in range(k + 1, nr):
-                f = D[j, i, k] * inv
-                D[j, i, k] = f
+                f = D[j, i * nr + k] * inv
+                D[j, i * nr + k] = f
                 if f != 0.0:
                     for s in range(k + 1, nr):
-                        D[j, i, s] -= f * D[j, k, s]
+                        D[j, i * nr + s] -= f * D[j, k * nr + s]
         if j < n:
             nn = nrow[j + 1]
             if free:
                 _free_point_coupling(J1, J0, nn, j, X, cv, cw)
             for r in range(r0, nr):
                 for s in range(nn):
-                    X[j, r, s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
+                    X[j, r * nn + s] = _entry(J1, J0, kind, j, r, j + 1, s, True, False, cv, cw)
             _lu_solve_columns(D, j, nr, X, nn)
         j += 1
     return ndrop
 
 
 @njit(cache=True, inline="always")
-def _free_point_blocks(J1, J0, npv, j, D, L, av, aw, cv, cw):
+def _free_point_blocks(J1, J0, npv, nr, j, D, L, av, aw, cv, cw):
     """D_j's first 4 x 4 and L_j's first 4 rows at a free point j: its joint rows q (on the
     segment above: +1 centre, -1 axis; below: -1, -1) and the axis row of the segment
     below (E = J[j, 3, 9:12]):  D[q, q'] = delta (av + aw + cv + cw),  D[q, 3] = -cw E0_q,
     D[3, q] = -cw E1_q,  D[3, 3] = cw E1 . E0;  L[q, p] = av J0[j-1, p, 6+q] - aw
-    J0[j-1, p, 9+q] (row p of point j - 1 on its segment below), L[3, p] = 0."""
+    J0[j-1, p, 9+q] (row p of point j - 1 on its segment below), L[3, p] = 0 (packed at
+    the strides nr, the rows of point j, and npv, those of point j - 1)."""
     dq = av + aw + cv + cw
     e11, e12, e13 = J1[j, 3, 9], J1[j, 3, 10], J1[j, 3, 11]
     e01, e02, e03 = J0[j, 3, 9], J0[j, 3, 10], J0[j, 3, 11]
     for q in range(3):
         for s in range(3):
-            D[j, q, s] = dq if q == s else 0.0
-    D[j, 0, 3], D[j, 1, 3], D[j, 2, 3] = -cw * e01, -cw * e02, -cw * e03
-    D[j, 3, 0], D[j, 3, 1], D[j, 3, 2] = -cw * e11, -cw * e12, -cw * e13
-    D[j, 3, 3] = cw * (e11 * e01 + e12 * e02 + e13 * e03)
+            D[j, q * nr + s] = dq if q == s else 0.0
+    D[j, 3], D[j, nr + 3], D[j, 2 * nr + 3] = -cw * e01, -cw * e02, -cw * e03
+    D[j, 3 * nr], D[j, 3 * nr + 1], D[j, 3 * nr + 2] = -cw * e11, -cw * e12, -cw * e13
+    D[j, 3 * nr + 3] = cw * (e11 * e01 + e12 * e02 + e13 * e03)
     for p in range(npv):  # (npv: the rows of point j - 1, 0 at the top)
         for q in range(3):
-            L[j, q, p] = av * J0[j - 1, p, 6 + q] - aw * J0[j - 1, p, 9 + q]
-        L[j, 3, p] = 0.0
+            L[j, q * npv + p] = av * J0[j - 1, p, 6 + q] - aw * J0[j - 1, p, 9 + q]
+        L[j, 3 * npv + p] = 0.0
 
 
 @njit(cache=True, inline="always")
 def _free_point_coupling(J1, J0, nn, j, X, cv, cw):
     """U_j's first 4 rows at a free point j (``_free_point_blocks``), against the rows s of
     point j + 1 on their segment above (J0[j+1, s, 0:6]):  U[q, s] = -cv J0[j+1, s, q] - cw
-    J0[j+1, s, 3+q],  U[3, s] = cw E1 . J0[j+1, s, 3:6]."""
+    J0[j+1, s, 3+q],  U[3, s] = cw E1 . J0[j+1, s, 3:6] (packed at the stride nn)."""
     e11, e12, e13 = J1[j, 3, 9], J1[j, 3, 10], J1[j, 3, 11]
     for s in range(nn):  # (nn: the rows of point j + 1)
         for q in range(3):
-            X[j, q, s] = -cv * J0[j + 1, s, q] - cw * J0[j + 1, s, 3 + q]
-        X[j, 3, s] = cw * (e11 * J0[j + 1, s, 3] + e12 * J0[j + 1, s, 4] + e13 * J0[j + 1, s, 5])
+            X[j, q * nn + s] = -cv * J0[j + 1, s, q] - cw * J0[j + 1, s, 3 + q]
+        X[j, 3 * nn + s] = cw * (e11 * J0[j + 1, s, 3] + e12 * J0[j + 1, s, 4] + e13 * J0[j + 1, s, 5])
 
 
 @njit(cache=True)
@@ -232,19 +239,18 @@ def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
     j = j0
     wv, ww = W_V, W_W  # both segments' weights (a point with joint rows is free: neither segment at it has landed)
     while j < npts and nrow[j] == 4 and kind[j, 0] == K_JOINT:
-        _free_point_blocks(J1, J0, nrow[j - 1] if j >= 1 else 0, j, D, L, wv, ww, wv, ww)
-        if j >= 1:
-            npv = nrow[j - 1]
-            for r in range(3):
-                for s in range(3):
-                    acc = 0.0
-                    for p in range(npv):
-                        acc += L[j, r, p] * X[j - 1, p, s]
-                    D[j, r, s] -= acc
-        d00, d11, d22, d33 = abs(D[j, 0, 0]), abs(D[j, 1, 1]), abs(D[j, 2, 2]), abs(D[j, 3, 3])
+        npv = nrow[j - 1] if j >= 1 else 0
+        _free_point_blocks(J1, J0, npv, 4, j, D, L, wv, ww, wv, ww)
+        for r in range(3):
+            for s in range(3):
+                acc = 0.0
+                for p in range(npv):
+                    acc += L[j, r * npv + p] * X[j - 1, p * 4 + s]
+                D[j, r * 4 + s] -= acc
+        d00, d11, d22, d33 = abs(D[j, 0]), abs(D[j, 5]), abs(D[j, 10]), abs(D[j, 15])
         nd = 0
         for k in range(4):
-            d = D[j, k, k]
+            d = D[j, k * 5]
             dk0 = d00 if k == 0 else (d11 if k == 1 else (d22 if k == 2 else d33))
             if symmetric:
                 out = d <= DROP_RTOL * max(dk0, 1e-300)
@@ -255,24 +261,24 @@ def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
             if out:
                 drop[j, k] = 1
                 nd += 1
-                D[j, k, k] = 0.0
+                D[j, k * 5] = 0.0
                 for i in range(k + 1, 4):
-                    D[j, i, k] = 0.0
+                    D[j, i * 4 + k] = 0.0
                 continue
             drop[j, k] = 0
             inv = 1.0 / d
-            D[j, k, k] = inv
+            D[j, k * 5] = inv
             for i in range(k + 1, 4):
-                f = D[j, i, k] * inv
-                D[j, i, k] = f
+                f = D[j, i * 4 + k] * inv
+                D[j, i * 4 + k] = f
                 for c in range(k + 1, 4):
-                    D[j, i, c] -= f * D[j, k, c]
+                    D[j, i * 4 + c] -= f * D[j, k * 4 + c]
         if j < n:
             nn = nrow[j + 1]
             _free_point_coupling(J1, J0, nn, j, X, wv, ww)
             for s in range(nn):
-                X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s] = _lu4_solve(
-                    D, j, X[j, 0, s], X[j, 1, s], X[j, 2, s], X[j, 3, s]
+                X[j, s], X[j, nn + s], X[j, 2 * nn + s], X[j, 3 * nn + s] = _lu4_solve(
+                    D, j, X[j, s], X[j, nn + s], X[j, 2 * nn + s], X[j, 3 * nn + s]
                 )
         ndrop += nd
         j += 1
@@ -285,19 +291,19 @@ def _lu_solve_columns(D, j, nr, X, nn):
     0 and its column of l is 0)."""
     for k in range(nr):
         for i in range(k + 1, nr):
-            f = D[j, i, k]
+            f = D[j, i * nr + k]
             if f != 0.0:
                 for s in range(nn):
-                    X[j, i, s] -= f * X[j, k, s]
+                    X[j, i * nn + s] -= f * X[j, k * nn + s]
     for k in range(nr - 1, -1, -1):
         for c in range(k + 1, nr):
-            f = D[j, k, c]
+            f = D[j, k * nr + c]
             if f != 0.0:
                 for s in range(nn):
-                    X[j, k, s] -= f * X[j, c, s]
-        inv = D[j, k, k]
+                    X[j, k * nn + s] -= f * X[j, c * nn + s]
+        inv = D[j, k * nr + k]
         for s in range(nn):
-            X[j, k, s] *= inv
+            X[j, k * nn + s] *= inv
 
 
 @njit(cache=True)
@@ -310,56 +316,57 @@ def solve_blocks(nrow, F, b, x):
         if nr == 4:  # most points: loops of fixed length (written out here, not a helper's:
             # a helper taking the arrays costs numba a reference count per point)
             x0, x1, x2, x3 = b[j, 0], b[j, 1], b[j, 2], b[j, 3]
-            for p in range(nrow[j - 1] if j >= 1 else 0):
+            npv = nrow[j - 1] if j >= 1 else 0
+            for p in range(npv):
                 xp = x[j - 1, p]
-                x0 -= L[j, 0, p] * xp
-                x1 -= L[j, 1, p] * xp
-                x2 -= L[j, 2, p] * xp
-                x3 -= L[j, 3, p] * xp
+                x0 -= L[j, p] * xp
+                x1 -= L[j, npv + p] * xp
+                x2 -= L[j, 2 * npv + p] * xp
+                x3 -= L[j, 3 * npv + p] * xp
             x[j, 0], x[j, 1], x[j, 2], x[j, 3] = _lu4_solve(D, j, x0, x1, x2, x3)
             continue
+        npv = nrow[j - 1] if j >= 1 else 0
         for r in range(nr):
             v = b[j, r]
-            if j >= 1:
-                for p in range(nrow[j - 1]):
-                    v -= L[j, r, p] * x[j - 1, p]
+            for p in range(npv):
+                v -= L[j, r * npv + p] * x[j - 1, p]
             x[j, r] = v
         for k in range(nr):
             xk = x[j, k]
             for i in range(k + 1, nr):
-                x[j, i] -= D[j, i, k] * xk
+                x[j, i] -= D[j, i * nr + k] * xk
         for k in range(nr - 1, -1, -1):
             s = x[j, k]
             for c in range(k + 1, nr):
-                s -= D[j, k, c] * x[j, c]
-            x[j, k] = s * D[j, k, k]
+                s -= D[j, k * nr + c] * x[j, c]
+            x[j, k] = s * D[j, k * nr + k]
     for j in range(npts - 2, -1, -1):
         nn = nrow[j + 1]
         if nrow[j] == 4 and nn == 4:
             for r in range(4):
                 x[j, r] -= (
-                    X[j, r, 0] * x[j + 1, 0]
-                    + X[j, r, 1] * x[j + 1, 1]
-                    + X[j, r, 2] * x[j + 1, 2]
-                    + X[j, r, 3] * x[j + 1, 3]
+                    X[j, 4 * r] * x[j + 1, 0]
+                    + X[j, 4 * r + 1] * x[j + 1, 1]
+                    + X[j, 4 * r + 2] * x[j + 1, 2]
+                    + X[j, 4 * r + 3] * x[j + 1, 3]
                 )
             continue
         for r in range(nrow[j]):
             acc = 0.0
             for s in range(nn):
-                acc += X[j, r, s] * x[j + 1, s]
+                acc += X[j, r * nn + s] * x[j + 1, s]
             x[j, r] -= acc
 
 
 @njit(cache=True, inline="always")
 def _lu4_solve(D, j, x0, x1, x2, x3):
     """D'_j^{-1} (x0, x1, x2, x3) for a point of 4 rows: l (unit lower) then u (its
-    inverse pivots on the diagonal), as ``factor_blocks`` left them in D[j]."""
-    x1 -= D[j, 1, 0] * x0
-    x2 -= D[j, 2, 0] * x0 + D[j, 2, 1] * x1
-    x3 -= D[j, 3, 0] * x0 + D[j, 3, 1] * x1 + D[j, 3, 2] * x2
-    x3 *= D[j, 3, 3]
-    x2 = (x2 - D[j, 2, 3] * x3) * D[j, 2, 2]
-    x1 = (x1 - D[j, 1, 2] * x2 - D[j, 1, 3] * x3) * D[j, 1, 1]
-    x0 = (x0 - D[j, 0, 1] * x1 - D[j, 0, 2] * x2 - D[j, 0, 3] * x3) * D[j, 0, 0]
+    inverse pivots on the diagonal), as ``factor_blocks`` left them in D[j] (packed 4 x 4)."""
+    x1 -= D[j, 4] * x0
+    x2 -= D[j, 8] * x0 + D[j, 9] * x1
+    x3 -= D[j, 12] * x0 + D[j, 13] * x1 + D[j, 14] * x2
+    x3 *= D[j, 15]
+    x2 = (x2 - D[j, 11] * x3) * D[j, 10]
+    x1 = (x1 - D[j, 6] * x2 - D[j, 7] * x3) * D[j, 5]
+    x0 = (x0 - D[j, 1] * x1 - D[j, 2] * x2 - D[j, 3] * x3) * D[j, 0]
     return x0, x1, x2, x3

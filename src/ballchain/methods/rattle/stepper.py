@@ -488,7 +488,8 @@ def stage1(h, model, mo, ws, sc, budget):
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
     for j in range(sc.floor_on.shape[0]):  # (a point that touched the floor at the last step starts on it)
         sc.floor_on[j] = 1 if (mo.touching[j] != 0 and mo.anchored[j] == 0) else 0
-    newt_valid = False  # ws.newt holds the factors of the last round's Newton matrix
+    newt_valid = False  # ws.newt holds the factors of a Newton matrix of this stage ...
+    newt_from = 0  # ... whose rows are those of the current layout at the points before this one
     for rnd in range(ROUNDS_MAX):
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
@@ -496,7 +497,8 @@ def stage1(h, model, mo, ws, sc, budget):
             mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, sc.start.e, rnd == 0, False,
             rnd > 0,
         )  # (J W J^T only if the last stage 2's serves)  # fmt: skip
-        restart = j0 if newt_valid else 0  # the Newton matrix's factors kept for the points before j0
+        newt_from = min(newt_from, j0)  # (a round that did not factor A leaves its factors to the next)
+        restart = newt_from if newt_valid else 0  # the Newton matrix's factors kept for the points before it
         if rnd == 0:  # warm start: the last stage 2's impulses, h/2 times the forces at this step's start
             carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
         else:
@@ -542,6 +544,7 @@ def stage1(h, model, mo, ws, sc, budget):
                     sc.acc[5] += 1.0
                     exact = _factor_newton(mo, ws, restart if not exact else 0)
                     restart = 0
+                    newt_from = ws.nrow.shape[0]
                     singular = not exact
                     if singular and not have_sym:  # J W J^T, its redundant rows dropped, and A again
                         _factor_symmetric(mo.anchored, ws, sc.acc, 0)
