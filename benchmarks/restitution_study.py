@@ -19,7 +19,9 @@ Hamm-Geminard formula), with their paired differences too.  ``--plot``: the mean
 t_fall/t_ff against E, one line per N, with its intervals.  ``--against TABLE``: the
 table's runs (another method's) minus TABLE's on the same starts, per (N, E): the pairs,
 the mean paired difference of t_fall/t_ff and of E_lock/E0 with their 95% bootstrap
-intervals, and the two-sample KS p of the fall times:
+intervals, and the two-sample KS p of the fall times; then, over every start, how many land
+by the time cap in each table (McNemar's test of the starts only one lands) and the medians
+with the falls past the cap counted as longer:
 
     python benchmarks/restitution_study.py docs/data/rattle-restitution-lock.parquet --against docs/data/restitution-lock.parquet
 """
@@ -73,6 +75,30 @@ def against(df, ref, law) -> None:
             f"| {n} | {e:g} | {len(g)} | {g.ratio.mean():.3f} | {g.ratio_ref.mean():.3f} | {dt.mean():+.3f} "
             f"[{tlo:+.3f}, {thi:+.3f}] | {p:.2f} | {de.mean():+.4f} [{elo:+.4f}, {ehi:+.4f}] |"
         )
+    landed_by_the_cap(df, ref, law)
+
+
+def landed_by_the_cap(df, ref, law) -> None:
+    """The pairs above are the starts both runs land by the time cap: where many do not,
+    that choice is biased.  Per (N, E), over every start of both tables: how many land by
+    the cap in each, the starts only one of them lands (McNemar's exact test of the two
+    counts), and the median t_fall/t_ff with a run that did not land counted as longer
+    than any that did."""
+    from scipy.stats import binomtest
+
+    key = ["segments", law, "run_index"]
+    m = df.merge(ref, on=key, suffixes=("", "_ref"))
+    print(
+        "\n| N | E | starts | landed, this | against | only this lands | only against | McNemar p | median, this | against |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for (n, e), g in m.groupby(["segments", law]):
+        a, b = (g.status == "landed").to_numpy(), (g.status_ref == "landed").to_numpy()
+        ab, ba = int((a & ~b).sum()), int((~a & b).sum())
+        p = binomtest(ab, ab + ba).pvalue if ab + ba else 1.0
+        med = [np.median(np.where(ok, r.to_numpy(dtype=float), np.inf)) for ok, r in ((a, g.ratio), (b, g.ratio_ref))]
+        text = [f"{v:.3f}" if np.isfinite(v) else "past the cap" for v in med]
+        print(f"| {n} | {e:g} | {len(g)} | {a.sum()} | {b.sum()} | {ab} | {ba} | {p:.2f} | {text[0]} | {text[1]} |")
 
 
 def main() -> None:
