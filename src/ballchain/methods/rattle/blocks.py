@@ -17,7 +17,7 @@ of it).  Blocks per point j (rows of j against the impulses of j - 1, j or j + 1
 Each block is stored packed, row by row at the stride of its own row count (D_j: nr_j x
 nr_j at D[j, r nr_j + s]; L_j: nr_j x nr_{j-1}; X_j: nr_j x nr_{j+1}), so that a point's
 blocks are contiguous: the common point of 4 rows touches 2 cache lines a block, not 4 of
-the 8 rows of RMAX (at large N the step waits on memory).
+the 8 rows of RMAX.
 
 A *dropped* row has unknown 0 and its equation left out: a row the factorisation of
 J W J^T finds redundant (its pivot below DROP_RTOL of its diagonal: a chain folded

@@ -499,15 +499,7 @@ def stage1(h, model, mo, ws, sc, budget):
         )  # (J W J^T only if the last stage 2's serves)  # fmt: skip
         newt_from = min(newt_from, j0)  # (a round that did not factor A leaves its factors to the next)
         restart = newt_from if newt_valid else 0  # the Newton matrix's factors kept for the points before it
-        if rnd == 0:  # warm start: the last stage 2's impulses, h/2 times the forces at this step's start
-            carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
-        else:
-            carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)  # the last round's, row by row
-        if rnd == 0:  # scaled to this step (a non-finite impulse is no warm start)
-            scale = h / sc.h_last[0] if sc.h_last[0] > 0.0 else 1.0
-            for j in range(ws.nrow.shape[0]):
-                for r in range(ws.nrow[j]):
-                    ws.x[j, r] = ws.x[j, r] * scale if abs(ws.x[j, r]) < 1e30 else 0.0
+        _first_guess(h, rnd, ws, sc)
         met = False
         exact = False  # the symmetric factors while each iteration cuts the residual NEWTON_RATE-fold, then A
         singular = False  # A was singular to round-off: the chord on J W J^T only
@@ -581,6 +573,22 @@ def stage1(h, model, mo, ws, sc, budget):
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, mo.vc, mo.ve, sc.ra1)
             return 0
     return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def _first_guess(h, rnd, ws, sc):
+    """Stage 1's impulses to start a round from (ws.x): in the first, the last accepted
+    step's stage 2 impulses (h/2 times the forces at this step's start), scaled to this
+    step (a non-finite impulse is no warm start); in a later one, the last round's, row by
+    row (``carry_over``)."""
+    if rnd > 0:
+        carry_over(sc.kind1, sc.nrow1, sc.x1, ws.kind, ws.nrow, ws.x)
+        return
+    carry_over(sc.kind_w, sc.nrow_w, sc.x_w, ws.kind, ws.nrow, ws.x)
+    scale = h / sc.h_last[0] if sc.h_last[0] > 0.0 else 1.0
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            ws.x[j, r] = ws.x[j, r] * scale if abs(ws.x[j, r]) < 1e30 else 0.0
 
 
 @njit(cache=True)
