@@ -2,6 +2,7 @@
 the energy bound.
 
     python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --etol default,0
+    python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --attempts
 
 For each N, random start (seed 2026, spawn key k, alpha = pi/4, floor ``all``) and bound
 (``default``: the method's ``--step-energy-tol``; ``0``: no bound, the steps shortened only
@@ -10,6 +11,13 @@ of its steps at the longest size (``--dt`` t_ff/N) and the share of its time the
 and the mean step over the longest in each tenth of t_ff.  The step sizes are the
 differences of the result's trace times (one per accepted step).  Machine and versions
 first.
+
+``--attempts``: instead, the fall's attempts of a step by kind (accepted without an impact,
+accepted with one, refused and taken again shorter), each kind's number per segment, its
+block factorisations (whole or partial, counted alike) and stage 1's Newton evaluations,
+and for the smooth steps how many took 1, 2, 3 or 4 factorisations.  A diagnostic of the
+method's internals: the compiled loop is made to return after every attempt
+(``driver.RETURN_EVERY``), and its counters (``Scratch.acc``) are read at each return.
 """
 
 from __future__ import annotations
@@ -50,13 +58,67 @@ def steps_of(n: int, key: int, etol: float | None) -> dict:
     )
 
 
+def attempts_of(n: int, key: int) -> dict:
+    """One fall at the defaults, its attempts of a step by kind (``--attempts``)."""
+    from ballchain.methods.rattle import driver
+
+    rec = []
+    loop, every = driver.run_steps, driver.RETURN_EVERY
+
+    def one_attempt(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
+        s0 = int(books.n_steps[0])
+        code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
+        rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0))
+        return code, t
+
+    driver.run_steps, driver.RETURN_EVERY = one_attempt, 1
+    try:
+        r = simulate(
+            ChainParams(segments=n, alpha=np.pi / 4),
+            InitialCondition(kind="random", seed=2026, spawn_key=(key,)),
+            SolverOptions(method="rattle"),
+        )
+    finally:
+        driver.run_steps, driver.RETURN_EVERY = loop, every
+    a = np.array(rec, dtype=float)
+    ok, fac, evals, impact = a[:, 0] > 0, a[:, 1], a[:, 2], a[:, 3] > 0
+    kinds = {"smooth": ok & ~impact, "impact": ok & impact, "refused": ~ok}
+    return dict(
+        status=r.status,
+        per_step=fac.sum() / ok.sum(),
+        kinds={k: (m.sum() / n, fac[m].mean(), fac[m].sum() / fac.sum(), evals[m].mean()) for k, m in kinds.items()},
+        smooth_split=[float((fac[kinds["smooth"]] == f).mean()) for f in (1, 2, 3, 4)],
+    )
+
+
+def print_attempts(segments, starts) -> None:
+    print(
+        "\n| N | start | factorisations per accepted step | kind | per N | factorisations each | share of all | "
+        "Newton evaluations each | smooth: 1, 2, 3, 4 factorisations |"
+    )
+    print("|" + "---|" * 9)
+    for n in segments:
+        for key in starts:
+            s = attempts_of(n, key)
+            for kind, (per_n, each, share, ev) in s["kinds"].items():
+                split = ", ".join(f"{v:.2f}" for v in s["smooth_split"]) if kind == "smooth" else ""
+                print(
+                    f"| {n} | {key} | {s['per_step']:.2f} | {kind} | {per_n:.1f} | {each:.2f} | {share:.2f} | {ev:.2f} | "
+                    f"{split} |"
+                )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--segments", default="256")
     ap.add_argument("--starts", default="0", help="spawn keys: 0 or 0,1")
     ap.add_argument("--etol", default="default,0", help="bounds: default (the method's) and/or numbers (E0)")
+    ap.add_argument("--attempts", action="store_true", help="the attempts of a step by kind, at the defaults")
     a = ap.parse_args()
     print(machine_info())
+    if a.attempts:
+        print_attempts([int(s) for s in a.segments.split(",")], [int(s) for s in a.starts.split(",")])
+        return
     print(
         "\n| N | start | bound | status | t_fall/t_ff | steps / N | steps at the longest | their time | imbalance / E0 | "
         + " | ".join(f"h/h_max at {k / 10:.1f}" for k in range(10))
