@@ -100,7 +100,7 @@ def _pile_and_hanging_part(n=12, landed=4, seed=3):
     """A chain whose last ``landed`` segments lie on the floor (their points anchored) and
     whose upper part hangs above them, bent within the limit, moving: points P_j (j = 0 the
     top), velocities V_j built from the anchored point up (lengths and joints kept)."""
-    from ballchain.methods.rattle.stepper import Motion
+    from ballchain.methods.rattle.state import Motion
 
     rng = np.random.default_rng(seed)
     k = n - landed  # the first anchored point
@@ -127,20 +127,21 @@ def test_the_landed_part_takes_no_part_in_a_step():
     the same steps on the whole chain leave the same state (up to the solver's tolerance,
     whose round-off term counts the segments it works on)."""
     from ballchain.core.state import new_model
-    from ballchain.methods.rattle import stepper as S
+    from ballchain.methods.rattle import scheme as S
     from ballchain.methods.rattle.rows import new_rows
+    from ballchain.methods.rattle.state import copy_motion, new_scratch
 
     n = 12
     model = new_model(math.pi / 4, 0, False, SolverOptions(method="rattle").for_segments(n), 1e9, 0.0, 1)
     runs = []
     for whole in (False, True):
-        mo, ws, sc = _pile_and_hanging_part(n), new_rows(n), S.new_scratch(n)
+        mo, ws, sc = _pile_and_hanging_part(n), new_rows(n), new_scratch(n)
         assert S.active_points(mo.anchored) == n - 4 + 2  # down to the lower end of the first landed segment
         t, h, locks = 0.0, 0.01, 0
         for _ in range(40):
             if whole:  # (rattle_step's preamble, on every point)
                 sc.acc[:], sc.pull[:] = 0.0, 0.0
-                S.copy_motion(mo, sc.start)
+                copy_motion(mo, sc.start)
                 code, na = S._step_points(t, h, model, mo, ws, sc, 0.0, True, False, S.ITER_BUDGET)
             else:
                 code, na = S.rattle_step(t, h, model, mo, ws, sc, 0.0, True, False, S.ITER_BUDGET)

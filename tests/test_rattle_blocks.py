@@ -221,12 +221,13 @@ def test_the_locks_share_of_a_landing_step_is_what_they_dissipate_after_the_land
     before) and then hinges 3 and 4 locking anew: the locks dissipate T(u_landed) - T(u+),
     where u+ comes from all rows at once, as the step solves them (their impulses split
     between the step's two stages)."""
-    from ballchain.methods.rattle import stepper as S
+    from ballchain.methods.rattle.books import lock_loss_after_landing
     from ballchain.methods.rattle.rows import new_rows
+    from ballchain.methods.rattle.state import new_motion, new_scratch
 
     n = 8
     rng = np.random.default_rng(21)
-    mo, ws, sc = S.new_motion(n), new_rows(n), S.new_scratch(n)
+    mo, ws, sc = new_motion(n), new_rows(n), new_scratch(n)
     mo.e[:] = rng.standard_normal((n, 3))
     mo.anchored[[6, 7, 8]] = (2, 1, 1)  # segment 7 landed before; segment 6 lands now (point 6: its impact)
     sc.start.locked[1] = 1
@@ -257,7 +258,7 @@ def test_the_locks_share_of_a_landing_step_is_what_they_dissipate_after_the_land
     r3 = [r for r in range(ws.nrow[j3]) if ws.kind[j3, r] == K_BEND][0]
     sc.kind1[j3, 0], sc.nrow1[j3], sc.x1[j3, 0] = K_BEND, 1, ws.x[j3, r3] / 3.0
     ws.x[j3, r3] *= 2.0 / 3.0
-    got = S.lock_loss_after_landing(mo, ws, sc)
+    got = lock_loss_after_landing(mo, ws, sc)
     assert truth > 1e-3 * (0.5 * u0 @ M @ u0)  # (the locks do dissipate)
     assert abs(got - truth) < 1e-10 * truth
     assert list(mo.locked) == [0, 1, 0, 1, 1, 0, 0]  # (the step's locks as they were)

@@ -1,5 +1,9 @@
-"""Nonsmooth RATTLE: a second-order constrained step (``stepper``: the compiled step and
-loop; ``rows``: the constraints in maximal coordinates; ``driver``: a run).
+"""Nonsmooth RATTLE: a second-order constrained step.  Its kernels, in the order a step
+uses them: ``rows`` (the constraints in maximal coordinates), ``blocks`` (their block
+LU), ``state`` (the bundles a step works on), ``stage1`` (positions), ``stage2`` (the
+landings, velocities), ``rebounds`` (restitution within a step), ``books`` (what a step
+booked), ``scheme`` (one step), ``frames`` (frames inside a step), ``stepper`` (the step
+control and the compiled loop), ``codes``; ``driver``: a run.
 
 What the method owns (plain data, importable without its kernels): its options
 (``OPTIONS``), its default step (``DEFAULTS``: the step ``dt`` is the time-stepping

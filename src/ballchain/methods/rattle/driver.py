@@ -21,26 +21,22 @@ from ..outputs import (
     loop_verdict,
 )
 from . import STEP_ENERGY_TOL
-from .rows import new_rows
-from .stepper import (
+from .codes import (
     ERR_ACTIVE_SET,
     ERR_NAN,
     ERR_NEWTON,
     ERR_STEP_ENERGY,
     ERR_STEP_NAN,
-    FB_SIZE,
     RT_BUFFER,
     RT_LANDED,
     RT_MAX_STEPS,
     RT_RETURN,
     RT_STOP,
-    Motion,
-    kinetic_energy_rattle,
-    maximal_state,
-    new_frame_work,
-    new_scratch,
-    run_steps,
 )
+from .frames import FB_SIZE
+from .rows import new_rows
+from .state import Motion, kinetic_energy_rattle, maximal_state, new_frame_work, new_scratch
+from .stepper import run_steps
 
 ROW_NAMES = {0: "joint", 1: "joint", 2: "joint", 3: "anchor", 4: "anchor", 5: "anchor", 6: "anchor", 7: "anchor",
              8: "anchor", 9: "axis", 10: "bend", 11: "floor", 12: "floor"}  # fmt: skip

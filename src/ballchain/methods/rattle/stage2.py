@@ -1,0 +1,189 @@
+"""The landings and stage 2 of a RATTLE step: the points that stage 1 stopped at the
+floor anchored or bounced (``land``), the velocities with the joints as equalities and
+the impact law on the contacts active after stage 1 (``stage2``), and the state settled
+after a landing (``settle``)."""
+
+from __future__ import annotations
+
+from ...contacts.coulomb import closes, released, slides
+from ...contacts.newton import floor_rebound
+from ...core.rules import (
+    hold_at,
+    is_landed,
+    limit_in_force,
+)
+from ...jit import njit
+from .blocks import solve_blocks
+from .codes import ERR_ACTIVE_SET
+from .rebounds import leave_limits, rebound_targets, restitution
+from .rows import (
+    BOUNCE,
+    K_BEND,
+    booked_rates,
+    is_floor,
+    row_rates,
+)
+from .stage1 import ROUNDS_MAX, _factor, add_impulses, half_kick, position_tol
+from .state import point_vz, point_z
+
+#   the same margin: a bend row released for pulling at an iterate that has not met it (|g| <= the
+#   residual) is not switched on again by its own gap (that flip left the set as it was, round
+#   after round: 8% of the steps at N = 256 took 5 rounds or more, 1% with the margin)
+RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
+
+
+HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
+
+
+FLIGHT_STEPS = 4.0  # ... nor one off the floor whose flight, 2 v / g, would last fewer steps than this: a
+#   point resting on the floor reaches it again at g h a step, and at HOLD_RATE alone bounced every other
+#   step for good (N = 512 at E = 0.3: the step cut to 1/500 of its size and 600 000 bounces a point)
+
+
+@njit(cache=True)
+def land(t, h, model, mo, sc):
+    """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
+    (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
+    their number (listed in sc.new_anchor).  With restitution at the floor a point that
+    would leave it faster than HOLD_RATE (``newton.floor_rebound`` of the vertical velocity
+    it reached the floor with, ``impact_rates``), on a flight of FLIGHT_STEPS steps of h
+    or more (v > FLIGHT_STEPS g h / 2), bounces instead: not anchored, listed, its
+    velocity's rows in stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  A
+    shorter flight is not resolved by the steps: the series of bounces ends there, at
+    the step's scale, and the point is anchored.  On a
+    frictionless floor (``coulomb.slides``)
+    nothing is anchored: the points that stage 1 stopped and that were not touching it
+    are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
+    stay on for stage 2."""
+    slide = slides(model.friction)
+    v_min = max(HOLD_RATE, 0.5 * FLIGHT_STEPS * h)  # (g = 1)
+    c, e = mo.c, mo.e
+    n = e.shape[0]
+    for j in range(n):
+        for q in range(3):
+            sc.pts[j, q] = c[j, q] + e[j, q]
+    for q in range(3):
+        sc.pts[n, q] = c[n - 1, q] - e[n - 1, q]
+    na = 0
+    for j in range(n + 1):
+        approach = sc.rebound[j]  # (``impact_rates``: 0 without restitution)
+        sc.rebound[j] = 0.0
+        if slide:
+            if sc.floor_on[j] != 0 and mo.touching[j] == 0:
+                if not mo.anchor_t[j] == mo.anchor_t[j]:  # (NaN: its first touch)
+                    mo.anchor_t[j] = t
+                sc.new_anchor[na] = j
+                na += 1
+            continue
+        if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
+            v = floor_rebound(approach, model.e_floor)  # (0 for e_floor 0)
+            if v > v_min:  # it bounces: not anchored; stage 2 gives it (0, 0, v)
+                sc.rebound[j] = v
+                sc.floor_on[j] = BOUNCE
+                sc.new_anchor[na] = j
+                na += 1
+                continue
+            hold_at(mo, j, sc.pts)
+            mo.anchored[j] = 2
+            mo.anchor_t[j] = t
+            sc.new_anchor[na] = j
+            na += 1
+        sc.floor_on[j] = 0
+    return na
+
+
+@njit(cache=True)
+def _switch_stage2(mo, ws, sc, slide):
+    """The impact law of stage 2: a hinge whose impulse pulls is released; a candidate
+    released that closes (dg/dt < -RATE_TOL), or with restitution separates slower than its
+    rebound (sc.hrebound), is put back; the same for the floor's rows on
+    a frictionless floor (``slide``: ``coulomb.released``, ``coulomb.closes``).  Returns
+    whether the set changed."""
+    e, ve, locked = mo.e, mo.ve, mo.locked
+    changed = False
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            if ws.kind[j, r] == K_BEND and ws.x[j, r] < 0.0:
+                locked[j - 1] = 0
+                changed = True
+            elif is_floor(ws.kind[j, r]) and released(ws.x[j, r]):
+                sc.floor_on[j] = 0
+                changed = True
+    for j in range(sc.fcand.shape[0] if slide else 0):
+        if sc.fcand[j] != 0 and sc.floor_on[j] == 0 and closes(point_vz(mo, j), RATE_TOL):
+            sc.floor_on[j] = 1
+            changed = True
+    for k in range(locked.shape[0]):
+        if sc.cand[k] != 0 and locked[k] == 0:
+            rate = 0.0
+            for q in range(3):
+                rate += ve[k, q] * e[k + 1, q] + e[k, q] * ve[k + 1, q]
+            if rate - sc.hrebound[k] < -RATE_TOL:  # (Newton's law: xi = rate + e rate-, sc.hrebound = -e rate-)
+                locked[k] = 1
+                changed = True
+    return changed
+
+
+@njit(cache=True)
+def stage2(h, model, mo, ws, sc):
+    """Stage 2 (module docstring): u+ in mo, P2 in ws.x, the rows' rates before (sc.val)
+    and after (sc.rate: the rows the books take, ``booked_rates``).  The candidates (hinges in force active in stage 1 or at their
+    limit within the position tolerance) start all locked.  Returns 0 or ERR_ACTIVE_SET (a
+    singular solve leaves velocities that are not finite: ``rattle_step`` refuses the step)."""
+    e, anchored, locked = mo.e, mo.anchored, mo.locked
+    tol = position_tol(e.shape[0])
+    half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
+    for k in range(locked.shape[0]):
+        g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
+        cand = (locked[k] != 0 or g <= tol) and limit_in_force(anchored, k, model.cone, model.alpha)
+        sc.cand[k] = 1 if cand else 0
+        locked[k] = sc.cand[k]
+    bounce = restitution(model)
+    for k in range(locked.shape[0] if bounce else 0):  # (sc.hrebound: the approach rates, ``impact_rates``)
+        v = -model.e_lock * sc.hrebound[k] if sc.cand[k] != 0 else 0.0
+        sc.hrebound[k] = v if v > HOLD_RATE else 0.0
+    slide = slides(model.friction)  # (else sc.floor_on is all 0 after ``land``: no floor rows)
+    for j in range(sc.fcand.shape[0] if slide else 0):  # the floor's candidates: active in stage 1, or at it
+        on = anchored[j] == 0 and (sc.floor_on[j] != 0 or point_z(mo, j) <= tol)
+        sc.fcand[j] = 1 if on else 0
+        sc.floor_on[j] = sc.fcand[j]
+    for rnd in range(ROUNDS_MAX):
+        _factor(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, e, False, True, rnd > 0)
+        row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
+        for j in range(ws.nrow.shape[0]):
+            for r in range(ws.nrow[j]):
+                ws.rhs[j, r] = -sc.val[j, r]
+        if bounce:
+            rebound_targets(anchored, ws, sc)
+        solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
+        add_impulses(h, mo, ws, sc, False)
+        if not _switch_stage2(mo, ws, sc, slide):  # (a singular solve: U + T is not finite, ``rattle_step``)
+            booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
+            ws.valid[0] = 1
+            for j in range(sc.fcand.shape[0] if slide else 0):  # (on a frictionless floor: its contacts)
+                mo.touching[j] = sc.floor_on[j]
+            if bounce:
+                leave_limits(mo, sc)
+            return 0
+    return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def settle(model, mo):
+    """Step 4: the new anchors made (2 -> 1), a lock whose limit is no longer in force
+    dropped, a landed segment put on its anchors (c = (p_j + p_{j+1}) / 2,
+    e = (p_j - p_{j+1}) / 2) and at rest."""
+    anchored, locked, pos = mo.anchored, mo.locked, mo.anchor_pos
+    for j in range(anchored.shape[0]):
+        if anchored[j] == 2:
+            anchored[j] = 1
+    for k in range(locked.shape[0]):
+        if locked[k] and not limit_in_force(anchored, k, model.cone, model.alpha):
+            locked[k] = 0
+    for i in range(mo.e.shape[0]):
+        if is_landed(anchored, i):
+            for q in range(3):
+                mo.c[i, q] = 0.5 * (pos[i, q] + pos[i + 1, q])
+                mo.e[i, q] = 0.5 * (pos[i, q] - pos[i + 1, q])
+                mo.vc[i, q] = 0.0
+                mo.ve[i, q] = 0.0

@@ -1,0 +1,180 @@
+"""What a RATTLE step works on (numba bundles): the motion in maximal coordinates
+(``Motion``: centres, axes and their velocities beside the chain's anchors and locks), a
+step's scratch (``Scratch``), a frame's own copy of both (``FrameWork``); the energies
+in these coordinates (m = b = g = 1) and the points' heights."""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ...jit import njit
+
+#   approach rate is estimated within the step, ``impact_rates``: its error does not shrink with a
+#   shorter step from the same start)
+MAX_NEW = 32  # new contacts in one step whose approach rates are estimated together (``impact_rates``)
+
+
+# The state a step advances: the centres and their velocities beside the chain's axes,
+# anchors and locks (the main state aliases the chain's arrays; a frame's is a copy).
+Motion = namedtuple(
+    "Motion",
+    [
+        "c",  # (N, 3): centres
+        "e",  # (N, 3): axes (lower end -> upper end)
+        "vc",  # (N, 3): the centres' velocities
+        "ve",  # (N, 3): the axes' velocities de/dt
+        "anchored",  # (N+1,) uint8 (2 while its landing impact is solved)
+        "anchor_pos",  # (N+1, 3)
+        "anchor_t",  # (N+1,)
+        "locked",  # (N-1,) uint8: bend rows active (stage 1), taking impulse (stage 2)
+        "touching",  # (N+1,) uint8: on a frictionless floor, the point's floor row is active (after stage 2)
+    ],
+)
+
+
+# A step's scratch and what it hands to the books.
+Scratch = namedtuple(
+    "Scratch",
+    [
+        "start",  # Motion: the state at the step's start (its frames are stepped from it)
+        "ukc", "uke",  # (N, 3): the velocity after a half kick of gravity
+        "val",  # (N+1, RMAX): row values (stage 1) or rates before (stage 2)
+        "rate",  # (N+1, RMAX): rates after
+        "floor_on",  # (N+1,) uint8: floor rows active in stage 1 (none in stage 2)
+        "cand",  # (N-1,) uint8: stage 2's candidates, the hinges at their limit after stage 1
+        "kind1", "nrow1", "x1", "rb1", "ra1",  # stage 1's layout, impulses, rates before/after
+        "kind_old", "nrow_old", "x_old",  # a layout before the last switch (carry-over)
+        "kind_w", "nrow_w", "x_w",  # the last accepted step's stage 2 impulses: the next stage 1's warm start
+        "new_anchor",  # (N+1,) int64: points anchored in this step
+        "pts",  # (N+1, 3): point positions
+        "acc",  # (10,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
+        #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
+        #   step's start minus at its end, [9] 1 if the step had an impact
+        "pull",  # (3,): the pile's impulse on the hanging chain in the step
+        "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
+        "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
+        "fcand",  # (N+1,) uint8: on a frictionless floor, stage 2's candidates at the floor
+        "rebound",  # (N+1,): a point bouncing off the floor in this step: the upward velocity it leaves with
+        "hrebound",  # (N-1,): a hinge that rebounds from its limit in this step: the rate it leaves with
+        "newrow",  # (MAX_NEW, 2) int64: the new contacts of a step (point, row), ``impact_rates``
+        "inelastic",  # (1,) uint8: 1 while a step is taken again with its impacts inelastic (ERR_REBOUND)
+    ],
+)  # fmt: skip
+
+
+def new_scratch(n: int) -> Scratch:
+    from .rows import RMAX
+
+    nh = max(n - 1, 0)
+    v3 = lambda m: np.zeros((m, 3))  # noqa: E731
+    p = n + 1
+    return Scratch(
+        new_motion(n),
+        v3(n), v3(n),
+        np.zeros((p, RMAX)), np.zeros((p, RMAX)),
+        np.zeros(p, np.uint8), np.zeros(nh, np.uint8),
+        np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
+        np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
+        np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
+        np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8),
+    )  # fmt: skip
+
+
+# What a frame inside a step is stepped with: its own state, workspace and scratch.
+FrameWork = namedtuple("FrameWork", ["motion", "ws", "sc"])
+
+
+def new_frame_work(n: int) -> FrameWork:
+    from .rows import new_rows
+
+    return FrameWork(new_motion(n), new_rows(n), new_scratch(n))
+
+
+def new_motion(n: int) -> Motion:
+    """A free-standing state (a frame's copy)."""
+    p = n + 1
+    return Motion(
+        np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+        np.zeros(p, np.uint8), np.zeros((p, 3)), np.zeros(p), np.zeros(max(n - 1, 0), np.uint8),
+        np.zeros(p, np.uint8),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def maximal_state(e, w, c, vc, ve):
+    """Centres c, their velocities vc and the axes' velocities ve = w x e of the chain
+    with axes e and rates w standing on point N at the origin."""
+    n = e.shape[0]
+    px, py, pz = 0.0, 0.0, 0.0  # the lower end of segment i and its velocity
+    ux, uy, uz = 0.0, 0.0, 0.0
+    for i in range(n - 1, -1, -1):
+        dx = w[i, 1] * e[i, 2] - w[i, 2] * e[i, 1]
+        dy = w[i, 2] * e[i, 0] - w[i, 0] * e[i, 2]
+        dz = w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0]
+        c[i, 0], c[i, 1], c[i, 2] = px + e[i, 0], py + e[i, 1], pz + e[i, 2]
+        ve[i, 0], ve[i, 1], ve[i, 2] = dx, dy, dz
+        vc[i, 0], vc[i, 1], vc[i, 2] = ux + dx, uy + dy, uz + dz
+        px, py, pz = px + 2.0 * e[i, 0], py + 2.0 * e[i, 1], pz + 2.0 * e[i, 2]
+        ux, uy, uz = ux + 2.0 * dx, uy + 2.0 * dy, uz + 2.0 * dz
+
+
+@njit(cache=True)
+def kinetic_energy_rattle(vc, ve):
+    """T = sum 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
+    tc, te = 0.0, 0.0
+    for i in range(vc.shape[0]):
+        tc += vc[i, 0] * vc[i, 0] + vc[i, 1] * vc[i, 1] + vc[i, 2] * vc[i, 2]
+        te += ve[i, 0] * ve[i, 0] + ve[i, 1] * ve[i, 1] + ve[i, 2] * ve[i, 2]
+    return 0.5 * tc + te / 6.0
+
+
+@njit(cache=True)
+def _copy(src, dst):
+    for i in range(src.shape[0]):
+        for q in range(src.shape[1]):
+            dst[i, q] = src[i, q]
+
+
+@njit(cache=True)
+def copy_motion(a, b):
+    """b <- a (every array of a Motion)."""
+    _copy(a.c, b.c)
+    _copy(a.e, b.e)
+    _copy(a.vc, b.vc)
+    _copy(a.ve, b.ve)
+    _copy(a.anchor_pos, b.anchor_pos)
+    for j in range(a.anchored.shape[0]):
+        b.anchored[j] = a.anchored[j]
+        b.anchor_t[j] = a.anchor_t[j]
+        b.touching[j] = a.touching[j]
+    for k in range(a.locked.shape[0]):
+        b.locked[k] = a.locked[k]
+
+
+@njit(cache=True, inline="always")
+def point_z(mo, j):
+    """z_j: the upper end of segment j, or, for the last point (j = the number of segments),
+    the lower end of the segment above it."""
+    if j < mo.e.shape[0]:
+        return mo.c[j, 2] + mo.e[j, 2]
+    return mo.c[j - 1, 2] - mo.e[j - 1, 2]
+
+
+@njit(cache=True, inline="always")
+def point_vz(mo, j):
+    """dz_j/dt (``point_z``'s rate)."""
+    if j < mo.e.shape[0]:
+        return mo.vc[j, 2] + mo.ve[j, 2]
+    return mo.vc[j - 1, 2] - mo.ve[j - 1, 2]
+
+
+@njit(cache=True)
+def mechanical_energy(c, vc, ve):
+    """U + T in maximal coordinates: sum c_i,z + 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
+    u = 0.0
+    for i in range(c.shape[0]):
+        u += c[i, 2]
+    return u + kinetic_energy_rattle(vc, ve)
