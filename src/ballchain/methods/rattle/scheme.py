@@ -76,13 +76,7 @@ from .stage2 import land, settle, stage2
 from .state import Motion, Scratch, copy_motion, mechanical_energy
 
 SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
-
-
 SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
-
-
-#   point resting on the floor reaches it again at g h a step, and at HOLD_RATE alone bounced every other
-#   step for good (N = 512 at E = 0.3: the step cut to 1/500 of its size and 600 000 bounces a point)
 ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 

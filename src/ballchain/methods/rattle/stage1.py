@@ -30,35 +30,16 @@ from .rows import (
 from .state import point_z
 
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
-
-
 NEWTON_RATE = 0.05  # an iteration that cuts the residual less than this fold moves on to (a new) A
-
-
 ROUNDS_MAX = 60  # active-set rounds of a stage at most
-
-
 ITER_BUDGET = 60  # Newton iterations of stage 1 over all its rounds in a step that may still be halved: past
-#   them it is (at N = 512, accepted steps took at most 45, 99.99% of them 30 or fewer; the attempts that
-#   failed, 200-1500, 8% of the factorisations of a fall)
-
-
 #   them it is (at N = 512, accepted steps took at most 45, 99.99% of them 30 or fewer; the attempts that
 #   failed, 200-1500, 8% of the factorisations of a fall)
 POS_TOL = 1e-10  # b: stage 1 meets every row to this, plus the round-off of the heights (1e-12 before:
 #   the convergence table and the top the same to the digits shown, 14% fewer iterations at N = 256)
-
-
-#   the convergence table and the top the same to the digits shown, 14% fewer iterations at N = 256)
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
-
-
 EARLY_ROUNDS = 4  # rounds of stage 1 in which rows found far past their limit are switched on within the iteration
-
-
 EARLY_MARGIN = 10.0  # ... "far": by more than this many times the iterate's residual
-
-
 EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual is below this (b), with
 #   the same margin: a bend row released for pulling at an iterate that has not met it (|g| <= the
 #   residual) is not switched on again by its own gap (that flip left the set as it was, round

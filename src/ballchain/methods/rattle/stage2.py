@@ -26,15 +26,8 @@ from .rows import (
 from .stage1 import ROUNDS_MAX, _factor, add_impulses, half_kick, position_tol
 from .state import point_vz, point_z
 
-#   the same margin: a bend row released for pulling at an iterate that has not met it (|g| <= the
-#   residual) is not switched on again by its own gap (that flip left the set as it was, round
-#   after round: 8% of the steps at N = 256 took 5 rounds or more, 1% with the margin)
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
-
-
 HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
-
-
 FLIGHT_STEPS = 4.0  # ... nor one off the floor whose flight, 2 v / g, would last fewer steps than this: a
 #   point resting on the floor reaches it again at g h a step, and at HOLD_RATE alone bounced every other
 #   step for good (N = 512 at E = 0.3: the step cut to 1/500 of its size and 600 000 bounces a point)

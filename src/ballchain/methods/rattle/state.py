@@ -11,8 +11,6 @@ import numpy as np
 
 from ...jit import njit
 
-#   approach rate is estimated within the step, ``impact_rates``: its error does not shrink with a
-#   shorter step from the same start)
 MAX_NEW = 32  # new contacts in one step whose approach rates are estimated together (``impact_rates``)
 
 

@@ -21,17 +21,9 @@ from .scheme import CUTS_MAX, SPLIT_CUTS, _budget, keep_warm_start, rattle_step
 from .state import copy_motion
 
 GROW_AFTER = 8  # without the energy bound: steps at a halved size before the next is tried doubled
-
-
 SAFETY = 0.8  # the energy control aims a step's change of U + T at this fraction of its bound
-
-
 SHRINK_MIN = 1.5  # ... and shortens a refused step at least this many fold
-
-
 GROW_MAX = 2.0  # ... and changes an accepted one's successor by at most this factor
-
-
 TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w| small)
 
 
