@@ -1,8 +1,11 @@
-"""Coulomb's friction at the floor (``--friction``): the frictionless floor (mu = 0) with
-the RATTLE method, against independent truths: the rod standing on a frictionless floor
-(its equation of motion integrated by scipy, its fall time by quadrature: ``theory``), the
-conservation of horizontal momentum (nothing horizontal acts), the momentum balance of
-the floor's impulse record, the energy books.  The anchor (mu = inf) is the default."""
+"""Coulomb's friction at the floor (``--friction``) with the RATTLE method, against
+independent truths.  The frictionless floor (mu = 0): the rod standing on it (its
+equation of motion integrated by scipy, its fall time by quadrature: ``theory``), the
+conservation of horizontal momentum (nothing horizontal acts).  Finite mu: the leaning
+rod pivots on its foot until the friction its pivoting asks exceeds mu (the closed form's
+slip angle, ``theory.pivot_rod_slip_angle``), to first order in the step.  Every law: the
+momentum balance of the floor's impulse record, the energy books.  The anchor (mu = inf)
+is the default."""
 
 from __future__ import annotations
 
@@ -18,7 +21,7 @@ from ballchain.cli import app
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from ballchain.records.measures import momentum
-from ballchain.theory import sliding_rod_fall_time, sliding_rod_normal_force
+from ballchain.theory import pivot_rod_slip_angle, pivot_rod_time, sliding_rod_fall_time, sliding_rod_normal_force
 
 THETA0 = 0.3  # rad from the vertical: the rod's start
 
@@ -117,19 +120,19 @@ def test_the_default_is_the_anchor_and_moves_nothing():
     assert np.all(np.asarray(a.frame_base) == 0.0) and np.all(np.asarray(a.frame_base_velocity) == 0.0)
 
 
+@pytest.mark.parametrize("mu", [0.0, 0.5])
 @pytest.mark.parametrize("method", ["event", "timestep"])
-def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method):
+def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method, mu):
     with pytest.raises(ParameterError, match=f"not honoured by --method {method}"):
-        simulate(ChainParams(segments=4, friction=0.0), START, SolverOptions(method=method))
-    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", method, "--friction", "0", "-q"])
+        simulate(ChainParams(segments=4, friction=mu), START, SolverOptions(method=method))
+    res = CliRunner().invoke(app, ["simulate", "-N", "4", "--method", method, "--friction", f"{mu:g}", "-q"])
     assert res.exit_code == 2
-    assert len(res.stderr.strip().splitlines()) == 1 and "--friction 0" in res.stderr and "rattle" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and f"--friction {mu:g}" in res.stderr and "rattle" in res.stderr
 
 
 @pytest.mark.parametrize(
     "kw, words",
     [
-        ({"friction": 0.5}, "not built yet"),
         ({"friction": -1.0}, "must be in [0, inf]"),
         ({"friction": 0.0, "floor": "pivot"}, "needs floor all"),
         ({"friction": 0.0, "restitution_floor": 0.5}, "not built yet"),
@@ -171,3 +174,62 @@ def test_the_parameter_in_the_json_the_file_and_the_sweep_table(tmp_path):
     assert [ln.split()[3] for ln in res.stdout.splitlines()[2:4]] == ["0", "inf"]
     res = CliRunner().invoke(app, ["stats", str(out), "--json"])
     assert sorted(str(p["friction"]) for p in json.loads(res.stdout)["points"]) == ["0.0", "None"]
+
+
+def _leaning_rod(mu, dt):
+    """N = 1 on a floor with friction mu, its foot held at the origin, released at rest at
+    THETA0 from the vertical; steps of dt t_ff/N (no energy bound: fixed steps)."""
+    e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
+    return simulate(
+        ChainParams(segments=1, friction=mu),
+        state=(e0, None),
+        options=SolverOptions(method="rattle", dt=dt, step_energy_tol=0),
+    )
+
+
+@pytest.mark.parametrize("mu", [0.3, 0.6])
+def test_a_leaning_rod_slips_where_the_closed_form_says(mu):
+    """The rod pivots on its held foot until the friction its pivoting asks, F_x / F_z of
+    the closed form, first exceeds mu; the log's first ``slip`` row (the foot, point 1)
+    comes after that and within 1.5 steps of it: the cone is checked at the end of each
+    step with the anchor's mean force over it (half a step old), and the row is logged at
+    the step's end.  So the delay shrinks with the step."""
+    truth = pivot_rod_time(pivot_rod_slip_angle(THETA0, mu), THETA0)
+    delays = []
+    for dt in (0.02, 0.01, 0.005):
+        r = _leaning_rod(mu, dt)
+        assert r.status == "landed", r.message
+        ev = r.events_table()
+        slips = ev[ev.kind == "slip"]
+        assert len(slips) >= 1 and int(slips["index"].iloc[0]) == 1
+        delay = float(slips.t.iloc[0]) - truth
+        assert 0.0 < delay <= 1.5 * dt * r.t_ff, (dt, delay)
+        assert abs(r.energy["imbalance"]) < 1e-4 * r.energy["initial"]
+        delays.append(delay)
+    assert delays[-1] < 0.5 * delays[0], delays
+
+
+@pytest.fixture(scope="module")
+def gripping_fall():
+    return simulate(ChainParams(segments=16, friction=0.3), START, SolverOptions(method="rattle", frames_per_tff=200))
+
+
+def test_a_chain_with_friction_balances_the_floors_record_and_closes_its_books(gripping_fall):
+    """Finite friction: what the floor gave the chain (its impulse record, horizontal and
+    vertical, with the weight's) is the chain's momentum change at every frame; the books
+    close, no point goes below the floor, the bottom end slides away, and the points both
+    slip and stop (the log's ``slip`` and ``stick`` rows, at points 0..N)."""
+    r = gripping_fall
+    assert r.status == "landed", r.message
+    p = momentum(r)
+    ft = np.asarray(r.frame_t)
+    M = r.params.segments
+    record = np.asarray(r.frame_floor_impulse)
+    np.testing.assert_allclose(record[:, :2], p[:, :2] - p[0, :2], rtol=0, atol=1e-8 * M * ft[-1])
+    np.testing.assert_allclose(record[:, 2], p[:, 2] - p[0, 2] + M * ft, rtol=0, atol=1e-6 * M * ft[-1])
+    assert np.max(np.abs(record[-1, :2])) > 1e-3  # (friction did act horizontally)
+    assert abs(r.energy["imbalance"]) < 1e-4 * r.energy["initial"]
+    assert r.max_depth < 1e-8
+    counts = r.event_counts()
+    assert counts["slip"] > 0 and counts["stick"] > 0
+    assert np.all(np.isfinite(r.anchor_t))  # every point touched the floor

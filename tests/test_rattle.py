@@ -117,7 +117,16 @@ def _pile_and_hanging_part(n=12, landed=4, seed=3):
     anchored = np.zeros(n + 1, np.uint8)
     anchored[k:] = 1
     return Motion(
-        c, e, vc, ve, anchored, P.copy(), np.zeros(n + 1), np.zeros(n - 1, np.uint8), np.zeros(n + 1, np.uint8)
+        c,
+        e,
+        vc,
+        ve,
+        anchored,
+        P.copy(),
+        np.zeros(n + 1),
+        np.zeros(n - 1, np.uint8),
+        np.zeros(n + 1, np.uint8),
+        np.zeros((n + 1, 3)),
     )
 
 

@@ -14,7 +14,11 @@ P_n >= 0 and dragged by its tangential force P_t, |P_t| <= mu P_n.  Two limits a
   horizontal momentum is constant, a chain released at rest keeps its centre of mass on
   a vertical line.
 
-Finite mu > 0 (stick, slip, the cone) is not built: ``registry`` refuses it.
+* 0 < mu < inf (``grips``): stick and slip.  A point on the floor is held where it is
+  while the force that holds it lies in the cone |F_t| <= mu F_n (F_n >= 0); beyond it
+  the point slides, dragged by mu F_n against its sliding velocity, and it lifts off
+  where the floor would pull.  Only RATTLE honours it (``methods.rattle.friction``: stick
+  is the anchor, slip the frictionless row plus the friction force).
 """
 
 from __future__ import annotations
@@ -34,6 +38,13 @@ def anchors(mu):
 def slides(mu):
     """A point on the floor slides on it, held by its height row alone (mu = 0)."""
     return mu == 0.0
+
+
+@njit(cache=True, inline="always")
+def grips(mu):
+    """Finite friction (0 < mu < inf): a point on the floor sticks while the force that
+    holds it lies in the cone, and slides against mu F_n when it does not."""
+    return 0.0 < mu < math.inf
 
 
 @njit(cache=True, inline="always")

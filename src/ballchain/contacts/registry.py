@@ -5,7 +5,8 @@ A contact law says what a constraint that reaches its limit does: today's, state
 once, are Newton's restitution at an impact (``newton``: the rate after an impact that
 acts on a row is -e times the rate before) and Coulomb's friction at the floor
 (``coulomb``: mu inf, the default, is the anchor, a point that touches the floor is held
-where it touched, for good: ``floors.registry.CONTACT_FIXED``; mu 0 a frictionless floor).  Each law is
+where it touched, for good: ``floors.registry.CONTACT_FIXED``; mu 0 a frictionless floor;
+a finite mu stick and slip within the cone).  Each law is
 one module of this package (its kernels, which the methods call) and a line here: its
 parameters (``options.MethodOption`` data: the ``ChainParams`` field, its check, flag,
 help, sweep column and JSON key), from which ``ChainParams``, the command line, the sweep
@@ -16,20 +17,13 @@ defaults (``CONTACTS`` in its package); a run that asks another is refused in on
 
 from __future__ import annotations
 
-from ..errors import ParameterError
 from ..options import MethodOption, in_range
 
 
 def _friction(name: str, value) -> float:
-    """A friction coefficient: 0 (frictionless) or inf (the anchor); a finite mu > 0
-    (stick and slip) is not built yet, and is refused in one line."""
-    v = in_range(0.0, float("inf"), "a negative friction coefficient")(name, value)
-    if 0.0 < v < float("inf"):
-        raise ParameterError(
-            f"{name} {v:g}: only 0 (a frictionless floor) and inf (the anchor) are built; Coulomb's "
-            "stick and slip at a finite coefficient is not built yet"
-        )
-    return v
+    """A friction coefficient: 0 (frictionless), a finite mu > 0 (stick and slip) or inf
+    (the anchor)."""
+    return in_range(0.0, float("inf"), "a negative friction coefficient")(name, value)
 
 
 # law -> (module, what it is, the parameters it states)
@@ -72,16 +66,20 @@ LAWS = {
         "coulomb",
         "Coulomb's friction between the floor and the points on it: mu inf holds a point that "
         "touches the floor where it touched (the anchor, for good); mu 0 lets it slide, pressed by "
-        "the floor's normal force alone, and leave the floor again when that force would pull",
+        "the floor's normal force alone, and leave the floor again when that force would pull; a "
+        "finite mu holds it while the force lies within the cone and lets it slide beyond",
         (
             MethodOption(
                 "friction",
                 float,
                 float("inf"),
                 "Coulomb's friction coefficient between the floor and the points on it: inf (a point that "
-                "touches the floor is anchored there, the model's law) or 0 (a frictionless floor: points "
-                "slide on it, the bottom end too, and lift off when the floor would pull; the run ends when "
-                "every point has touched the floor). Finite values above 0: not built yet. Floor all only.",
+                "touches the floor is anchored there, the model's law), 0 (a frictionless floor: points "
+                "slide on it, the bottom end too, and lift off when the floor would pull) or a finite value "
+                "(stick and slip: a point is held where it touched while the force holding it lies within "
+                "the cone |F_t| <= MU F_n, slides against MU F_n beyond it, and lifts off when the floor "
+                "would pull; the bend limits also hold at the pile). Below inf the run ends when every point "
+                "has touched the floor. Floor all only.",
                 _friction,
                 flag="--friction",
                 json="Coulomb's friction coefficient at the floor (null: inf, a touching point is anchored)",

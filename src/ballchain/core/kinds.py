@@ -17,6 +17,9 @@ EVENT_KINDS = {
     7: "hold",
     8: "anchor",
     9: "bounce",
+    10: "slip",
+    11: "stick",
+    12: "lift",
 }
 EVENT_MEANINGS = {
     "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
@@ -29,8 +32,15 @@ EVENT_MEANINGS = {
     "anchor": "a point anchored before the instant takes an impulse of the floor at an impact",
     "bounce": "a point reaches the floor and leaves it again (restitution at the floor); impulse: the floor's "
     "on the chain at that point",
+    "slip": "finite friction: a point held by the floor starts to slide, the force that held it having left the "
+    "friction cone; impulse: that force (x, y, z) over the step",
+    "stick": "finite friction: a sliding point stops and is held where it is (the friction reversed it within a "
+    "step); no impulse given",
+    "lift": "finite friction: a point held by the floor is let go, the floor having pulled it; impulse: that "
+    "force (x, y, z) over the step",
 }
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = (EVENT_CODES[k] for k in ("lock", "unlock", "landing", "top"))
 LOG_IMPULSE, LOG_RELEASE, LOG_HOLD, LOG_ANCHOR = (EVENT_CODES[k] for k in ("impulse", "release", "hold", "anchor"))
 LOG_BOUNCE = EVENT_CODES["bounce"]
+LOG_SLIP, LOG_STICK, LOG_LIFT = (EVENT_CODES[k] for k in ("slip", "stick", "lift"))

@@ -35,8 +35,11 @@ from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a 
     LOG_HOLD,
     LOG_IMPULSE,
     LOG_LANDING,
+    LOG_LIFT,
     LOG_LOCK,
     LOG_RELEASE,
+    LOG_SLIP,
+    LOG_STICK,
     LOG_TOP,
     LOG_UNLOCK,
 )
@@ -148,10 +151,11 @@ def all_anchored(anchored):
 
 @njit(cache=True)
 def fall_over(anchored, anchor_t, friction):
-    """The run is over: every point anchored (the anchor: ``all_anchored``), or, on a
-    frictionless floor (friction 0: nothing is anchored, the pile slides on), every point
-    has touched the floor (its first touch in ``anchor_t``)."""
-    if friction != 0.0:
+    """The run is over: every point anchored (the anchor, friction inf: ``all_anchored``),
+    or, on a floor that lets points slide (friction 0: nothing is anchored, the pile slides
+    on; finite friction: a point may slip again), every point has touched the floor (its
+    first touch in ``anchor_t``)."""
+    if friction == math.inf:
         return all_anchored(anchored)
     for j in range(anchor_t.shape[0]):
         if not anchor_t[j] == anchor_t[j]:

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..floors.registry import WATCHES_EVERY_POINT
 from ..methods import audit_bounds
-from .result import Result
+from .result import EVENT_CODES, Result
 
 ENERGY_RTOL = audit_bounds("event").energy_rtol  # the exact method's bounds (its package states them)
 DEPTH_TOL = audit_bounds("event").depth_tol
@@ -85,15 +85,25 @@ def anchor_miss(result: Result) -> tuple[float, float]:
     rule of ``core.kinematics.drift_removable`` (an anchored point whose lower segment has
     not landed), over whole frames at once.  Both
     methods keep these on their anchors to their projection's tolerance (1e-12 b to
-    1e-13 N b); (0, NaN) without frames or anchors."""
+    1e-13 N b); (0, NaN) without frames or anchors.  A point is checked in the frames from
+    the last time the floor took hold of it (its last ``landing`` or ``stick`` row in the
+    log; point N from t = 0 if it has none) on, against ``anchor_pos``, its last anchor:
+    with finite friction a point can slip and be held again elsewhere, between two frames;
+    at friction inf, once anchored it stays."""
     e = np.asarray(result.frame_e)
     anchored = np.asarray(result.frame_anchored) != 0
     if e.size == 0 or not anchored.any():
         return 0.0, math.nan
     anchor = np.asarray(result.anchor_pos, dtype=float)
+    since = np.full(anchored.shape[1], -math.inf)
+    kind, index, te = (np.asarray(getattr(result, f)) for f in ("event_kind", "event_index", "event_t"))
+    took = (kind == EVENT_CODES["landing"]) | (kind == EVENT_CODES["stick"])
+    np.maximum.at(since, index[took].astype(int), te[took].astype(float))
+    ft = np.asarray(result.frame_t, dtype=float)
+    held = anchored & (ft[:, None] >= since[None, :])
     worst, when = 0.0, math.nan
     for k in range(e.shape[0]):
-        a = anchored[k]
+        a = held[k]
         movable = a.copy()
         movable[-1] = False  # the pivot's point: the origin of the sum
         movable[:-1] &= ~(a[:-1] & a[1:])  # the segment below has landed

@@ -31,7 +31,7 @@ from .rows import (
     row_rates,
     segment_force,
 )
-from .state import point_z
+from .state import base_at_origin, point_z
 
 
 @njit(cache=True)
@@ -218,6 +218,12 @@ def commit(t, h, na, mo, ws, sc, books, log):
             log_row(log, t + h, LOG_LOCK, k, p, 0.0, 0.0, lost, sc.pts, k + 1)
         elif sc.start.locked[k] and not locked[k]:
             log_row(log, t + h, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
+    for j in range(sc.grip_log.shape[0]):  # (finite friction: the floor's hold let go, or taken again)
+        kind = int(sc.grip_log[j, 0])
+        if kind != 0:
+            g = sc.grip_log
+            log_row(log, t + h, kind, j, g[j, 1], g[j, 2], g[j, 3], 0.0, sc.pts, j)
+            g[j, 0] = 0.0
     if na > 0:
         share = 1.0 / na
         for r in range(na):
@@ -235,10 +241,10 @@ def commit(t, h, na, mo, ws, sc, books, log):
             fall_ended(books, t + min(max(s, 0.0), 1.0) * h, False, True)
     books.n_steps[0] += 1
     books.n_evals[0] += np.int64(sc.acc[5])
-    if mo.anchored[mo.anchored.shape[0] - 1] != 0:
+    if base_at_origin(mo):
         lowest_point(mo.e, books.lowest)  # (heights from the anchored bottom end)
     else:
-        for j in range(mo.anchored.shape[0]):  # (a frictionless floor: the bottom end moves)
+        for j in range(mo.anchored.shape[0]):  # (a floor that let the bottom end slide)
             books.lowest[0] = min(books.lowest[0], point_z(mo, j))
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...contacts.coulomb import slides
+from ...contacts.coulomb import grips, slides
 from ...core.kinematics import rates_for_axes
 from ...core.state import new_books, new_chain, new_model
 from ...errors import ParameterError
@@ -35,7 +35,7 @@ from .codes import (
 )
 from .frames import FB_SIZE
 from .rows import new_rows
-from .state import Motion, kinetic_energy_rattle, maximal_state, new_frame_work, new_scratch
+from .state import Motion, base_at_origin, kinetic_energy_rattle, maximal_state, new_frame_work, new_scratch
 from .stepper import run_steps
 
 ROW_NAMES = {0: "joint", 1: "joint", 2: "joint", 3: "anchor", 4: "anchor", 5: "anchor", 6: "anchor", 7: "anchor",
@@ -65,16 +65,16 @@ def run(setup, progress, stop) -> RunOutput:
     p, o, n = setup.params, setup.options, setup.params.segments
     check(p)
     model = new_model(
-        p.alpha, FLOOR_CODES[p.floor], p.anchor_cone, o, setup.t_stop, 0.0, RETURN_EVERY, 0, setup.t_ff,
+        p.alpha, FLOOR_CODES[p.floor], p.anchor_cone or grips(p.friction), o, setup.t_stop, 0.0, RETURN_EVERY, 0, setup.t_ff,
         e_lock=p.restitution_lock, e_floor=p.restitution_floor, friction=p.friction,
     )  # fmt: skip
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     c, vc, ve = (np.zeros((n, 3)) for _ in range(3))
     maximal_state(chain.Y[0], chain.Y[1], c, vc, ve)
-    touching = np.zeros(n + 1, np.uint8)
+    touching, grip = np.zeros(n + 1, np.uint8), np.zeros((n + 1, 3))
     if slides(p.friction):  # a frictionless floor: the bottom end stands on it, free to slide
         chain.anchored[n], chain.anchor_pos[n], touching[n] = 0, np.nan, 1
-    mo = Motion(c, chain.Y[0], vc, ve, chain.anchored, chain.anchor_pos, chain.anchor_t, chain.locked, touching)
+    mo = Motion(c, chain.Y[0], vc, ve, chain.anchored, chain.anchor_pos, chain.anchor_t, chain.locked, touching, grip)
     ws, sc, fr = new_rows(n), new_scratch(n), new_frame_work(n)
     fb = np.zeros(FB_SIZE)
     etol = STEP_ENERGY_TOL if o.step_energy_tol is None else o.step_energy_tol
@@ -94,13 +94,13 @@ def run(setup, progress, stop) -> RunOutput:
         return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
-    state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve, "touching": touching}, "scratch": sc}
+    state = {"chain": chain, "motion": {"c": c, "vc": vc, "ve": ve, "touching": touching, "grip": grip}, "scratch": sc}
     state["rows"] = ws  # (the last stage 2's rows and factors: the next stage 1 iterates on them)
     state["frame_scratch"] = fr.sc
     state.update({"books": books, "frame_info": fb})
-    out = drive(setup, progress, stop, advance, out, 4 * (3 * n + 8), state)
+    out = drive(setup, progress, stop, advance, out, 4 * (4 * n + 8), state)
     out.kinetic = float(kinetic_energy_rattle(vc, ve))
-    if chain.anchored[n] == 0:  # (a frictionless floor: the bottom end may have left the origin)
+    if not base_at_origin(mo):  # (a floor that let the bottom end slide: it may have left the origin)
         out.potential = float(np.sum(c[:, 2]))
     return out
 

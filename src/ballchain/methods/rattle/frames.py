@@ -12,7 +12,7 @@ from ...core.rules import (
 from ...jit import njit
 from .codes import RT_BUFFER
 from .scheme import CUTS_MAX, _budget, keep_warm_start, rattle_step
-from .state import copy_motion, kinetic_energy_rattle
+from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 
 # frame info (fb, FB_SIZE): [0] lost at hinges, [1] at landings, [2:5] the floor's impulse
 # so far, [5:8] the anchors' mean force over the last step, [8:11] the pile's pull, [11:16]
@@ -46,9 +46,9 @@ def record_frame(t, mo, fb, frames):
         frames.floor_impulse[k, q] = fb[2 + q]
     frames.scale_force[k] = fb[7] + landed_count(mo.anchored)
     frames.kinetic[k] = kinetic_energy_rattle(mo.vc, mo.ve)
-    if mo.anchored[n] != 0:
+    if base_at_origin(mo):
         frames.potential[k] = potential_energy(e)  # (from the axes, point N at the origin)
-    else:  # a frictionless floor: the bottom end moves (U = sum c_z)
+    else:  # a floor that let the bottom end slide (U = sum c_z)
         u = 0.0
         for i in range(n):
             u += mo.c[i, 2]

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import math
 
-from ...contacts.coulomb import anchors, slides
+from ...contacts.coulomb import anchors, grips, slides
 from ...core.rules import (
     bottom_airborne,
 )
@@ -64,6 +64,7 @@ from .books import (
     lock_loss_after_landing,
 )
 from .codes import ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
+from .friction import friction_directions, friction_work, impact_friction_impulse, let_go, normal_forces
 from .rebounds import REBOUND_TOL, impact_rates, rebound_energy, restitution
 from .rows import (
     K_BEND,
@@ -142,7 +143,7 @@ def motion_view(mo, p):
     s = p - 1
     return Motion(
         mo.c[:s], mo.e[:s], mo.vc[:s], mo.ve[:s], mo.anchored[:p], mo.anchor_pos[:p], mo.anchor_t[:p],
-        mo.locked[: max(s - 1, 0)], mo.touching[:p],
+        mo.locked[: max(s - 1, 0)], mo.touching[:p], mo.grip[:p],
     )  # fmt: skip
 
 
@@ -164,13 +165,17 @@ def scratch_view(sc, p):
         sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
         sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
-        sc.hrebound[:k], sc.newrow, sc.inelastic,
+        sc.hrebound[:k], sc.newrow, sc.inelastic, sc.fimp[:p], sc.fsec[:p], sc.grip_log[:p],
     )  # fmt: skip
 
 
 @njit(cache=True)
 def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     """``rattle_step`` on the points of the views (sc.start holds the step's start)."""
+    grip = grips(model.friction)
+    if grip:
+        friction_directions(mo)
+        sc.grip_log[:, 0] = 0.0
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
     code = stage1(h, model, mo, ws, sc, budget)
     if code == 0 and _largest_turn(sc.start.e, mo.e) > ROOT_TURN:
@@ -187,9 +192,11 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     land_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_FLOOR)
     _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
-    na, touched = 0, 0
-    if landings or slides(model.friction):  # (a frame's step on a frictionless floor too: it anchors nothing)
-        na = land(t + h, h, model, mo, sc)
+    if grip:
+        friction_work(h, model.friction, mo, sc.start, sc.acc)
+    na, touched, ns = 0, 0, 0
+    if landings or slides(model.friction) or grip:  # (a frame's step on a floor that lets points slide too)
+        na, ns = land(t + h, h, model, mo, sc, landings)
     else:
         for j in range(sc.floor_on.shape[0]):
             touched += sc.floor_on[j]
@@ -210,21 +217,31 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     lock_after = lock_loss_after_landing(mo, ws, sc) if na > 0 else -1.0
     _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
     _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, sc.pull)
-    if na > 0 and anchors(model.friction):  # (landed segments do not move: nothing else to settle)
+    if grip:
+        impact_friction_impulse(sc, sc.acc)
+    if (na > 0 or ns > 0) and (
+        anchors(model.friction) or grip
+    ):  # (landed segments do not move: nothing else to settle)
         settle(model, mo)
         ws.valid[0] = 0  # landed segments: the columns of the factors are not the state's
-    lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve)
+    fric = sc.acc[10]  # (what the sliding points' friction force removed: booked at the floor, not the step's error)
+    lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve) - fric
     sc.acc[8] = lost
     if not math.isfinite(lost):  # (a singular stage: taken again halved, as a failed one)
         return ERR_STEP_NAN, na
-    if na > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
+    if na > 0 or ns > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
         sc.acc[9] = 1.0
         created = etol + (REBOUND_TOL * rebound_energy(mo.anchored, ws, sc) if bounce else 0.0)
         if etol > 0.0 and lost < -created:
             return (ERR_REBOUND if created > etol else ERR_STEP_ENERGY), na
-        _book_impact(lost, lock_work, land_work, lock_after, na + touched, sc.acc)
+        _book_impact(lost, lock_work, land_work, lock_after, na + touched + ns, sc.acc)
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
+    sc.acc[1] += fric
+    if grip and landings:  # the sliding points' normal forces for the next step; anchors that let go
+        normal_forces(h, mo, ws, sc)
+        if let_go(h, model.friction, mo, ws, sc):
+            ws.valid[0] = 0
     return 0, na
 
 

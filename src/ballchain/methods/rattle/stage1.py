@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from ...contacts.coulomb import grips
 from ...core.rules import (
     is_landed,
     limit_in_force,
@@ -16,6 +17,7 @@ from ...core.rules import (
 from ...jit import njit
 from .blocks import factor_blocks, solve_blocks
 from .codes import ERR_ACTIVE_SET, ERR_NEWTON
+from .friction import friction_kick
 from .rows import (
     K_BEND,
     booked_rates,
@@ -38,6 +40,7 @@ ITER_BUDGET = 60  # Newton iterations of stage 1 over all its rounds in a step t
 POS_TOL = 1e-10  # b: stage 1 meets every row to this, plus the round-off of the heights (1e-12 before:
 #   the convergence table and the top the same to the digits shown, 14% fewer iterations at N = 256)
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
+UNMET_REACH = 4  # finite friction: a stage 1 that stalls on a row releases a locked hinge this near it
 EARLY_ROUNDS = 4  # rounds of stage 1 in which rows found far past their limit are switched on within the iteration
 EARLY_MARGIN = 10.0  # ... "far": by more than this many times the iterate's residual
 EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual is below this (b), with
@@ -195,6 +198,8 @@ def stage1(h, model, mo, ws, sc, budget):
     n = mo.e.shape[0]
     tol = position_tol(n)
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
+    if grips(model.friction):
+        friction_kick(h, model.friction, mo, sc.ukc, sc.uke)
     for j in range(sc.floor_on.shape[0]):  # (a point that touched the floor at the last step starts on it)
         sc.floor_on[j] = 1 if (mo.touching[j] != 0 and mo.anchored[j] == 0) else 0
     newt_valid = False  # ws.newt holds the factors of a Newton matrix of this stage ...
@@ -267,7 +272,7 @@ def stage1(h, model, mo, ws, sc, budget):
             continue
         if not met:
             _record_unmet(ws, sc)
-            if not _release_unmet_bend(mo, ws, sc):
+            if not _release_unmet_bend(mo, ws, sc, grips(model.friction)):
                 return ERR_NEWTON
             for j in range(ws.nrow.shape[0]):  # (a diverged iterate is no warm start)
                 for r in range(ws.nrow[j]):
@@ -317,10 +322,11 @@ def _record_unmet(ws, sc):
 
 
 @njit(cache=True)
-def _release_unmet_bend(mo, ws, sc):
+def _release_unmet_bend(mo, ws, sc, grip):
     """Stage 1's Newton did not meet its rows: the active set is likely wrong, not the
     step.  The bend rows whose impulses pull are switched off, or else, if the row furthest
-    from met (sc.unmet) is a bend row, that one.  Returns whether any was."""
+    from met (sc.unmet) is a bend row, that one, or else, with finite friction (``grip``),
+    the locked hinge nearest to it (``_release_nearest_lock``).  Returns whether any was."""
     released = False
     for j in range(ws.nrow.shape[0]):
         for r in range(ws.nrow[j]):
@@ -330,4 +336,23 @@ def _release_unmet_bend(mo, ws, sc):
     if not released and int(sc.unmet[1]) == K_BEND:
         mo.locked[int(sc.unmet[0]) - 1] = 0
         released = True
+    if not released and grip:
+        released = _release_nearest_lock(mo, int(sc.unmet[0]))
     return released
+
+
+@njit(cache=True)
+def _release_nearest_lock(mo, j):
+    """With finite friction: the locked hinge nearest to point j (within UNMET_REACH points)
+    is released.  A stretch of m segments lying on the floor between two anchors, its
+    points sliding, moves in the floor's plane with m - 2 degrees of freedom, so its m - 1
+    hinges cannot all hold their limits as independent rows: one of them repeats the
+    others, and stage 1 stalls on what their drift leaves (the anchors' or the joints'
+    rows, just past its tolerance).  Returns whether one was."""
+    nh = mo.locked.shape[0]
+    for d in range(UNMET_REACH + 1):
+        for k in (j - 1 - d, j - 1 + d):
+            if 0 <= k < nh and mo.locked[k] != 0:
+                mo.locked[k] = 0
+                return True
+    return False

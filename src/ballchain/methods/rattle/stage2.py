@@ -5,9 +5,10 @@ after a landing (``settle``)."""
 
 from __future__ import annotations
 
-from ...contacts.coulomb import closes, released, slides
+from ...contacts.coulomb import closes, grips, released, slides
 from ...contacts.newton import floor_rebound
 from ...core.rules import (
+    LOG_STICK,
     hold_at,
     is_landed,
     limit_in_force,
@@ -15,6 +16,7 @@ from ...core.rules import (
 from ...jit import njit
 from .blocks import solve_blocks
 from .codes import ERR_ACTIVE_SET
+from .friction import clear_impact_friction, friction_kick, friction_work, jam, landing_slips, stops
 from .rebounds import leave_limits, rebound_targets, restitution
 from .rows import (
     BOUNCE,
@@ -28,13 +30,15 @@ from .state import point_vz, point_z
 
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
 HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
+FIXED_POINT_MAX = 40  # finite friction: stage 2 solved again at most this many times for the landings' slips
+#   (secant steps: an affine root takes two); then the points that would slip are held (``friction.jam``)
 FLIGHT_STEPS = 4.0  # ... nor one off the floor whose flight, 2 v / g, would last fewer steps than this: a
 #   point resting on the floor reaches it again at g h a step, and at HOLD_RATE alone bounced every other
 #   step for good (N = 512 at E = 0.3: the step cut to 1/500 of its size and 600 000 bounces a point)
 
 
 @njit(cache=True)
-def land(t, h, model, mo, sc):
+def land(t, h, model, mo, sc, landings):
     """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
     their number (listed in sc.new_anchor).  With restitution at the floor a point that
@@ -47,8 +51,13 @@ def land(t, h, model, mo, sc):
     frictionless floor (``coulomb.slides``)
     nothing is anchored: the points that stage 1 stopped and that were not touching it
     are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
-    stay on for stage 2."""
+    stay on for stage 2.  With finite friction (``coulomb.grips``) a new touch is anchored
+    (listed; stage 2 checks its impact against the cone: ``friction.landing_slips``) and a
+    sliding point keeps its floor row, or, where it stops (``friction.stops``), is anchored
+    (not listed: counted in the second number returned); a frame's step (not ``landings``)
+    anchors nothing.  Returns (landings, stops)."""
     slide = slides(model.friction)
+    grip = grips(model.friction)
     v_min = max(HOLD_RATE, 0.5 * FLIGHT_STEPS * h)  # (g = 1)
     c, e = mo.c, mo.e
     n = e.shape[0]
@@ -57,10 +66,27 @@ def land(t, h, model, mo, sc):
             sc.pts[j, q] = c[j, q] + e[j, q]
     for q in range(3):
         sc.pts[n, q] = c[n - 1, q] - e[n - 1, q]
-    na = 0
+    na, ns = 0, 0
     for j in range(n + 1):
         approach = sc.rebound[j]  # (``impact_rates``: 0 without restitution)
         sc.rebound[j] = 0.0
+        if grip:
+            if sc.floor_on[j] == 0 or mo.anchored[j] != 0 or not landings:
+                continue
+            hold = mo.touching[j] == 0 or stops(mo, j)
+            if hold:
+                hold_at(mo, j, sc.pts)
+                mo.anchored[j] = 2
+                sc.floor_on[j] = 0
+                if mo.touching[j] != 0:
+                    ns += 1
+                    sc.grip_log[j, 0] = LOG_STICK
+                    continue
+                if not mo.anchor_t[j] == mo.anchor_t[j]:  # (NaN: its first touch)
+                    mo.anchor_t[j] = t
+                sc.new_anchor[na] = j
+                na += 1
+            continue
         if slide:
             if sc.floor_on[j] != 0 and mo.touching[j] == 0:
                 if not mo.anchor_t[j] == mo.anchor_t[j]:  # (NaN: its first touch)
@@ -82,7 +108,7 @@ def land(t, h, model, mo, sc):
             sc.new_anchor[na] = j
             na += 1
         sc.floor_on[j] = 0
-    return na
+    return na, ns
 
 
 @njit(cache=True)
@@ -126,6 +152,11 @@ def stage2(h, model, mo, ws, sc):
     e, anchored, locked = mo.e, mo.anchored, mo.locked
     tol = position_tol(e.shape[0])
     half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
+    grip = grips(model.friction)
+    if grip:
+        friction_kick(h, model.friction, mo, sc.ukc, sc.uke)
+        friction_work(h, model.friction, mo, sc.start, sc.acc)
+        clear_impact_friction(sc)
     for k in range(locked.shape[0]):
         g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
         cand = (locked[k] != 0 or g <= tol) and limit_in_force(anchored, k, model.cone, model.alpha)
@@ -135,30 +166,42 @@ def stage2(h, model, mo, ws, sc):
     for k in range(locked.shape[0] if bounce else 0):  # (sc.hrebound: the approach rates, ``impact_rates``)
         v = -model.e_lock * sc.hrebound[k] if sc.cand[k] != 0 else 0.0
         sc.hrebound[k] = v if v > HOLD_RATE else 0.0
-    slide = slides(model.friction)  # (else sc.floor_on is all 0 after ``land``: no floor rows)
+    slide = slides(model.friction) or grip  # (else sc.floor_on is all 0 after ``land``: no floor rows)
     for j in range(sc.fcand.shape[0] if slide else 0):  # the floor's candidates: active in stage 1, or at it
         on = anchored[j] == 0 and (sc.floor_on[j] != 0 or point_z(mo, j) <= tol)
         sc.fcand[j] = 1 if on else 0
         sc.floor_on[j] = sc.fcand[j]
-    for rnd in range(ROUNDS_MAX):
-        _factor(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, e, False, True, rnd > 0)
-        row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
-        for j in range(ws.nrow.shape[0]):
-            for r in range(ws.nrow[j]):
-                ws.rhs[j, r] = -sc.val[j, r]
-        if bounce:
-            rebound_targets(anchored, ws, sc)
-        solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
-        add_impulses(h, mo, ws, sc, False)
-        if not _switch_stage2(mo, ws, sc, slide):  # (a singular solve: U + T is not finite, ``rattle_step``)
-            booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
-            ws.valid[0] = 1
-            for j in range(sc.fcand.shape[0] if slide else 0):  # (on a frictionless floor: its contacts)
-                mo.touching[j] = sc.floor_on[j]
+    for fp in range(FIXED_POINT_MAX + 1 if grip else 1):  # (finite friction: until the landings' slips settle)
+        settled = False
+        for rnd in range(ROUNDS_MAX):
+            keep = rnd > 0 or fp > 0
+            _factor(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, e, False, True, keep)
+            row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
+            for j in range(ws.nrow.shape[0]):
+                for r in range(ws.nrow[j]):
+                    ws.rhs[j, r] = -sc.val[j, r]
             if bounce:
-                leave_limits(mo, sc)
-            return 0
-    return ERR_ACTIVE_SET
+                rebound_targets(anchored, ws, sc)
+            solve_blocks(ws.nrow, ws.sym, ws.rhs, ws.x)
+            add_impulses(h, mo, ws, sc, False)
+            if not _switch_stage2(mo, ws, sc, slide):  # (a singular solve: U + T is not finite, ``rattle_step``)
+                settled = True
+                break
+        if not settled:
+            return ERR_ACTIVE_SET
+        if grip and fp < FIXED_POINT_MAX - 1 and landing_slips(model.friction, mo, ws, sc):
+            continue
+        if grip and fp == FIXED_POINT_MAX - 1 and landing_slips(model.friction, mo, ws, sc):
+            jam(mo, sc)  # (no sliding solution: held; solved once more as held)
+            continue
+        booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
+        ws.valid[0] = 1
+        for j in range(sc.fcand.shape[0] if slide else 0):  # (a floor that lets points slide: its contacts)
+            mo.touching[j] = sc.floor_on[j]
+        if bounce:
+            leave_limits(mo, sc)
+        return 0
+    return ERR_ACTIVE_SET  # (not reached: the last round returns)
 
 
 @njit(cache=True)

@@ -27,7 +27,10 @@ Motion = namedtuple(
         "anchor_pos",  # (N+1, 3)
         "anchor_t",  # (N+1,)
         "locked",  # (N-1,) uint8: bend rows active (stage 1), taking impulse (stage 2)
-        "touching",  # (N+1,) uint8: on a frictionless floor, the point's floor row is active (after stage 2)
+        "touching",  # (N+1,) uint8: a point that slides on the floor (friction 0 or finite): its floor row is
+        #   active (after stage 2)
+        "grip",  # (N+1, 3): finite friction, a sliding point: [F_n, d_x, d_y], the floor's normal force on it
+        #   over the last step and the direction of the friction force mu F_n d (``friction``)
     ],
 )
 
@@ -47,9 +50,10 @@ Scratch = namedtuple(
         "kind_w", "nrow_w", "x_w",  # the last accepted step's stage 2 impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
-        "acc",  # (10,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
+        "acc",  # (11,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
         #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
-        #   step's start minus at its end, [9] 1 if the step had an impact
+        #   step's start minus at its end, less [10], [9] 1 if the step had an impact, [10]
+        #   what the sliding points' friction force removed (``friction.friction_work``)
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
@@ -58,6 +62,11 @@ Scratch = namedtuple(
         "hrebound",  # (N-1,): a hinge that rebounds from its limit in this step: the rate it leaves with
         "newrow",  # (MAX_NEW, 2) int64: the new contacts of a step (point, row), ``impact_rates``
         "inelastic",  # (1,) uint8: 1 while a step is taken again with its impacts inelastic (ERR_REBOUND)
+        "fimp",  # (N+1, 3): finite friction, a landing that slips: the friction impulse of its impact (stage 2):
+        #   x, y and its magnitude (0: none)
+        "fsec",  # (N+1, 2): ... the last secant point of its magnitude (``friction.landing_slips``)
+        "grip_log",  # (N+1, 4): finite friction, what the floor's hold on a point did in the step: [0] 0, or the
+        #   event's kind (LOG_SLIP, LOG_LIFT, LOG_STICK), [1:4] the force that left the cone, times h
     ],
 )  # fmt: skip
 
@@ -76,8 +85,8 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(10), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
-        np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8),
+        np.zeros(p, np.int64), v3(p), np.zeros(11), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8), v3(p), np.zeros((p, 2)), np.zeros((p, 4)),
     )  # fmt: skip
 
 
@@ -97,7 +106,7 @@ def new_motion(n: int) -> Motion:
     return Motion(
         np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
         np.zeros(p, np.uint8), np.zeros((p, 3)), np.zeros(p), np.zeros(max(n - 1, 0), np.uint8),
-        np.zeros(p, np.uint8),
+        np.zeros(p, np.uint8), np.zeros((p, 3)),
     )  # fmt: skip
 
 
@@ -144,6 +153,7 @@ def copy_motion(a, b):
     _copy(a.vc, b.vc)
     _copy(a.ve, b.ve)
     _copy(a.anchor_pos, b.anchor_pos)
+    _copy(a.grip, b.grip)
     for j in range(a.anchored.shape[0]):
         b.anchored[j] = a.anchored[j]
         b.anchor_t[j] = a.anchor_t[j]
@@ -176,3 +186,13 @@ def mechanical_energy(c, vc, ve):
     for i in range(c.shape[0]):
         u += c[i, 2]
     return u + kinetic_energy_rattle(vc, ve)
+
+
+@njit(cache=True, inline="always")
+def base_at_origin(mo):
+    """Is point N, the bottom end, still anchored at the origin (heights can be summed
+    from it: ``core.kinematics``)?  Not on a floor that let it slide (friction 0 or finite:
+    it may also be anchored again elsewhere)."""
+    n = mo.e.shape[0]
+    p = mo.anchor_pos
+    return mo.anchored[n] != 0 and p[n, 0] == 0.0 and p[n, 1] == 0.0 and p[n, 2] == 0.0

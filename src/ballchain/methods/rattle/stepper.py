@@ -122,7 +122,7 @@ def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
     """Steps of size h until the fall ends, the stop time, full buffers or
     ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""
     n = mo.e.shape[0]
-    room = 3 * n + 8
+    room = 4 * n + 8  # (log rows a step can write at most: locks, unlocks, landings, the floor's hold)
     taken = 0
     while True:
         code = frame_substeps(model, sc, fr.ws, fr.motion, fr.sc, fb, frames)  # the last step's, if pending
