@@ -233,3 +233,20 @@ def test_a_chain_with_friction_balances_the_floors_record_and_closes_its_books(g
     counts = r.event_counts()
     assert counts["slip"] > 0 and counts["stick"] > 0
     assert np.all(np.isfinite(r.anchor_t))  # every point touched the floor
+
+
+def test_frames_do_not_change_a_fall_with_friction():
+    """Finite friction: frames come from steps of their own on a copy of the state, so a
+    fall (its steps, slips and stops, books) does not depend on how many frames it takes."""
+    runs = [
+        simulate(
+            ChainParams(segments=24, alpha=math.pi / 4, friction=0.3),
+            InitialCondition(kind="random", seed=2026, spawn_key=(1,)),
+            SolverOptions(method="rattle", frames_per_tff=fr),
+        )
+        for fr in (37, 1000)
+    ]
+    a, b = runs
+    assert a.status == b.status == "landed"
+    assert a.t_fall == b.t_fall and a.n_steps == b.n_steps and a.energy == b.energy
+    assert a.event_counts() == b.event_counts() and a.event_counts()["slip"] > 0

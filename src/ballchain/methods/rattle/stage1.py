@@ -40,6 +40,11 @@ ITER_BUDGET = 60  # Newton iterations of stage 1 over all its rounds in a step t
 POS_TOL = 1e-10  # b: stage 1 meets every row to this, plus the round-off of the heights (1e-12 before:
 #   the convergence table and the top the same to the digits shown, 14% fewer iterations at N = 256)
 POS_ROUNDOFF = 4e-16  # ... times the chain's height 2N (positions are stored, not summed)
+STALL_TOL = 1e-8  # b: finite friction: stage 1 stalled on its exact Newton matrix within this is met.  A stretch
+#   lying on the floor between two held points, its points sliding, holds more rows than its motion has
+#   freedoms (its hinges at their limits), and the held points' anchors agree with its lengths only to the
+#   tolerance each was placed with: their drift (up to about 1e-9 b) is what the stage cannot meet (the
+#   audit's bounds: 1e-8 b below the floor, 1e-6 b from an anchor)
 UNMET_REACH = 4  # finite friction: a stage 1 that stalls on a row releases a locked hinge this near it
 EARLY_ROUNDS = 4  # rounds of stage 1 in which rows found far past their limit are switched on within the iteration
 EARLY_MARGIN = 10.0  # ... "far": by more than this many times the iterate's residual
@@ -198,7 +203,8 @@ def stage1(h, model, mo, ws, sc, budget):
     n = mo.e.shape[0]
     tol = position_tol(n)
     half_kick(h, mo.anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
-    if grips(model.friction):
+    grip = grips(model.friction)
+    if grip:
         friction_kick(h, model.friction, mo, sc.ukc, sc.uke)
     for j in range(sc.floor_on.shape[0]):  # (a point that touched the floor at the last step starts on it)
         sc.floor_on[j] = 1 if (mo.touching[j] != 0 and mo.anchored[j] == 0) else 0
@@ -226,8 +232,8 @@ def stage1(h, model, mo, ws, sc, budget):
             add_impulses(h, mo, ws, sc, True)
             res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
             sc.acc[7] += 1.0
-            if res <= tol:
-                met = True
+            if res <= tol or (grip and exact and res <= STALL_TOL and res > NEWTON_RATE * last):
+                met = True  # (finite friction: a stall on the exact matrix within STALL_TOL is met, ``STALL_TOL``)
                 break
             if not math.isfinite(res):
                 break
@@ -272,7 +278,7 @@ def stage1(h, model, mo, ws, sc, budget):
             continue
         if not met:
             _record_unmet(ws, sc)
-            if not _release_unmet_bend(mo, ws, sc, grips(model.friction)):
+            if not _release_unmet_bend(mo, ws, sc, grip):
                 return ERR_NEWTON
             for j in range(ws.nrow.shape[0]):  # (a diverged iterate is no warm start)
                 for r in range(ws.nrow[j]):
