@@ -174,6 +174,9 @@ def test_json_summary(engine):
         "hold": 0,
         "anchor": 0,
         "bounce": 0,
+        "slip": 0,
+        "stick": 0,
+        "lift": 0,
     }
     assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking", "lost_landing", "imbalance"}
     assert out["segments"] == 16 and out["floor"] == "all"

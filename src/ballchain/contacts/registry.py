@@ -77,7 +77,8 @@ LAWS = {
                 "touches the floor is anchored there, the model's law), 0 (a frictionless floor: points "
                 "slide on it, the bottom end too, and lift off when the floor would pull) or a finite value "
                 "(stick and slip: a point is held where it touched while the force holding it lies within "
-                "the cone |F_t| <= MU F_n, slides against MU F_n beyond it, and lifts off when the floor "
+                "the friction cone, its tangential part at most MU times its normal part F_n, slides against "
+                "MU F_n beyond it, and lifts off when the floor "
                 "would pull; the bend limits also hold at the pile). Below inf the run ends when every point "
                 "has touched the floor. Floor all only.",
                 _friction,
