@@ -260,6 +260,38 @@ def normal_forces(h, mo, ws, sc):
 
 
 @njit(cache=True)
+def stop_rigid_stretches(mo):
+    """After an accepted step: the sliding points of a stretch lying between two held points
+    whose hinges are all at their limits (or of two segments: a fold between two anchors)
+    cannot move along the floor (m segments there have m - 2 freedoms in its plane, which
+    m - 1 locked hinges take) and are STOPPING: anchored at the next step.  Their rows
+    would only repeat one another (``stage1.STALL_TOL``).  The cone lets them go again."""
+    n1 = mo.anchored.shape[0]
+    a = -1  # the last held point seen
+    for j in range(n1):
+        if mo.anchored[j] != 0:
+            if a >= 0 and j - a >= 2:
+                rigid = j - a == 2
+                if not rigid:
+                    rigid = True
+                    for k in range(a, j - 1):  # (the hinges at the stretch's inner points a + 1 .. j - 1)
+                        if mo.locked[k] == 0:
+                            rigid = False
+                            break
+                inner = True
+                for i in range(a + 1, j):
+                    if mo.touching[i] == 0:
+                        inner = False
+                        break
+                if rigid and inner:
+                    for i in range(a + 1, j):
+                        mo.touching[i] = STOPPING
+            a = j
+        elif mo.touching[j] == 0:
+            a = -1  # (a point off the floor: the stretch is not lying on it)
+
+
+@njit(cache=True)
 def let_go(h, mu, mo, ws, sc):
     """After an accepted step: an anchored point (not anchored in it) whose anchor force
     F = (P1 + P2) / h, plus m g / 2 for each landed segment beside it, leaves the cone

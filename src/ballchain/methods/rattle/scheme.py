@@ -64,7 +64,14 @@ from .books import (
     lock_loss_after_landing,
 )
 from .codes import ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
-from .friction import friction_directions, friction_work, impact_friction_impulse, let_go, normal_forces
+from .friction import (
+    friction_directions,
+    friction_work,
+    impact_friction_impulse,
+    let_go,
+    normal_forces,
+    stop_rigid_stretches,
+)
 from .rebounds import REBOUND_TOL, impact_rates, rebound_energy, restitution
 from .rows import (
     K_BEND,
@@ -240,6 +247,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     sc.acc[1] += fric
     if grip and landings:  # the sliding points' normal forces for the next step; anchors that let go
         normal_forces(h, mo, ws, sc)
+        stop_rigid_stretches(mo)
         if let_go(h, model.friction, mo, ws, sc):
             ws.valid[0] = 0
     return 0, na
