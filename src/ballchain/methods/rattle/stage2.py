@@ -189,10 +189,9 @@ def stage2(h, model, mo, ws, sc):
                 break
         if not settled:
             return ERR_ACTIVE_SET
-        if grip and fp < FIXED_POINT_MAX - 1 and landing_slips(model.friction, mo, ws, sc):
-            continue
-        if grip and fp == FIXED_POINT_MAX - 1 and landing_slips(model.friction, mo, ws, sc):
-            jam(mo, sc)  # (no sliding solution: held; solved once more as held)
+        if grip and fp < FIXED_POINT_MAX and landing_slips(model.friction, mo, ws, sc):
+            if fp == FIXED_POINT_MAX - 1:
+                jam(mo, sc)  # (no sliding solution: held; solved once more as held)
             continue
         booked_rates(ws.J, ws.kind, ws.nrow, anchored, mo.vc, mo.ve, sc.rate)
         ws.valid[0] = 1
