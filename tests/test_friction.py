@@ -250,3 +250,41 @@ def test_frames_do_not_change_a_fall_with_friction():
     assert a.status == b.status == "landed"
     assert a.t_fall == b.t_fall and a.n_steps == b.n_steps and a.energy == b.energy
     assert a.event_counts() == b.event_counts() and a.event_counts()["slip"] > 0
+
+
+def test_a_stuck_stretch_is_held_where_it_lies():
+    """Where a stage cannot move a stretch of sliding points (its rows repeat one another:
+    ``friction.hold_stuck_stretch``), the whole stretch of consecutive sliding points near
+    the failing row is held, and nothing else: at the next step's start each of its points
+    is anchored where it lies (a zigzag on the floor: the anchors are the points, one
+    segment length apart), its stop logged as a ``stick``, its state otherwise untouched."""
+    from ballchain.core.rules import LOG_STICK
+    from ballchain.methods.rattle.friction import SLIDING, hold_marked, hold_stuck_stretch
+    from ballchain.methods.rattle.state import new_motion, new_scratch
+
+    n = 10
+    mo, sc = new_motion(n), new_scratch(n)
+    pts = np.array(
+        [[2.0 * j * math.cos(math.pi / 8), 2.0 * (j % 2) * math.sin(math.pi / 8), 0.0] for j in range(n + 1)]
+    )
+    mo.c[:] = 0.5 * (pts[:-1] + pts[1:])
+    mo.e[:] = 0.5 * (pts[:-1] - pts[1:])
+    #           points 0  1  2  3  4  5  6  7  8  9  10
+    anchored = np.array([1, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1], np.uint8)
+    touching = np.array([0, 0, 1, 2, 1, 0, 0, 1, 0, 0, 0], np.uint8)  # (3: reversed, to be anchored)
+    mo.anchored[:], mo.touching[:] = anchored, touching
+    mo.anchor_pos[:] = np.where(anchored[:, None] != 0, pts, np.nan)
+    mo.vc[[1, 2, 3, 4, 6, 7]] = 1e-3  # (the segments not landed; a held point's velocity is the stages' to take)
+    assert hold_stuck_stretch(mo, -1) == 0  # (no failing row named)
+    assert hold_stuck_stretch(mo, 2) == 3  # points 2, 3, 4 (the reach, 2 +- 4, ends before point 7)
+    assert [j for j in range(n + 1) if mo.touching[j] == 3] == [2, 3, 4]
+    assert hold_marked(mo, sc) == 3
+    np.testing.assert_array_equal(mo.anchored, [1, 1, 1, 1, 1, 1, 1, 0, 1, 1, 1])
+    np.testing.assert_allclose(mo.anchor_pos[2:5], pts[2:5], atol=1e-14)
+    assert np.allclose(np.linalg.norm(np.diff(mo.anchor_pos[1:6], axis=0), axis=1), 2.0)
+    assert [j for j in range(n + 1) if sc.grip_log[j, 0] == LOG_STICK] == [2, 3, 4]
+    # segments 1..4 now lie between anchors: stopped, their momentum taken by the floor
+    assert np.all(mo.vc[1:5] == 0.0) and np.all(mo.ve[1:5] == 0.0)
+    assert mo.touching[7] == SLIDING and np.all(mo.vc[6:8] == 1e-3)
+    np.testing.assert_allclose(sc.acc[2:5], -4e-3, rtol=1e-12)
+    assert hold_marked(mo, sc) == 0  # (marked once: held once)

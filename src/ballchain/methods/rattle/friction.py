@@ -29,13 +29,15 @@ from __future__ import annotations
 
 import math
 
-from ...core.rules import LOG_LIFT, LOG_SLIP, is_landed
+from ...core.rules import LOG_LIFT, LOG_SLIP, LOG_STICK, hold_at, is_landed
 from ...jit import njit
 from .rows import K_ANCHOR_LOWER, K_AXIS, is_floor
 
 V_SLIP = 1e-9  # sqrt(g b): a sliding point slower than this keeps the direction its friction had
 FIXED_POINT_TOL = 1e-12  # a landing's friction impulse (m sqrt(g b)) settled to this, relative (``landing_slips``)
-SLIDING, STOPPING = 1, 2  # Motion.touching at finite friction: slides; reversed in the last stage 2 (anchored next)
+SLIDING, STOPPING, HELD = 1, 2, 3  # Motion.touching at finite friction: slides; reversed in the last stage 2
+#   (anchored next); in a stretch that a stage could not move (``hold_stuck_stretch``: held at the next step's start)
+STUCK_REACH = 4  # points: a stage that fails on a row at point j holds the sliding stretches this near it
 
 
 @njit(cache=True, inline="always")
@@ -327,3 +329,65 @@ def let_go(h, mu, mo, ws, sc):
         mo.touching[j] = SLIDING
         mo.grip[j, 0], mo.grip[j, 1], mo.grip[j, 2] = fn, fx / ft, fy / ft
     return changed
+
+
+@njit(cache=True)
+def hold_stuck_stretch(mo, j):
+    """A stage failed even at its shortest step on a row at point j (``Scratch.unmet``):
+    the sliding points there are held (HELD, anchored at the step's start when it is taken
+    again: ``hold_marked``), each whole stretch of consecutive sliding points within
+    STUCK_REACH of j.  Such a stretch lies on the floor between held points with its hinges
+    at their limits: its rows repeat one another (a taut or rigid stretch: m segments in
+    the floor's plane have m - 2 freedoms), and the friction cone decides from the next
+    step on whether it slides again (``let_go``).  Returns how many points it marks."""
+    n1 = mo.anchored.shape[0]
+    if j < 0 or j >= n1:
+        return 0
+    marked = 0
+    for i in range(max(j - STUCK_REACH, 0), min(j + STUCK_REACH, n1 - 1) + 1):
+        if mo.anchored[i] != 0 or mo.touching[i] == 0 or mo.touching[i] == HELD:
+            continue
+        a, b = i, i
+        while a > 0 and mo.anchored[a - 1] == 0 and mo.touching[a - 1] != 0:
+            a -= 1
+        while b < n1 - 1 and mo.anchored[b + 1] == 0 and mo.touching[b + 1] != 0:
+            b += 1
+        for k in range(a, b + 1):
+            mo.touching[k] = HELD
+            marked += 1
+    return marked
+
+
+@njit(cache=True)
+def hold_marked(mo, sc):
+    """At a step's start: the points marked HELD are anchored where they are (``rules.hold_at``),
+    their stop logged (``stick``; the stages take their velocity, as a landing's).  A
+    segment that lies between two anchors from then on has landed: the stages do not see
+    it, so it is stopped here, its momentum taken by the floor (acc[2:5]; its kinetic
+    energy is the step's loss, booked at the floor).  Returns how many points."""
+    n = mo.e.shape[0]
+    held = 0
+    for j in range(n + 1):
+        if mo.touching[j] == HELD and mo.anchored[j] == 0:
+            held += 1
+    if held == 0:
+        return 0
+    for j in range(n):
+        for q in range(3):
+            sc.pts[j, q] = mo.c[j, q] + mo.e[j, q]
+    for q in range(3):
+        sc.pts[n, q] = mo.c[n - 1, q] - mo.e[n - 1, q]
+    for j in range(n + 1):
+        if mo.touching[j] == HELD:
+            mo.touching[j] = SLIDING
+            if mo.anchored[j] == 0:
+                hold_at(mo, j, sc.pts)
+                mo.anchored[j] = 1
+                sc.grip_log[j, 0] = LOG_STICK
+    for i in range(n):
+        if is_landed(mo.anchored, i):
+            for q in range(3):
+                sc.acc[2 + q] -= mo.vc[i, q]  # (m = 1)
+                mo.vc[i, q] = 0.0
+                mo.ve[i, q] = 0.0
+    return held

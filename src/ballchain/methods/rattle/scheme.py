@@ -67,6 +67,7 @@ from .codes import ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STE
 from .friction import (
     friction_directions,
     friction_work,
+    hold_marked,
     impact_friction_impulse,
     let_go,
     normal_forces,
@@ -116,6 +117,7 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
         sc.acc[q] = 0.0
     for q in range(3):
         sc.pull[q] = 0.0
+    sc.unmet[0] = -1.0  # (where a stage fails in this step: set by it)
     copy_motion(mo, sc.start)  # (all of it: a refused step is undone from it)
     p = active_points(mo.anchored)
     _no_rows_from(p, ws, sc)
@@ -184,6 +186,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         friction_directions(mo)
         sc.grip_log[:, 0] = 0.0
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
+    held = hold_marked(mo, sc) if grip and landings else 0  # (``friction.hold_stuck_stretch``)
     code = stage1(h, model, mo, ws, sc, budget)
     if code == 0 and _largest_turn(sc.start.e, mo.e) > ROOT_TURN:
         code = ERR_NEWTON  # another root of stage 1's equations, not this step's: taken again halved
@@ -204,6 +207,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     na, touched, ns = 0, 0, 0
     if landings or slides(model.friction) or grip:  # (a frame's step on a floor that lets points slide too)
         na, ns = land(t + h, h, model, mo, sc, landings)
+        ns += held
     else:
         for j in range(sc.floor_on.shape[0]):
             touched += sc.floor_on[j]

@@ -292,7 +292,19 @@ def stage1(h, model, mo, ws, sc, budget):
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, sc.ukc, sc.uke, sc.rb1)
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, mo.vc, mo.ve, sc.ra1)
             return 0
+    _record_pulling(ws, sc)
     return ERR_ACTIVE_SET
+
+
+@njit(cache=True)
+def _record_pulling(ws, sc):
+    """sc.unmet <- the first bend or floor row whose impulse pulls (where the active set
+    did not settle), if any."""
+    for j in range(ws.nrow.shape[0]):
+        for r in range(ws.nrow[j]):
+            if (ws.kind[j, r] == K_BEND or is_floor(ws.kind[j, r])) and ws.x[j, r] < 0.0:
+                sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, ws.kind[j, r], ws.x[j, r]
+                return
 
 
 @njit(cache=True)

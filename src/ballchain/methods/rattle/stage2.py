@@ -21,6 +21,7 @@ from .rebounds import leave_limits, rebound_targets, restitution
 from .rows import (
     BOUNCE,
     K_BEND,
+    K_FLOOR,
     booked_rates,
     is_floor,
     row_rates,
@@ -125,13 +126,16 @@ def _switch_stage2(mo, ws, sc, slide):
             if ws.kind[j, r] == K_BEND and ws.x[j, r] < 0.0:
                 locked[j - 1] = 0
                 changed = True
+                _flipped(sc, j, ws.kind[j, r], ws.x[j, r])
             elif is_floor(ws.kind[j, r]) and released(ws.x[j, r]):
                 sc.floor_on[j] = 0
                 changed = True
+                _flipped(sc, j, ws.kind[j, r], ws.x[j, r])
     for j in range(sc.fcand.shape[0] if slide else 0):
         if sc.fcand[j] != 0 and sc.floor_on[j] == 0 and closes(point_vz(mo, j), RATE_TOL):
             sc.floor_on[j] = 1
             changed = True
+            _flipped(sc, j, K_FLOOR, point_vz(mo, j))
     for k in range(locked.shape[0]):
         if sc.cand[k] != 0 and locked[k] == 0:
             rate = 0.0
@@ -140,7 +144,15 @@ def _switch_stage2(mo, ws, sc, slide):
             if rate - sc.hrebound[k] < -RATE_TOL:  # (Newton's law: xi = rate + e rate-, sc.hrebound = -e rate-)
                 locked[k] = 1
                 changed = True
+                _flipped(sc, k + 1, K_BEND, rate)
     return changed
+
+
+@njit(cache=True, inline="always")
+def _flipped(sc, j, kind, value):
+    """sc.unmet <- a row at point j that the active set changed (the last one names where a
+    stage 2 that does not settle failed: ``friction.hold_stuck_stretch``)."""
+    sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, kind, value
 
 
 @njit(cache=True)

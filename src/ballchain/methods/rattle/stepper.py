@@ -9,14 +9,27 @@ import math
 
 import numpy as np
 
+from ...contacts.coulomb import grips
 from ...core.rules import (
     fall_ended,
     fall_over,
 )
 from ...jit import entry, njit
 from .books import commit
-from .codes import ERR_NAN, ERR_REBOUND, ERR_STEP_ENERGY, RT_BUFFER, RT_LANDED, RT_MAX_STEPS, RT_RETURN, RT_STOP
+from .codes import (
+    ERR_ACTIVE_SET,
+    ERR_NAN,
+    ERR_NEWTON,
+    ERR_REBOUND,
+    ERR_STEP_ENERGY,
+    RT_BUFFER,
+    RT_LANDED,
+    RT_MAX_STEPS,
+    RT_RETURN,
+    RT_STOP,
+)
 from .frames import _books_now, frame_substeps, record_frame
+from .friction import hold_stuck_stretch
 from .scheme import CUTS_MAX, SPLIT_CUTS, _budget, keep_warm_start, rattle_step
 from .state import copy_motion
 
@@ -67,6 +80,13 @@ def _growth(change, impact, etol, fb):
 
 
 @njit(cache=True)
+def _stuck(code, model):
+    """Finite friction: a stage that failed even at the shortest step holds the sliding
+    stretch where it failed (``friction.hold_stuck_stretch``) rather than end the run."""
+    return grips(model.friction) and (code == ERR_NEWTON or code == ERR_ACTIVE_SET)
+
+
+@njit(cache=True)
 def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     """One step from t (h at most: cut at the stop time) with its books, log and trace;
     the frames inside it are left pending (fb[18]).  Returns (code, t + h)."""
@@ -98,6 +118,11 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     if code < 0:
+        copy_motion(sc.start, mo)  # (the run ends at the last accepted state, its books true)
+        ws.valid[0] = 0
+        if _stuck(code, model) and hold_stuck_stretch(mo, int(sc.unmet[0])) > 0:
+            books.n_evals[0] += np.int64(sc.acc[5])
+            return 0, t  # taken again with the stretch held (finite friction)
         return code, t
     keep_warm_start(h, ws, sc)
     fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb))
