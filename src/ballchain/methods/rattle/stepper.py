@@ -60,18 +60,27 @@ def _cut(code, change, etol):
 
 
 @njit(cache=True)
-def _growth(change, impact, etol, fb):
+def _growth(change, impact, etol, fb, grip):
     """How many halvings (log2) the next step is lengthened by after one accepted: with the
     energy bound, the smooth step's change of U + T brought to SAFETY etol (h^3), by a
     factor in [1/GROW_MAX, GROW_MAX] (an impact step, whose change is its loss, keeps the
-    size); without it, one halving undone after GROW_AFTER steps at a size."""
+    size; with finite friction (``grip``), where points stop on the floor at almost every
+    step, one halving is undone after GROW_AFTER impact steps at a size: else a step cut for
+    one landing stayed cut for the rest of the fall); without the bound, one halving undone
+    after GROW_AFTER steps at a size."""
     if etol > 0.0:
         if impact:
-            return 0.0
+            return _count_up(fb) if grip else 0.0
         if change == 0.0:
             return math.log2(GROW_MAX)
         g = math.log2(SAFETY * etol / abs(change)) / 3.0
         return min(max(g, -math.log2(GROW_MAX)), math.log2(GROW_MAX))
+    return _count_up(fb)
+
+
+@njit(cache=True)
+def _count_up(fb):
+    """One halving undone after GROW_AFTER accepted steps at a size (fb[20] counts them)."""
     fb[20] += 1.0
     if fb[20] >= GROW_AFTER:
         fb[20] = 0.0
@@ -125,7 +134,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
             return 0, t  # taken again with the stretch held (finite friction)
         return code, t
     keep_warm_start(h, ws, sc)
-    fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb))
+    fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb, grips(model.friction)))
     _books_now(books, fb)
     for q in range(5):
         fb[11 + q] = fb[q]
