@@ -5,8 +5,8 @@ docs/experiment.md).
 
 The table holds falls of the same starts on several floors, by one method: the anchor
 (``--friction inf``, ``--restitution-floor 0``: the model's law), a frictionless floor
-(``--friction 0``) and a rough floor that gives back part of each landing
-(``--restitution-floor E``).  Per (N, floor), over the runs that landed (a run that ended
+(``--friction 0``), Coulomb's friction at a finite coefficient (``--friction MU``) and a
+rough floor that gives back part of each landing (``--restitution-floor E``).  Per (N, floor), over the runs that landed (a run that ended
 otherwise is listed and not counted): the mean t_fall/t_ff, the braking coefficient gamma
 measured from the floor's momentum record and inferred from t_fall/t_ff by the
 Hamm-Geminard formula, and the pile's radius of gyration seen from above
@@ -39,12 +39,22 @@ def _floor(r) -> str:
     """The floor's law of a row, named."""
     if r.friction == 0.0:
         return "frictionless"
+    if math.isfinite(r.friction):
+        return f"mu = {r.friction:g}"
     if r.restitution_floor > 0.0:
         return f"E = {r.restitution_floor:g}"
     return "anchor"
 
 
-ORDER = {"anchor": 0, "frictionless": 1}  # then the restitution floors by E
+def _order(law: str) -> tuple:
+    """The floors in the tables' order: the anchor, then by grip (frictionless, mu = ...),
+    then the restitution floors by E."""
+    if law == "anchor":
+        return (0, 0.0)
+    if law == "frictionless":
+        return (1, 0.0)
+    kind, value = law.split(" = ")
+    return (1 if kind == "mu" else 2, float(value))
 
 
 def _interval(x, digits: int = 3) -> tuple[str, float, float, float]:
@@ -84,7 +94,7 @@ def main() -> None:
     for _, r in df[df.status != "landed"].iterrows():
         print(f"  not counted: {r.run_id} ({r.status}): {r.message}")
     ok = df[df.status == "landed"]
-    key = lambda law: (ORDER.get(law, 2), law)  # noqa: E731
+    key = _order
     print()
     print(
         "| N | floor | runs (landed) | t_fall/t_ff [95%] | gamma measured [95%] | gamma inferred [95%] "

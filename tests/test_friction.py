@@ -288,3 +288,40 @@ def test_a_stuck_stretch_is_held_where_it_lies():
     assert mo.touching[7] == SLIDING and np.all(mo.vc[6:8] == 1e-3)
     np.testing.assert_allclose(sc.acc[2:5], -4e-3, rtol=1e-12)
     assert hold_marked(mo, sc) == 0  # (marked once: held once)
+
+
+def test_a_chain_that_comes_to_rest_off_the_floor_ends_its_fall_there():
+    """A chain that comes to rest with a point that never touched the floor ends the fall
+    there (``rules.fall_over``, ``at_rest``).  Two segments falling in a vertical plane
+    (mu = 5) lock, unlock, the foot slips, and the top end lands with the hinge above the
+    floor: a tent on two held feet.  The run ends landed, at rest, its message naming the
+    point off the floor, with the books closed; and the tent can stand: as a three-pin arch
+    (pins at the feet and the hinge, below its bend limit) it is statically determinate,
+    and the floor's forces that hold it lie within the friction cone at both feet."""
+    mu = 5.0
+    e0 = np.array([[math.sin(0.6), 0.0, math.cos(0.6)], [math.sin(0.1), 0.0, math.cos(0.1)]])
+    r = simulate(
+        ChainParams(segments=2, alpha=math.pi / 4, friction=mu),
+        state=(e0, None),
+        options=SolverOptions(method="rattle"),
+    )
+    assert r.status == "landed", r.message
+    assert "1 of its 3 points never on the floor" in r.message
+    assert np.isnan(r.anchor_t[1]) and np.isfinite(r.anchor_t[0]) and np.isfinite(r.t_fall)
+    assert abs(r.energy["imbalance"]) <= 1e-4 * abs(r.energy["initial"])  # (the method's books at its step)
+    assert r.energy["kinetic"] <= 1e-12  # (at its end)
+    p0, p2 = np.asarray(r.anchor_pos)[[0, 2]]  # the feet where the floor holds them
+    assert abs(p0[2]) < 1e-8 and abs(p2[2]) < 1e-8 and abs(p0[1]) < 1e-12 and abs(p2[1]) < 1e-12
+    half = 0.5 * abs(p0[0] - p2[0])
+    p1 = 0.5 * (p0 + p2) + np.array([0.0, 0.0, math.sqrt(4.0 - half * half)])  # (2 b from each foot)
+    assert p1[2] > 0.1 and float((p0 - p1) @ (p1 - p2)) / 4.0 > math.cos(math.pi / 4) + 1e-3  # (below its limit: a pin)
+    x = lambda p: np.array([p[0], p[2]])  # noqa: E731  (the vertical plane)
+    cross = lambda a, b: a[0] * b[1] - a[1] * b[0]  # noqa: E731
+    w = np.array([0.0, -1.0])  # each segment's weight (m g = 1) at its centre
+    # the hinge's force P on the lower segment (-P on the upper): moments about each foot vanish
+    a_, b_ = x(p1) - x(p2), x(p1) - x(p0)
+    m_a, m_b = cross(0.5 * a_, w), cross(0.5 * b_, w)
+    A = np.array([[-a_[1], a_[0]], [b_[1], -b_[0]]])  # cross(a_, P) = -m_a, cross(b_, -P) = -m_b
+    P = np.linalg.solve(A, [-m_a, -m_b])
+    for f in (-P - w, P - w):  # the floor's force at the bottom end, at the top end
+        assert f[1] > 0.0 and abs(f[0]) <= mu * f[1], f

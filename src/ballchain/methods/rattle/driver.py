@@ -91,6 +91,8 @@ def run(setup, progress, stop) -> RunOutput:
         if code == ERR_NEWTON:
             j, kind, value = sc.unmet
             where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step 2^10 times shorter than --dt)"
+        elif code == ERR_ACTIVE_SET and sc.unmet[0] >= 0:
+            where += f" (the last row it switched: point {int(sc.unmet[0])}, its {ROW_NAMES.get(int(sc.unmet[1]), 'row')} row)"
         return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
@@ -99,6 +101,11 @@ def run(setup, progress, stop) -> RunOutput:
     state["frame_scratch"] = fr.sc
     state.update({"books": books, "frame_info": fb})
     out = drive(setup, progress, stop, advance, out, 4 * (4 * n + 8), state)
+    off = int(np.count_nonzero(np.isnan(chain.anchor_t)))
+    if out.status == "landed" and off > 0:  # (finite friction: at rest, ``rules.fall_over``)
+        out.message = (
+            f"the chain came to rest with {off} of its {n + 1} points never on the floor (propped by their bend limits)"
+        )
     out.kinetic = float(kinetic_energy_rattle(vc, ve))
     if not base_at_origin(mo):  # (a floor that let the bottom end slide: it may have left the origin)
         out.potential = float(np.sum(c[:, 2]))
