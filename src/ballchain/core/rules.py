@@ -150,31 +150,17 @@ def all_anchored(anchored):
 
 
 @njit(cache=True)
-def fall_over(anchored, anchor_t, friction, resting=False):
+def fall_over(anchored, anchor_t, friction):
     """The run is over: every point anchored (the anchor, friction inf: ``all_anchored``),
     or, on a floor that lets points slide (friction 0: nothing is anchored, the pile slides
     on; finite friction: a point may slip again), every point has touched the floor (its
-    first touch in ``anchor_t``), or, with finite friction, the chain has come to rest
-    after its top end landed (``resting``, ``at_rest``: a pile propped by its bend limits,
-    an arch whose feet the friction holds, need never touch)."""
+    first touch in ``anchor_t``)."""
     if friction == math.inf:
         return all_anchored(anchored)
-    if resting and friction > 0.0:
-        return True
     for j in range(anchor_t.shape[0]):
         if not anchor_t[j] == anchor_t[j]:
             return False
     return True
-
-
-REST_SPEED = 1e-9  # sqrt(g b): finite friction: no point of a chain at rest moves faster (``at_rest``)
-
-
-@njit(cache=True)
-def at_rest(t_fall, speed):
-    """The chain has come to rest (``fall_over``): its top end has landed (t_fall set) and
-    no point moves faster than REST_SPEED (``speed``: the fastest point's)."""
-    return t_fall == t_fall and speed <= REST_SPEED
 
 
 @njit(cache=True)

@@ -11,7 +11,6 @@ import numpy as np
 
 from ...contacts.coulomb import grips
 from ...core.rules import (
-    at_rest,
     fall_ended,
     fall_over,
 )
@@ -48,27 +47,6 @@ def _fastest_turn(ve):
     for i in range(ve.shape[0]):
         m = max(m, ve[i, 0] ** 2 + ve[i, 1] ** 2 + ve[i, 2] ** 2)
     return math.sqrt(m)
-
-
-@njit(cache=True)
-def _fastest_point(vc, ve):
-    """max_j |dp_j/dt| over both ends of every segment (|c' +- e'|, sqrt(g b))."""
-    m = 0.0
-    for i in range(vc.shape[0]):
-        up, down = 0.0, 0.0
-        for q in range(3):
-            up += (vc[i, q] + ve[i, q]) ** 2
-            down += (vc[i, q] - ve[i, q]) ** 2
-        m = max(m, up, down)
-    return math.sqrt(m)
-
-
-@njit(cache=True)
-def _resting(model, books, mo):
-    """Finite friction: has the chain come to rest after its top end landed (``rules.at_rest``)?"""
-    if not grips(model.friction) or books.t_fall[0] != books.t_fall[0]:
-        return False
-    return at_rest(books.t_fall[0], _fastest_point(mo.vc, mo.ve))
 
 
 @njit(cache=True)
@@ -184,7 +162,7 @@ def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         code = frame_substeps(model, sc, fr.ws, fr.motion, fr.sc, fb, frames)  # the last step's, if pending
         if code != 0:
             return code, t
-        if fall_over(mo.anchored, mo.anchor_t, model.friction, _resting(model, books, mo)):
+        if fall_over(mo.anchored, mo.anchor_t, model.friction):
             books.t_landed[0] = t
             fall_ended(books, t, True, True)
             return RT_LANDED, t
@@ -200,7 +178,5 @@ def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         if code < 0:
             return code, t
         taken += 1
-        if taken >= model.return_every and not fall_over(
-            mo.anchored, mo.anchor_t, model.friction, _resting(model, books, mo)
-        ):
+        if taken >= model.return_every and not fall_over(mo.anchored, mo.anchor_t, model.friction):
             return RT_RETURN, t
