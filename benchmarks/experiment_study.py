@@ -1,7 +1,7 @@
 """The model against the experiment: the floor's laws at N = 512 and 1024 (the numbers of
 docs/experiment.md).
 
-    python benchmarks/experiment_study.py docs/data/experiment.parquet [--plot FILE]
+    python benchmarks/experiment_study.py docs/data/experiment.parquet [--plot FILE] [--step-check TABLE]
 
 The table holds falls of the same starts on several floors, by one method: the anchor
 (``--friction inf``, ``--restitution-floor 0``: the model's law), a frictionless floor
@@ -19,6 +19,8 @@ Last, the experiment (Hamm and Geminard: gamma 0.83, which their formula maps to
 t_fall/t_ff = ``theory.hamm_geminard_time_ratio(0.83)``): which floors' intervals hold
 either number, and which hold both.  ``--plot``: gamma measured against t_fall/t_ff, the
 means with their intervals, on the Hamm-Geminard curve, with the experiment's point.
+``--step-check TABLE``: falls of the same starts at another ``--dt`` minus the table's,
+paired by start.
 """
 
 from __future__ import annotations
@@ -78,15 +80,41 @@ def _paired(g, base, col) -> str:
     return f"{d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}]"
 
 
+def _load(path) -> pd.DataFrame:
+    """A table with its floors named (``floor_law``)."""
+    df = pd.read_parquet(path)
+    df["friction"] = df["friction"].fillna(math.inf)
+    df["restitution_floor"] = df["restitution_floor"].fillna(0.0)
+    df["floor_law"] = [_floor(r) for r in df.itertuples()]
+    return df
+
+
+def _step_check(df, path) -> None:
+    """The falls of ``path`` (the same starts and floors at another step) minus those of df,
+    paired by start: mean [95%] and median, for t_fall/t_ff and gamma measured."""
+    other = _load(path)
+    print(f"\nThe step: {path} minus the table, paired by start (mean [95%]; median):\n")
+    print("| N | floor | --dt (table, other) | pairs | t_fall/t_ff [95%] | median | gamma measured [95%] | median |")
+    print("|---|---|---|---|---|---|---|---|")
+    for (n, law), g in other.groupby(["segments", "floor_law"]):
+        base = df[(df.segments == n) & (df.floor_law == law) & (df.status == "landed")]
+        g = g[g.status == "landed"]
+        cells = []
+        for col in ("ratio", "gamma_measured"):
+            d = (g.set_index("run_index")[col] - base.set_index("run_index")[col]).dropna().to_numpy(dtype=float)
+            cells += [_paired(g, base, col), f"{np.median(d):+.4f}"]
+        dts = f"{base.dt.iloc[0]:g}, {g.dt.iloc[0]:g}"
+        pairs = len(set(g.run_index) & set(base.run_index))
+        print(f"| {n} | {law} | {dts} | {pairs} | " + " | ".join(cells) + " |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("table")
     ap.add_argument("--plot")
+    ap.add_argument("--step-check", help="a table of some of the same falls at another --dt: paired differences")
     a = ap.parse_args()
-    df = pd.read_parquet(a.table)
-    df["friction"] = df["friction"].fillna(math.inf)
-    df["restitution_floor"] = df["restitution_floor"].fillna(0.0)
-    df["floor_law"] = [_floor(r) for r in df.itertuples()]
+    df = _load(a.table)
     df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
     ratio_exp = hamm_geminard_time_ratio(GAMMA_EXPERIMENT)
     print(f"{len(df)} runs ({', '.join(sorted(df.method.unique()))}): "
@@ -142,6 +170,8 @@ def main() -> None:
             f"N = {n}, {law}: holds {verdict} (t_fall/t_ff {t[1] - ratio_exp:+.3f} from it, "
             f"gamma measured {gm[1] - GAMMA_EXPERIMENT:+.3f})"
         )
+    if a.step_check:
+        _step_check(df, a.step_check)
     if a.plot:
         import matplotlib
 
