@@ -20,7 +20,8 @@ t_fall/t_ff = ``theory.hamm_geminard_time_ratio(0.83)``): which floors' interval
 either number, and which hold both.  ``--plot``: gamma measured against t_fall/t_ff, the
 means with their intervals, on the Hamm-Geminard curve, with the experiment's point.
 ``--step-check TABLE``: falls of the same starts at another ``--dt`` minus the table's,
-paired by start.
+paired by start; and, where TABLE has the anchor too, each of its floors minus the anchor
+at that step.
 """
 
 from __future__ import annotations
@@ -106,6 +107,19 @@ def _step_check(df, path) -> None:
         dts = f"{base.dt.iloc[0]:g}, {g.dt.iloc[0]:g}"
         pairs = len(set(g.run_index) & set(base.run_index))
         print(f"| {n} | {law} | {dts} | {pairs} | " + " | ".join(cells) + " |")
+    ok = other[other.status == "landed"]
+    if "anchor" not in set(ok.floor_law):
+        return
+    print(f"\nAt the step of {path}: each floor minus the anchor, paired by start (mean [95%]):\n")
+    print("| N | floor | --dt | pairs | t_fall/t_ff [95%] | gamma measured [95%] |")
+    print("|---|---|---|---|---|---|")
+    for n, gn in ok.groupby("segments"):
+        anchor = gn[gn.floor_law == "anchor"]
+        for law in sorted(set(gn.floor_law) - {"anchor"}, key=_order):
+            g = gn[gn.floor_law == law]
+            pairs = len(set(g.run_index) & set(anchor.run_index))
+            cells = " | ".join(_paired(g, anchor, c) for c in ("ratio", "gamma_measured"))
+            print(f"| {n} | {law} | {g.dt.iloc[0]:g} | {pairs} | {cells} |")
 
 
 def main() -> None:
