@@ -20,6 +20,7 @@ from .codes import ERR_ACTIVE_SET, ERR_NEWTON
 from .friction import friction_kick
 from .rows import (
     K_BEND,
+    K_FLOOR,
     booked_rates,
     carry_over,
     copy_layout,
@@ -292,19 +293,30 @@ def stage1(h, model, mo, ws, sc, budget):
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, sc.ukc, sc.uke, sc.rb1)
             booked_rates(ws.J, ws.kind, ws.nrow, mo.anchored, mo.vc, mo.ve, sc.ra1)
             return 0
-    _record_pulling(ws, sc)
+    _record_unsettled(model, mo, ws, sc, tol)
     return ERR_ACTIVE_SET
 
 
 @njit(cache=True)
-def _record_pulling(ws, sc):
-    """sc.unmet <- the first bend or floor row whose impulse pulls (where the active set
-    did not settle), if any."""
+def _record_unsettled(model, mo, ws, sc, tol):
+    """Where stage 1's active set did not settle (sc.unmet): the first bend or floor row
+    whose impulse pulls, or else the first limit or free point past its bound by more
+    than tol (the rows its last round switched on), if any."""
     for j in range(ws.nrow.shape[0]):
         for r in range(ws.nrow[j]):
             if (ws.kind[j, r] == K_BEND or is_floor(ws.kind[j, r])) and ws.x[j, r] < 0.0:
                 sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, ws.kind[j, r], ws.x[j, r]
                 return
+    e = mo.e
+    for k in range(mo.locked.shape[0]):
+        g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
+        if g < -tol and limit_in_force(mo.anchored, k, model.cone, model.alpha):
+            sc.unmet[0], sc.unmet[1], sc.unmet[2] = k + 1, K_BEND, g
+            return
+    for j in range(e.shape[0] + 1):
+        if mo.anchored[j] == 0 and point_z(mo, j) < -tol:
+            sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, K_FLOOR, point_z(mo, j)
+            return
 
 
 @njit(cache=True)
