@@ -32,6 +32,7 @@ import math
 from ...core.rules import LOG_LIFT, LOG_SLIP, LOG_STICK, hold_at, is_landed
 from ...jit import njit
 from .rows import K_ANCHOR_LOWER, K_AXIS, is_floor
+from .state import point_positions
 
 V_SLIP = 1e-9  # sqrt(g b): a sliding point slower than this keeps the direction its friction had
 FIXED_POINT_TOL = 1e-12  # a landing's friction impulse (m sqrt(g b)) settled to this, relative (``landing_slips``)
@@ -372,11 +373,7 @@ def hold_marked(mo, sc):
             held += 1
     if held == 0:
         return 0
-    for j in range(n):
-        for q in range(3):
-            sc.pts[j, q] = mo.c[j, q] + mo.e[j, q]
-    for q in range(3):
-        sc.pts[n, q] = mo.c[n - 1, q] - mo.e[n - 1, q]
+    point_positions(mo.c, mo.e, sc.pts)
     for j in range(n + 1):
         if mo.touching[j] == HELD:
             mo.touching[j] = SLIDING

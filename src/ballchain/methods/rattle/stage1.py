@@ -13,6 +13,7 @@ from ...contacts.coulomb import grips
 from ...core.rules import (
     is_landed,
     limit_in_force,
+    unit_hinge_gap,
 )
 from ...jit import njit
 from .blocks import factor_blocks, solve_blocks
@@ -309,7 +310,7 @@ def _record_unsettled(model, mo, ws, sc, tol):
                 return
     e = mo.e
     for k in range(mo.locked.shape[0]):
-        g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
+        g = unit_hinge_gap(e, k, model.cos_alpha)
         if g < -tol and limit_in_force(mo.anchored, k, model.cone, model.alpha):
             sc.unmet[0], sc.unmet[1], sc.unmet[2] = k + 1, K_BEND, g
             return

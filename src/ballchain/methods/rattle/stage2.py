@@ -27,7 +27,7 @@ from .rows import (
     row_rates,
 )
 from .stage1 import ROUNDS_MAX, _factor, add_impulses, half_kick, position_tol
-from .state import point_vz, point_z
+from .state import point_positions, point_vz, point_z
 
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
 HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
@@ -60,15 +60,9 @@ def land(t, h, model, mo, sc, landings):
     slide = slides(model.friction)
     grip = grips(model.friction)
     v_min = max(HOLD_RATE, 0.5 * FLIGHT_STEPS * h)  # (g = 1)
-    c, e = mo.c, mo.e
-    n = e.shape[0]
-    for j in range(n):
-        for q in range(3):
-            sc.pts[j, q] = c[j, q] + e[j, q]
-    for q in range(3):
-        sc.pts[n, q] = c[n - 1, q] - e[n - 1, q]
+    point_positions(mo.c, mo.e, sc.pts)
     na, ns = 0, 0
-    for j in range(n + 1):
+    for j in range(mo.e.shape[0] + 1):
         approach = sc.rebound[j]  # (``impact_rates``: 0 without restitution)
         sc.rebound[j] = 0.0
         if grip:

@@ -180,6 +180,18 @@ def point_vz(mo, j):
 
 
 @njit(cache=True)
+def point_positions(c, e, pts):
+    """pts[j] <- p_j: the upper end of segment j (c + e), the last point the lower end of the
+    last segment (c - e)."""
+    n = e.shape[0]
+    for j in range(n):
+        for q in range(3):
+            pts[j, q] = c[j, q] + e[j, q]
+    for q in range(3):
+        pts[n, q] = c[n - 1, q] - e[n - 1, q]
+
+
+@njit(cache=True)
 def mechanical_energy(c, vc, ve):
     """U + T in maximal coordinates: sum c_i,z + 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
     u = 0.0
