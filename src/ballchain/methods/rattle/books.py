@@ -31,7 +31,7 @@ from .rows import (
     row_rates,
     segment_force,
 )
-from .state import base_at_origin, point_z
+from .state import active_points, base_at_origin, point_z
 
 
 @njit(cache=True)
@@ -208,7 +208,8 @@ def commit(t, h, na, mo, ws, sc, books, log):
     for q in range(3):
         account[q] += sc.acc[2 + q]
     books.floor_flow[2] += h * landed_count(sc.start.anchored)
-    for k in range(locked.shape[0]):
+    pa = active_points(sc.start.anchored)  # (the step's points: past them nothing changed)
+    for k in range(min(locked.shape[0], max(pa - 2, 0))):
         rebounded = sc.hrebound[k] > 0.0  # (restitution: it took its impulse and left its limit)
         sc.hrebound[k] = 0.0
         if (locked[k] or rebounded) and not sc.start.locked[k]:
@@ -218,7 +219,7 @@ def commit(t, h, na, mo, ws, sc, books, log):
             log_row(log, t + h, LOG_LOCK, k, p, 0.0, 0.0, lost, sc.pts, k + 1)
         elif sc.start.locked[k] and not locked[k]:
             log_row(log, t + h, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
-    for j in range(sc.grip_log.shape[0]):  # (finite friction: the floor's hold let go, or taken again)
+    for j in range(pa):  # (finite friction: the floor's hold let go, or taken again)
         kind = int(sc.grip_log[j, 0])
         if kind != 0:
             g = sc.grip_log

@@ -49,9 +49,6 @@ from __future__ import annotations
 import math
 
 from ...contacts.coulomb import anchors, grips, slides
-from ...core.rules import (
-    bottom_airborne,
-)
 from ...jit import njit
 from .blocks import factors_view
 from .books import (
@@ -82,7 +79,7 @@ from .rows import (
 )
 from .stage1 import ITER_BUDGET, NEWTON_MAX, ROUNDS_MAX, stage1
 from .stage2 import land, settle, stage2
-from .state import Motion, Scratch, copy_motion, mechanical_energy
+from .state import Motion, Scratch, active_points, copy_motion_points, mechanical_energy
 
 SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
 SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
@@ -118,28 +115,24 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
     for q in range(3):
         sc.pull[q] = 0.0
     sc.unmet[0] = -1.0  # (where a stage fails in this step: set by it)
-    copy_motion(mo, sc.start)  # (all of it: a refused step is undone from it)
     p = active_points(mo.anchored)
-    _no_rows_from(p, ws, sc)
+    # sc.start <- mo (a refused step is undone from it).  In the fall, sc.start already holds
+    # the last step's start, and that step changed only its own points: they (and this
+    # step's) are copied.  A frame's step starts from another state: all of it.
+    last = active_points(sc.start.anchored) if landings else mo.anchored.shape[0]
+    copy_motion_points(mo, sc.start, max(p, last))
+    _no_rows_from(p, max(p, last), ws, sc)
     return _step_points(
         t, h, model, motion_view(mo, p), rows_view(ws, p), scratch_view(sc, p), etol, landings, split, budget
     )
 
 
 @njit(cache=True)
-def active_points(anchored):
-    """How many points, from the top, a step works on: down to the lower end of the segment
-    below the lowest one not landed (the hinge between them may bear a limit: the anchor
-    cone, ``rules.limit_in_force``).  Below them the chain has landed: no rows, no motion."""
-    n = anchored.shape[0] - 1
-    return min(bottom_airborne(anchored) + 3, n + 1)
-
-
-@njit(cache=True)
-def _no_rows_from(p, ws, sc):
+def _no_rows_from(p, last, ws, sc):
     """No point from p on has rows (their last rows, from before the segments there
-    landed, are not the layouts')."""
-    for j in range(p, ws.nrow.shape[0]):
+    landed, are not the layouts'): those of points p to last - 1 are cleared (a step
+    writes rows of its own points only: past the last step's, none are left)."""
+    for j in range(p, last):
         ws.nrow[j] = 0
         sc.nrow1[j] = 0
         sc.nrow_old[j] = 0

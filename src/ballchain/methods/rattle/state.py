@@ -9,6 +9,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...core.rules import bottom_airborne
 from ...jit import njit
 
 MAX_NEW = 32  # new contacts in one step whose approach rates are estimated together (``impact_rates``)
@@ -139,8 +140,9 @@ def kinetic_energy_rattle(vc, ve):
 
 
 @njit(cache=True)
-def _copy(src, dst):
-    for i in range(src.shape[0]):
+def _copy(src, dst, m):
+    """dst[:m] <- src[:m] (rows of a 2-D array)."""
+    for i in range(min(m, src.shape[0])):
         for q in range(src.shape[1]):
             dst[i, q] = src[i, q]
 
@@ -148,17 +150,25 @@ def _copy(src, dst):
 @njit(cache=True)
 def copy_motion(a, b):
     """b <- a (every array of a Motion)."""
-    _copy(a.c, b.c)
-    _copy(a.e, b.e)
-    _copy(a.vc, b.vc)
-    _copy(a.ve, b.ve)
-    _copy(a.anchor_pos, b.anchor_pos)
-    _copy(a.grip, b.grip)
-    for j in range(a.anchored.shape[0]):
+    copy_motion_points(a, b, a.anchored.shape[0])
+
+
+@njit(cache=True)
+def copy_motion_points(a, b, p):
+    """b <- a on the chain's first p points: the points, the segments between them (p - 1)
+    and the hinges between those (p - 2)."""
+    s = p - 1
+    _copy(a.c, b.c, s)
+    _copy(a.e, b.e, s)
+    _copy(a.vc, b.vc, s)
+    _copy(a.ve, b.ve, s)
+    _copy(a.anchor_pos, b.anchor_pos, p)
+    _copy(a.grip, b.grip, p)
+    for j in range(p):
         b.anchored[j] = a.anchored[j]
         b.anchor_t[j] = a.anchor_t[j]
         b.touching[j] = a.touching[j]
-    for k in range(a.locked.shape[0]):
+    for k in range(max(s - 1, 0)):
         b.locked[k] = a.locked[k]
 
 
@@ -208,3 +218,19 @@ def base_at_origin(mo):
     n = mo.e.shape[0]
     p = mo.anchor_pos
     return mo.anchored[n] != 0 and p[n, 0] == 0.0 and p[n, 1] == 0.0 and p[n, 2] == 0.0
+
+
+@njit(cache=True)
+def active_points(anchored):
+    """How many points, from the top, a step works on: down to the lower end of the segment
+    below the lowest one not landed (the hinge between them may bear a limit: the anchor
+    cone, ``rules.limit_in_force``).  Below them the chain has landed: no rows, no motion."""
+    n = anchored.shape[0] - 1
+    return min(bottom_airborne(anchored) + 3, n + 1)
+
+
+@njit(cache=True)
+def undo_step(mo, sc):
+    """mo <- the step's start (sc.start): a step changes only its own points (``active_points``
+    of its start)."""
+    copy_motion_points(sc.start, mo, active_points(sc.start.anchored))

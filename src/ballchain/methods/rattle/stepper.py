@@ -31,7 +31,7 @@ from .codes import (
 from .frames import _books_now, frame_substeps, record_frame
 from .friction import hold_stuck_stretch
 from .scheme import CUTS_MAX, SPLIT_CUTS, _budget, keep_warm_start, rattle_step
-from .state import copy_motion
+from .state import active_points, undo_step
 
 GROW_AFTER = 8  # without the energy bound: steps at a halved size before the next is tried doubled
 SAFETY = 0.8  # the energy control aims a step's change of U + T at this fraction of its bound
@@ -103,7 +103,8 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         _books_now(books, fb)
         record_frame(t, mo, fb, frames)
     level = fb[19]  # the step is h / 2^level (level >= 0, not only whole: the energy control sets it)
-    wmax = _fastest_turn(mo.ve)  # a step turns no segment more than TURN_MAX
+    wmax = _fastest_turn(mo.ve[: active_points(mo.anchored) - 1])  # a step turns no segment more than TURN_MAX
+    #   (the landed segments, past the active points, are at rest)
     if h / 2.0**level * wmax > TURN_MAX:
         level = min(float(CUTS_MAX), math.log2(h * wmax / TURN_MAX))
     fb[19] = level
@@ -114,20 +115,20 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
     if code == ERR_REBOUND:  # the same step with its impacts inelastic
-        copy_motion(sc.start, mo)
+        undo_step(mo, sc)
         ws.valid[0] = 0
         sc.inelastic[0] = 1
         code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
         sc.inelastic[0] = 0
     if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
-        copy_motion(sc.start, mo)
+        undo_step(mo, sc)
         ws.valid[0] = 0
         fb[19] = min(float(CUTS_MAX), level + _cut(code, sc.acc[8], etol))
         fb[20] = 0.0
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     if code < 0:
-        copy_motion(sc.start, mo)  # (the run ends at the last accepted state, its books true)
+        undo_step(mo, sc)  # (the run ends at the last accepted state, its books true)
         ws.valid[0] = 0
         if _stuck(code, model) and hold_stuck_stretch(mo, int(sc.unmet[0])) > 0:
             books.n_evals[0] += np.int64(sc.acc[5])
