@@ -140,7 +140,7 @@ def main() -> None:
                     res[side].append(r)
                     print(
                         f"  N={n} {'helix' if seed is None else f'seed={seed}'} {side}: {r['wall_seconds']:.2f} s, "
-                        f"t_fall/t_ff {r['ratio']:.4f}, {r['n_evals']} evaluations, {r['n_instants']} instants",
+                        f"t_fall/t_ff {r['ratio'] if r['ratio'] is None else format(r['ratio'], '.4f')} ({r['status']}), {r['n_evals']} evaluations, {r['n_instants']} instants",
                         flush=True,
                     )
             rows.append((n, res))
