@@ -12,10 +12,14 @@ of it).  Blocks per point j (rows of j against the impulses of j - 1, j or j + 1
   D_j = J1_j W J0_j^T,   U_j = J1_j^(c) W_j J0_{j+1}^(a)T,   L_j = J1_j^(a) W_{j-1} J0_{j-1}^(c)T
   D'_j = D_j - L_j X_{j-1} = l_j u_j (in place: l_j below the diagonal, 1 / pivots on it,
   0 for a dropped row, whose column of l is 0: its unknown comes out 0),
-  X_j = D'_j^{-1} U_j,   z_j = D'_j^{-1} (b_j - L_j z_{j-1}),   x_j = z_j - X_j x_{j+1}
+  X_j = D'_j^{-1} U_j,   M_j = D'_j^{-1} L_j (kept in place of L_j),
+  z_j = D'_j^{-1} b_j - M_j z_{j-1},   x_j = z_j - X_j x_{j+1}
+
+The solves' sweeps are chains, each point waiting on its neighbour: with M_j only a 4 x 4
+product waits on z_{j-1} (D'_j^{-1} b_j does not), not the whole solve with D'_j.
 
 Each block is stored packed, row by row at the stride of its own row count (D_j: nr_j x
-nr_j at D[j, r nr_j + s]; L_j: nr_j x nr_{j-1}; X_j: nr_j x nr_{j+1}), so that a point's
+nr_j at D[j, r nr_j + s]; L_j and M_j: nr_j x nr_{j-1}; X_j: nr_j x nr_{j+1}), so that a point's
 blocks are contiguous: the common point of 4 rows touches 2 cache lines a block, not 4 of
 the 8 rows of RMAX.
 
@@ -39,8 +43,8 @@ from .rows import K_AXIS, K_JOINT, end_signs, has_columns
 
 PIVOT_RTOL = 1e-12  # stage 1: a pivot of A below this fraction of its diagonal (not dropped): A is singular
 
-# The factors of one matrix: D (l, u and the inverse pivots), L (the lower blocks, kept for
-# the solves), X, each (points, RMAX^2) packed (module docstring), which rows are dropped,
+# The factors of one matrix: D (l, u and the inverse pivots), L (the lower blocks L_j while
+# factoring, then M_j = D'_j^{-1} L_j for the solves), X, each (points, RMAX^2) packed (module docstring), which rows are dropped,
 # and the diagonal before the elimination (scratch).
 Factors = namedtuple("Factors", ["D", "L", "X", "drop", "d0"])
 
@@ -175,6 +179,8 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
                 if f != 0.0:
                     for s in range(k + 1, nr):
                         D[j, i * nr + s] -= f * D[j, k * nr + s]
+        if j >= 1:
+            _lu_solve_columns(D, j, nr, L, npv)  # M_j = D'_j^{-1} L_j, for the solves
         if j < n:
             nn = nrow[j + 1]
             if free:
@@ -273,6 +279,10 @@ def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
                 D[j, i * 4 + k] = f
                 for c in range(k + 1, 4):
                     D[j, i * 4 + c] -= f * D[j, k * 4 + c]
+        for p in range(npv):  # M_j = D'_j^{-1} L_j, for the solves
+            L[j, p], L[j, npv + p], L[j, 2 * npv + p], L[j, 3 * npv + p] = _lu4_solve(
+                D, j, L[j, p], L[j, npv + p], L[j, 2 * npv + p], L[j, 3 * npv + p]
+            )
         if j < n:
             nn = nrow[j + 1]
             _free_point_coupling(J1, J0, nn, j, X, wv, ww)
@@ -308,29 +318,34 @@ def _lu_solve_columns(D, j, nr, X, nn):
 
 @njit(cache=True)
 def solve_blocks(nrow, F, b, x):
-    """x = A^{-1} b with the factors of ``factor_blocks`` (dropped rows: x = 0)."""
-    D, L, X = F.D, F.L, F.X
+    """x = A^{-1} b with the factors of ``factor_blocks`` (dropped rows: x = 0):
+    z_j = D'_j^{-1} b_j - M_j z_{j-1} down the chain (only the product with z_{j-1} waits
+    on the point before), then x_j = z_j - X_j x_{j+1} up it."""
+    D, M, X = F.D, F.L, F.X
     npts = nrow.shape[0]
     for j in range(npts):
         nr = nrow[j]
+        npv = nrow[j - 1] if j >= 1 else 0
         if nr == 4:  # most points: loops of fixed length (written out here, not a helper's:
             # a helper taking the arrays costs numba a reference count per point)
-            x0, x1, x2, x3 = b[j, 0], b[j, 1], b[j, 2], b[j, 3]
-            npv = nrow[j - 1] if j >= 1 else 0
-            for p in range(npv):
-                xp = x[j - 1, p]
-                x0 -= L[j, p] * xp
-                x1 -= L[j, npv + p] * xp
-                x2 -= L[j, 2 * npv + p] * xp
-                x3 -= L[j, 3 * npv + p] * xp
-            x[j, 0], x[j, 1], x[j, 2], x[j, 3] = _lu4_solve(D, j, x0, x1, x2, x3)
+            x0, x1, x2, x3 = _lu4_solve(D, j, b[j, 0], b[j, 1], b[j, 2], b[j, 3])
+            if npv == 4:
+                z0, z1, z2, z3 = x[j - 1, 0], x[j - 1, 1], x[j - 1, 2], x[j - 1, 3]
+                x0 -= M[j, 0] * z0 + M[j, 1] * z1 + M[j, 2] * z2 + M[j, 3] * z3
+                x1 -= M[j, 4] * z0 + M[j, 5] * z1 + M[j, 6] * z2 + M[j, 7] * z3
+                x2 -= M[j, 8] * z0 + M[j, 9] * z1 + M[j, 10] * z2 + M[j, 11] * z3
+                x3 -= M[j, 12] * z0 + M[j, 13] * z1 + M[j, 14] * z2 + M[j, 15] * z3
+            else:
+                for p in range(npv):
+                    zp = x[j - 1, p]
+                    x0 -= M[j, p] * zp
+                    x1 -= M[j, npv + p] * zp
+                    x2 -= M[j, 2 * npv + p] * zp
+                    x3 -= M[j, 3 * npv + p] * zp
+            x[j, 0], x[j, 1], x[j, 2], x[j, 3] = x0, x1, x2, x3
             continue
-        npv = nrow[j - 1] if j >= 1 else 0
         for r in range(nr):
-            v = b[j, r]
-            for p in range(npv):
-                v -= L[j, r * npv + p] * x[j - 1, p]
-            x[j, r] = v
+            x[j, r] = b[j, r]
         for k in range(nr):
             xk = x[j, k]
             for i in range(k + 1, nr):
@@ -340,6 +355,11 @@ def solve_blocks(nrow, F, b, x):
             for c in range(k + 1, nr):
                 s -= D[j, k * nr + c] * x[j, c]
             x[j, k] = s * D[j, k * nr + k]
+        for r in range(nr):
+            acc = 0.0
+            for p in range(npv):
+                acc += M[j, r * npv + p] * x[j - 1, p]
+            x[j, r] -= acc
     for j in range(npts - 2, -1, -1):
         nn = nrow[j + 1]
         if nrow[j] == 4 and nn == 4:
