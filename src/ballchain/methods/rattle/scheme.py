@@ -82,7 +82,7 @@ from .stage2 import land, settle, stage2
 from .state import Motion, Scratch, active_points, copy_motion_points, mechanical_energy
 
 SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
-SPLIT_REACH = 4  # ... "beside": the hinge's point within this many points of the landing point
+SPLIT_REACH = 16  # ... "beside": the hinge's point within this many points of the landing point
 ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 
