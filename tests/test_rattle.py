@@ -91,6 +91,26 @@ def test_frames_do_not_change_the_fall():
         assert r.energy["lost_locking"] == pytest.approx(runs[0].energy["lost_locking"], rel=1e-9)
 
 
+def test_every_frame_balances_the_floors_record_with_the_momentum():
+    """The anchor: what the floor gave the chain up to each frame (its impulse record, the
+    landed segments' support included) is the chain's momentum change plus the weight's
+    impulse, M (v_cm(t) - v_cm(0)) + M g t, at every frame, frames taken inside steps
+    included (a frame's step books the landed segments' weight as the fall's step does)."""
+    from ballchain.records.measures import momentum
+
+    r = simulate(
+        ChainParams(segments=16, alpha=math.pi / 4),
+        InitialCondition(kind="random", seed=11),
+        SolverOptions(method="rattle", frames_per_tff=200),
+    )
+    assert r.status == "landed", r.message
+    p, ft = momentum(r), np.asarray(r.frame_t)
+    record, m = np.asarray(r.frame_floor_impulse), r.params.segments
+    assert np.asarray(r.frame_anchored)[-1].sum() > m // 2  # (segments landed while frames were taken)
+    np.testing.assert_allclose(record[:, :2], p[:, :2] - p[0, :2], rtol=0, atol=1e-8 * m * ft[-1])
+    np.testing.assert_allclose(record[:, 2], p[:, 2] - p[0, 2] + m * ft, rtol=0, atol=1e-6 * m * ft[-1])
+
+
 def test_the_pivot_floor_is_refused():
     with pytest.raises(ParameterError, match="--floor all only"):
         simulate(ChainParams(segments=4, floor="pivot"), options=SolverOptions(method="rattle"))

@@ -101,6 +101,8 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             fb[1] += fsc.acc[1]
             for q in range(3):
                 fb[2 + q] += fsc.acc[2 + q]
+            # the landed segments' weight, held up by the floor (as ``books.commit`` books it)
+            fb[4] += hf / m * landed_count(fsc.start.anchored)
         if code == 0:
             return hf / m
     return code
