@@ -77,15 +77,11 @@ def factors_view(F, p):
 
 
 @njit(cache=True, inline="always")
-def _slot(nrow, j):
-    """Entries of point j's slot: nr_j max(nr_{j-1}, nr_j, nr_{j+1}) (its D, L and X blocks)."""
-    nr = nrow[j]
-    m = nr
-    if j >= 1:
-        m = max(m, nrow[j - 1])
-    if j + 1 < nrow.shape[0]:
-        m = max(m, nrow[j + 1])
-    return nr * m
+def _slot(nr, n_above, n_below):
+    """Entries of a point's slot: nr_j max(nr_{j-1}, nr_j, nr_{j+1}) (its D, L and X blocks;
+    the counts as numbers: a helper that takes an array and branches before its last use
+    of it costs numba a reference count at every call)."""
+    return nr * max(nr, n_above, n_below)
 
 
 @njit(cache=True, inline="always")
@@ -138,7 +134,9 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
     if j_from == 0:
         off[0] = 0
     for j in range(j_from, npts):  # the blocks' places, from j_from's on (before it: the same rows)
-        off[j + 1] = off[j] + _slot(nrow, j)
+        n_above = nrow[j - 1] if j >= 1 else 0
+        n_below = nrow[j + 1] if j < n else 0
+        off[j + 1] = off[j] + _slot(nrow[j], n_above, n_below)
     j = j_from
     while j < npts:
         o = off[j]
