@@ -258,3 +258,20 @@ def test_the_rattle_page_quotes_what_its_command_prints(name):
     assert len(quoted) >= 4
     for q in quoted:
         assert q in printed, q
+
+
+def test_the_rattle_page_quotes_each_start_at_n16384_from_its_table():
+    """Item 5c of the RATTLE page (N = 16384, a sweep under way) quotes each landed start's
+    t_fall/t_ff, E_lock/E0 and the books' imbalance: recomputed from the committed table."""
+    import pandas as pd
+
+    page = (ROOT / "docs" / "rattle.md").read_text()
+    item = " ".join(page.split("**5c. At N = 16384**")[1].split("## Cost")[0].split())
+    df = pd.read_parquet(ROOT / "docs" / "data" / "rattle16384.parquet")
+    assert (df.status == "landed").all()
+    assert f"{len(df)} of 16 starts" in item
+    for row in df.itertuples():
+        assert f"start {row.spawn_key}: {row.ratio:.4f}" in item
+        assert f"{row.energy_lost_locking / row.energy_initial:.3f}" in item
+    assert f"{abs(df.energy_imbalance / df.energy_initial).max():.1e}" in item
+    assert "no point below the floor by more than 1e-8 b" in item and df.max_depth.max() <= 1e-8
