@@ -605,3 +605,32 @@ def test_runs_of_two_methods_or_two_steps_are_two_points(tmp_path):
     text = stats_text(table_stats(path)).splitlines()
     assert "method" in text[1].split() and "dt" in text[1].split() and "rtol" not in text[1].split()
     assert sorted(line.split()[3:5] for line in text[2:5]) == [["event", "-"], ["rattle", "0.05"], ["rattle", "0.1"]]
+
+
+def test_a_table_read_while_a_sweep_replaces_it_is_one_version(tmp_path):
+    """A reader (``ballchain stats``, a sweep's resume, a test polling a sweep) meets the
+    table whole while a writer replaces it again and again (``write_table``: a new file
+    renamed over the old): each read gives one version's rows, never an error.  (Reading
+    by path, pyarrow opened the file more than once and could take the footer of one
+    version and the columns of the next: 71 reads of 300 failed so.)"""
+    import threading
+
+    path = _synthetic(tmp_path, {(45, k): 0.9 + 0.001 * k for k in range(64)})
+    rows = read_table(path)
+    sizes = (3, 64)
+    stop = threading.Event()
+
+    def rewrite():
+        k = 0
+        while not stop.is_set():
+            write_table(path, rows[: sizes[k % 2]])
+            k += 1
+
+    writer = threading.Thread(target=rewrite)
+    writer.start()
+    try:
+        seen = [len(read_table(path)) for _ in range(300)]
+    finally:
+        stop.set()
+        writer.join()
+    assert set(seen) <= set(sizes)

@@ -268,13 +268,17 @@ def _sort_key(row: dict):
 
 def read_table(path, what: str = "out") -> list[dict]:
     """The rows of an existing sweep table (ParameterError if it is not one; ``what``: the
-    option or argument that named it, for the message)."""
+    option or argument that named it, for the message).  Read through one open file: a
+    sweep replacing the table meanwhile (``write_table``'s rename) cannot mix two versions
+    (given a path, pyarrow opens it more than once: the footer of one version and the
+    columns of the next)."""
     import pyarrow.parquet as pq
 
     if not Path(path).is_file():
         raise ParameterError(f"{what}: no such file {str(path)!r}")
     try:
-        t = pq.read_table(path)
+        with open(path, "rb") as fh:
+            t = pq.read_table(fh)
     except Exception as exc:  # noqa: BLE001 - any unreadable file: one line
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ParameterError(f"{what}: {str(path)!r} is not a readable Parquet table ({msg})") from None
