@@ -58,28 +58,36 @@ def steps_of(n: int, key: int, etol: float | None) -> dict:
     )
 
 
-def attempts_of(n: int, key: int) -> dict:
-    """One fall at the defaults, its attempts of a step by kind (``--attempts``)."""
+def fall_by_attempts(n: int, key: int, options: SolverOptions, attempt):
+    """One fall (random start of seed 2026, spawn key ``key``, alpha = pi/4) with the
+    compiled loop made to return after every attempt of a step (``driver.RETURN_EVERY``):
+    ``attempt(loop, *args)`` runs each, calling ``loop(*args)`` (``stepper.run_steps``) and
+    reading the bundles around it.  Returns the result."""
     from ballchain.methods.rattle import driver
 
-    rec = []
     loop, every = driver.run_steps, driver.RETURN_EVERY
+    driver.run_steps, driver.RETURN_EVERY = (lambda *args: attempt(loop, *args)), 1
+    try:
+        return simulate(
+            ChainParams(segments=n, alpha=np.pi / 4),
+            InitialCondition(kind="random", seed=2026, spawn_key=(key,)),
+            options,
+        )
+    finally:
+        driver.run_steps, driver.RETURN_EVERY = loop, every
 
-    def one_attempt(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
+
+def attempts_of(n: int, key: int) -> dict:
+    """One fall at the defaults, its attempts of a step by kind (``--attempts``)."""
+    rec = []
+
+    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         s0 = int(books.n_steps[0])
         code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
         rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0))
         return code, t
 
-    driver.run_steps, driver.RETURN_EVERY = one_attempt, 1
-    try:
-        r = simulate(
-            ChainParams(segments=n, alpha=np.pi / 4),
-            InitialCondition(kind="random", seed=2026, spawn_key=(key,)),
-            SolverOptions(method="rattle"),
-        )
-    finally:
-        driver.run_steps, driver.RETURN_EVERY = loop, every
+    r = fall_by_attempts(n, key, SolverOptions(method="rattle"), one_attempt)
     a = np.array(rec, dtype=float)
     ok, fac, evals, impact = a[:, 0] > 0, a[:, 1], a[:, 2], a[:, 3] > 0
     kinds = {"smooth": ok & ~impact, "impact": ok & impact, "refused": ~ok}
