@@ -1,0 +1,161 @@
+"""The bias of RATTLE's losses at a step, without the chaos: a fall cut into short windows,
+each window stepped again from the same state at several steps, the differences summed.
+
+    python benchmarks/loss_tiles.py --segments 512 --starts 0-3 --dts 0.1:1e-6,0.05,0.025 --ref 0.003125
+
+Single falls are chaotic: two falls from one start at two steps part after a few locks,
+and ensembles compare their losses only to the chaos's scale (0.01 E0 at 64 starts).  Here
+one RATTLE fall at the default step (random start, seed 2026, spawn key k, alpha = pi/4,
+floor all) is the base, its steps cut to end on the times i L (L = ``--window`` t_ff/N),
+until it has landed.  At each i L the method's bundles are copied, and the copy is stepped
+to (i + 1) L at every step of ``--dts`` and at the reference ``--ref`` (``dt`` in t_ff/N,
+or ``dt:step_energy_tol``, else the method's bound; the step size starts whole).  Each
+window's losses at the hinges (E_lock) and at the floor (E_land) are read from the copy's
+books (a window in which some step failed even at its shortest is left out, and counted).  A window is short, so the copies stay together, and the sum over the windows of a
+step's losses minus the reference's is the step's bias over one fall, with the chaos's
+part left out: what a window's error does to the falls after it is not in it (in the mean
+over many falls those differences are the chaos's; the energy books close in each window).
+
+Prints the machine, then per start and step, in E0: the windows' sums of E_lock, E_land
+and both, minus the reference's (with the standard error of the sum, the windows taken as
+independent), then per step the mean over the starts and its standard error over them.
+With ``--dts`` holding ``--ref``/2 the reference's own error shows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from lock_distance import _keys  # noqa: E402
+from machine import machine_info  # noqa: E402
+from rattle_steps import fall_by_attempts  # noqa: E402
+
+from ballchain.core.state import new_frames, new_log, new_trace  # noqa: E402
+from ballchain.methods.rattle import STEP_ENERGY_TOL  # noqa: E402
+from ballchain.methods.rattle.codes import RT_LANDED, RT_RETURN, RT_STOP  # noqa: E402
+from ballchain.methods.rattle.stepper import run_steps  # noqa: E402
+from ballchain.model import SolverOptions  # noqa: E402
+
+DEFAULT = SolverOptions(method="rattle")
+
+
+def _copy(x):
+    """A deep copy of a bundle (namedtuples of arrays, nested)."""
+    if isinstance(x, np.ndarray):
+        return x.copy()
+    if isinstance(x, tuple) and hasattr(x, "_fields"):
+        return type(x)(*map(_copy, x))
+    return x
+
+
+def window_losses(snap, t0: float, h: float, t_end: float, etol_abs: float | None) -> tuple[float, float]:
+    """The copied bundles ``snap`` stepped from t0 to t_end at step h: (E_lock, E_land) over
+    the window (m g b), NaN if a step failed.  ``etol_abs``: the energy bound per step (None: the
+    fall's)."""
+    model, mo, ws, sc, fr, fb, books = (_copy(x) for x in snap)
+    model = model._replace(t_stop=t_end, return_every=np.int64(10**9))
+    n = mo.e.shape[0]
+    fb[18], fb[19], fb[20] = 0.0, 0.0, 0.0  # no frame pending; the step starts whole
+    if etol_abs is not None:
+        fb[21] = etol_abs
+    frames = new_frames(n, math.inf, 16)
+    frames.next[0] = math.inf
+    trace, log = new_trace(1 << 16), new_log(1 << 16)
+    lk0, ld0 = float(books.lost_locking[0]), float(books.lost_landing[0])
+    t = t0
+    while True:
+        code, t = run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
+        if code in (RT_STOP, RT_LANDED):
+            break
+        if code < 0:  # (a step that failed even at its shortest: the window is left out)
+            return math.nan, math.nan
+        trace.count[0], log.n[0] = 0, 0
+    return float(books.lost_locking[0]) - lk0, float(books.lost_landing[0]) - ld0
+
+
+def _step(spec: str) -> tuple[float, float | None]:
+    """``dt`` or ``dt:step_energy_tol`` (t_ff/N; E0)."""
+    dt, _, etol = spec.partition(":")
+    return float(dt), float(etol) if etol else None
+
+
+def tiles(n: int, key: int, steps: list[str], window: float) -> tuple[np.ndarray, float]:
+    """One start's windows: an array (windows, steps, 2) of (E_lock, E_land) / E0 at each
+    step of ``steps`` (``_step``), and the base fall's t_fall / t_ff."""
+    rows = []
+    state = {"next": None, "unit": None}
+
+    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
+        if state["unit"] is None:  # (the first attempt: h is the default dt in t_ff / N)
+            state["unit"], state["next"] = h / DEFAULT.for_segments(n).dt, 0.0
+        if t >= state["next"] * (1.0 - 1e-14) - 1e-14:  # a window starts here: step copies through it
+            t_end = t + window * state["unit"]
+            snap = (model, mo, ws, sc, fr, fb, books)
+            e0 = fb[21] / STEP_ENERGY_TOL  # (fb[21]: the fall's bound, the default's times E0)
+            row = []
+            for dt, etol in map(_step, steps):
+                row.append(window_losses(snap, t, dt * state["unit"], t_end, None if etol is None else etol * e0))
+            rows.append(row)
+            state["next"] = t_end
+        cut = model._replace(t_stop=min(state["next"], model.t_stop))
+        code, t = loop(t, h, cut, mo, ws, sc, fr, fb, books, frames, trace, log)
+        if code == RT_STOP and cut.t_stop < model.t_stop:
+            code = RT_RETURN  # (the window's end, not the run's)
+        return code, t
+
+    r = fall_by_attempts(n, key, DEFAULT, one_attempt)
+    if r.status != "landed":
+        raise SystemExit(f"start {key}: the base fall ended {r.status} ({r.message})")
+    return np.array(rows) / r.energy["initial"], r.t_fall / r.t_ff
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--segments", type=int, default=512)
+    ap.add_argument("--starts", default="0", help="spawn keys: 0-3 or 0,2")
+    ap.add_argument("--dts", default="0.1:1e-6,0.05,0.025", help="steps compared: dt or dt:step_energy_tol (t_ff/N)")
+    ap.add_argument("--ref", default="0.003125", help="the reference step, dt or dt:step_energy_tol")
+    ap.add_argument("--window", type=float, default=1.0, help="the windows' length (t_ff/N)")
+    a = ap.parse_args()
+    print(machine_info())
+    dts = a.dts.split(",")
+    keys = _keys(a.starts)
+    print(
+        f"\nN = {a.segments}, windows of {a.window} t_ff/N: the windows' losses summed over the fall, each step's "
+        f"minus the reference's ({a.ref} t_ff/N), in E0 (+- the sum's standard error)\n"
+    )
+    print("| start | t_fall/t_ff | windows | step | E_lock | E_land | both |")
+    print("|---|---|---|---|---|---|---|")
+    per_start = {dt: [] for dt in dts}
+    for key in keys:
+        w, ratio = tiles(a.segments, key, [*dts, a.ref], a.window)
+        failed = np.isnan(w).any(axis=(1, 2))
+        if failed.any():
+            print(f"  start {key}: {failed.sum()} of {len(w)} windows left out (a step failed in them)", flush=True)
+        w = w[~failed]
+        ref = w[:, -1, :]
+        for i, dt in enumerate(dts):
+            d = w[:, i, :] - ref
+            d = np.column_stack([d, d.sum(axis=1)])
+            s, se = d.sum(axis=0), d.std(axis=0, ddof=1) * math.sqrt(len(d))
+            per_start[dt].append(s)
+            cells = " | ".join(f"{x:+.5f} +- {e:.5f}" for x, e in zip(s, se))
+            print(f"| {key} | {ratio:.4f} | {len(w)} | {dt} | {cells} |", flush=True)
+    if len(keys) > 1:
+        print(f"\nMeans over the {len(keys)} starts (+- their standard error), in E0:\n")
+        print("| step | E_lock | E_land | both |")
+        print("|---|---|---|---|")
+        for dt in dts:
+            v = np.array(per_start[dt])
+            m, se = v.mean(axis=0), v.std(axis=0, ddof=1) / math.sqrt(len(v))
+            print(f"| {dt} | " + " | ".join(f"{x:+.5f} +- {e:.5f}" for x, e in zip(m, se)) + " |")
+
+
+if __name__ == "__main__":
+    main()
