@@ -274,4 +274,5 @@ def test_the_rattle_page_quotes_each_start_at_n16384_from_its_table():
         assert f"start {row.spawn_key}: {row.ratio:.4f}" in item
         assert f"{row.energy_lost_locking / row.energy_initial:.3f}" in item
     assert f"{abs(df.energy_imbalance / df.energy_initial).max():.1e}" in item
+    assert f"their mean {df.ratio.mean():.4f}" in item
     assert "no point below the floor by more than 1e-8 b" in item and df.max_depth.max() <= 1e-8
