@@ -9,7 +9,8 @@ one RATTLE fall at the default step (random start, seed 2026, spawn key k, alpha
 floor all) is the base, its steps cut to end on the times i L (L = ``--window`` t_ff/N),
 until it has landed.  At each i L the method's bundles are copied, and the copy is stepped
 to (i + 1) L at every step of ``--dts`` and at the reference ``--ref`` (``dt`` in t_ff/N,
-or ``dt:step_energy_tol``, else the method's bound; the step size starts whole).  Each
+or ``dt:step_energy_tol``, else the method's bound; the copy's first step no longer than the
+base fall's step there, as a fall at that step would have sized it, or whole with ``--whole``).  Each
 window's losses at the hinges (E_lock) and at the floor (E_land) are read from the copy's
 books (a window in which some step failed even at its shortest is left out, and counted).  A window is short, so the copies stay together, and the sum over the windows of a
 step's losses minus the reference's is the step's bias over one fall, with the chaos's
@@ -54,14 +55,18 @@ def _copy(x):
     return x
 
 
-def window_losses(snap, t0: float, h: float, t_end: float, etol_abs: float | None) -> tuple[float, float]:
+def window_losses(
+    snap, t0: float, h: float, t_end: float, etol_abs: float | None, h_now: float | None
+) -> tuple[float, float]:
     """The copied bundles ``snap`` stepped from t0 to t_end at step h: (E_lock, E_land) over
-    the window (m g b), NaN if a step failed.  ``etol_abs``: the energy bound per step (None: the
-    fall's)."""
+    the window (m g b), NaN if a step failed.  ``etol_abs``: the energy bound per step (None:
+    the fall's); ``h_now``: the first step is no longer than this (the base fall's step at
+    t0), None: the first step is h."""
     model, mo, ws, sc, fr, fb, books = (_copy(x) for x in snap)
     model = model._replace(t_stop=t_end, return_every=np.int64(10**9))
     n = mo.e.shape[0]
-    fb[18], fb[19], fb[20] = 0.0, 0.0, 0.0  # no frame pending; the step starts whole
+    fb[18], fb[20] = 0.0, 0.0  # no frame pending
+    fb[19] = 0.0 if h_now is None else max(0.0, math.log2(h / h_now))  # (the step is h / 2^fb[19])
     if etol_abs is not None:
         fb[21] = etol_abs
     frames = new_frames(n, math.inf, 16)
@@ -85,9 +90,10 @@ def _step(spec: str) -> tuple[float, float | None]:
     return float(dt), float(etol) if etol else None
 
 
-def tiles(n: int, key: int, steps: list[str], window: float) -> tuple[np.ndarray, float]:
+def tiles(n: int, key: int, steps: list[str], window: float, whole: bool) -> tuple[np.ndarray, float]:
     """One start's windows: an array (windows, steps, 2) of (E_lock, E_land) / E0 at each
-    step of ``steps`` (``_step``), and the base fall's t_fall / t_ff."""
+    step of ``steps`` (``_step``), and the base fall's t_fall / t_ff.  ``whole``: each
+    window's first step is the step compared, whole (else no longer than the base's there)."""
     rows = []
     state = {"next": None, "unit": None}
 
@@ -100,7 +106,10 @@ def tiles(n: int, key: int, steps: list[str], window: float) -> tuple[np.ndarray
             e0 = fb[21] / STEP_ENERGY_TOL  # (fb[21]: the fall's bound, the default's times E0)
             row = []
             for dt, etol in map(_step, steps):
-                row.append(window_losses(snap, t, dt * state["unit"], t_end, None if etol is None else etol * e0))
+                bound = None if etol is None else etol * e0
+                row.append(
+                    window_losses(snap, t, dt * state["unit"], t_end, bound, None if whole else h / 2.0 ** fb[19])
+                )
             rows.append(row)
             state["next"] = t_end
         cut = model._replace(t_stop=min(state["next"], model.t_stop))
@@ -122,6 +131,11 @@ def main() -> None:
     ap.add_argument("--dts", default="0.1:1e-6,0.05,0.025", help="steps compared: dt or dt:step_energy_tol (t_ff/N)")
     ap.add_argument("--ref", default="0.003125", help="the reference step, dt or dt:step_energy_tol")
     ap.add_argument("--window", type=float, default=1.0, help="the windows' length (t_ff/N)")
+    ap.add_argument(
+        "--whole",
+        action="store_true",
+        help="start each window's steps whole (default: at most the base fall's step there)",
+    )
     a = ap.parse_args()
     print(machine_info())
     dts = a.dts.split(",")
@@ -134,7 +148,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     per_start = {dt: [] for dt in dts}
     for key in keys:
-        w, ratio = tiles(a.segments, key, [*dts, a.ref], a.window)
+        w, ratio = tiles(a.segments, key, [*dts, a.ref], a.window, a.whole)
         failed = np.isnan(w).any(axis=(1, 2))
         if failed.any():
             print(f"  start {key}: {failed.sum()} of {len(w)} windows left out (a step failed in them)", flush=True)
