@@ -47,11 +47,13 @@ DEFAULT = SolverOptions(method="rattle")
 
 
 def _copy(x):
-    """A deep copy of a bundle (namedtuples of arrays, nested)."""
+    """A deep copy of a bundle (namedtuples or tuples of arrays, nested; a plain tuple is
+    copied too, not passed through: a copy that shares arrays would step the fall itself)."""
     if isinstance(x, np.ndarray):
         return x.copy()
-    if isinstance(x, tuple) and hasattr(x, "_fields"):
-        return type(x)(*map(_copy, x))
+    if isinstance(x, tuple):
+        items = [_copy(v) for v in x]
+        return type(x)(*items) if hasattr(x, "_fields") else tuple(items)
     return x
 
 
