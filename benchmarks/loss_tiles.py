@@ -21,6 +21,8 @@ Prints the machine, then per start and step, in E0: the windows' sums of E_lock,
 and both, minus the reference's (with the standard error of the sum, the windows taken as
 independent), then per step the mean over the starts and its standard error over them.
 With ``--dts`` holding ``--ref``/2 the reference's own error shows.
+A step written ``dt:cut`` or ``dt:step_energy_tol:cut`` takes its landing steps cut at the
+touch (``--landing-step cut``).
 """
 
 from __future__ import annotations
@@ -58,12 +60,12 @@ def _copy(x):
 
 
 def window_losses(
-    snap, t0: float, h: float, t_end: float, etol_abs: float | None, h_now: float | None
+    snap, t0: float, h: float, t_end: float, etol_abs: float | None, h_now: float | None, cut: bool = False
 ) -> tuple[float, float]:
     """The copied bundles ``snap`` stepped from t0 to t_end at step h: (E_lock, E_land) over
     the window (m g b), NaN if a step failed.  ``etol_abs``: the energy bound per step (None:
     the fall's); ``h_now``: the first step is no longer than this (the base fall's step at
-    t0), None: the first step is h."""
+    t0), None: the first step is h; ``cut``: landing steps cut at the touch (``--landing-step cut``)."""
     model, mo, ws, sc, fr, fb, books = (_copy(x) for x in snap)
     model = model._replace(t_stop=t_end, return_every=np.int64(10**9))
     n = mo.e.shape[0]
@@ -71,6 +73,7 @@ def window_losses(
     fb[19] = 0.0 if h_now is None else max(0.0, math.log2(h / h_now))  # (the step is h / 2^fb[19])
     if etol_abs is not None:
         fb[21] = etol_abs
+    fb[22], fb[23] = float(cut), 0.0
     frames = new_frames(n, math.inf, 16)
     frames.next[0] = math.inf
     trace, log = new_trace(1 << 16), new_log(1 << 16)
@@ -86,10 +89,15 @@ def window_losses(
     return float(books.lost_locking[0]) - lk0, float(books.lost_landing[0]) - ld0
 
 
-def _step(spec: str) -> tuple[float, float | None]:
-    """``dt`` or ``dt:step_energy_tol`` (t_ff/N; E0)."""
-    dt, _, etol = spec.partition(":")
-    return float(dt), float(etol) if etol else None
+def _step(spec: str) -> tuple[float, float | None, bool]:
+    """``dt``, ``dt:step_energy_tol`` (t_ff/N; E0), either followed by ``:cut`` (landing
+    steps cut at the touch): (dt, the bound or None, cut)."""
+    parts = spec.split(":")
+    cut = parts[-1] == "cut"
+    if cut:
+        parts = parts[:-1]
+    etol = parts[1] if len(parts) > 1 else ""
+    return float(parts[0]), float(etol) if etol else None, cut
 
 
 def tiles(n: int, key: int, steps: list[str], window: float, whole: bool) -> tuple[np.ndarray, float]:
@@ -107,11 +115,10 @@ def tiles(n: int, key: int, steps: list[str], window: float, whole: bool) -> tup
             snap = (model, mo, ws, sc, fr, fb, books)
             e0 = fb[21] / STEP_ENERGY_TOL  # (fb[21]: the fall's bound, the default's times E0)
             row = []
-            for dt, etol in map(_step, steps):
+            for dt, etol, cut_at_touch in map(_step, steps):
                 bound = None if etol is None else etol * e0
-                row.append(
-                    window_losses(snap, t, dt * state["unit"], t_end, bound, None if whole else h / 2.0 ** fb[19])
-                )
+                h_now = None if whole else h / 2.0 ** fb[19]
+                row.append(window_losses(snap, t, dt * state["unit"], t_end, bound, h_now, cut_at_touch))
             rows.append(row)
             state["next"] = t_end
         cut = model._replace(t_stop=min(state["next"], model.t_stop))
@@ -130,7 +137,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--segments", type=int, default=512)
     ap.add_argument("--starts", default="0", help="spawn keys: 0-3 or 0,2")
-    ap.add_argument("--dts", default="0.1:1e-6,0.05,0.025", help="steps compared: dt or dt:step_energy_tol (t_ff/N)")
+    ap.add_argument(
+        "--dts",
+        default="0.1:1e-6,0.05,0.025",
+        help="steps compared: dt or dt:step_energy_tol (t_ff/N), either with :cut (landing steps cut)",
+    )
     ap.add_argument("--ref", default="0.003125", help="the reference step, dt or dt:step_energy_tol")
     ap.add_argument("--window", type=float, default=1.0, help="the windows' length (t_ff/N)")
     ap.add_argument(

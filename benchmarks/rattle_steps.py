@@ -3,6 +3,7 @@ the energy bound.
 
     python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --etol default,0
     python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --attempts
+    python benchmarks/rattle_steps.py --segments 256,512 --starts 0,1 --landings
 
 For each N, random start (seed 2026, spawn key k, alpha = pi/4, floor ``all``) and bound
 (``default``: the method's ``--step-energy-tol``; ``0``: no bound, the steps shortened only
@@ -18,6 +19,11 @@ block factorisations (whole or partial, counted alike) and stage 1's Newton eval
 and for the smooth steps how many took 1, 2, 3 or 4 factorisations.  A diagnostic of the
 method's internals: the compiled loop is made to return after every attempt
 (``driver.RETURN_EVERY``), and its counters (``Scratch.acc``) are read at each return.
+
+``--landings``: instead, one fall with each ``--landing-step`` (whole, cut): the points
+anchored, how many of them in a step taken again cut at its touch, the accepted steps and
+the Newton evaluations per segment, their ratio cut / whole, and t_fall/t_ff (the two
+falls part: single falls are chaotic).  Read at each attempt of a step, as ``--attempts``.
 """
 
 from __future__ import annotations
@@ -99,12 +105,69 @@ def attempts_of(n: int, key: int) -> dict:
     )
 
 
-def print_attempts(segments, starts) -> None:
-    print(
-        "\n| N | start | factorisations per accepted step | kind | per N | factorisations each | share of all | "
-        "Newton evaluations each | smooth: 1, 2, 3, 4 factorisations |"
+def _header(*cells: str) -> None:
+    """A markdown table's head, after a blank line."""
+    print("\n| " + " | ".join(cells) + " |")
+    print("|" + "---|" * len(cells))
+
+
+def landings_of(n: int, key: int, how: str) -> dict:
+    """One fall with ``--landing-step how``: its points anchored, those anchored in a step
+    taken again cut at its touch (the step's fb[23] > 0 when it began), its accepted steps
+    and Newton evaluations."""
+    count = {"anchored": 0, "in_cut": 0}
+
+    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
+        before, was_cut = int((mo.anchored > 0).sum()), fb[23] > 0.0
+        s0 = int(books.n_steps[0])
+        code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
+        if int(books.n_steps[0]) > s0:
+            new = int((mo.anchored > 0).sum()) - before
+            count["anchored"] += new
+            count["in_cut"] += new if was_cut else 0
+        return code, t
+
+    r = fall_by_attempts(n, key, SolverOptions(method="rattle", landing_step=how), one_attempt)
+    return dict(status=r.status, ratio=r.t_fall / r.t_ff, steps=r.n_steps, evals=r.n_evals, **count)
+
+
+def print_landings(segments, starts) -> None:
+    _header(
+        "N",
+        "start",
+        "landing step",
+        "status",
+        "t_fall/t_ff",
+        "points anchored",
+        "in a cut step",
+        "steps / N",
+        "evaluations / N",
+        "steps, cut / whole",
+        "evaluations, cut / whole",
     )
-    print("|" + "---|" * 9)
+    for n in segments:
+        for key in starts:
+            w = landings_of(n, key, "whole")
+            for how, s in (("whole", w), ("cut", landings_of(n, key, "cut"))):
+                print(
+                    f"| {n} | {key} | {how} | {s['status']} | {s['ratio']:.4f} | {s['anchored']} | {s['in_cut']} | "
+                    f"{s['steps'] / n:.1f} | {s['evals'] / n:.1f} | {s['steps'] / w['steps']:.3f} | "
+                    f"{s['evals'] / w['evals']:.3f} |"
+                )
+
+
+def print_attempts(segments, starts) -> None:
+    _header(
+        "N",
+        "start",
+        "factorisations per accepted step",
+        "kind",
+        "per N",
+        "factorisations each",
+        "share of all",
+        "Newton evaluations each",
+        "smooth: 1, 2, 3, 4 factorisations",
+    )
     for n in segments:
         for key in starts:
             s = attempts_of(n, key)
@@ -122,8 +185,12 @@ def main() -> None:
     ap.add_argument("--starts", default="0", help="spawn keys: 0 or 0,1")
     ap.add_argument("--etol", default="default,0", help="bounds: default (the method's) and/or numbers (E0)")
     ap.add_argument("--attempts", action="store_true", help="the attempts of a step by kind, at the defaults")
+    ap.add_argument("--landings", action="store_true", help="the landings with each --landing-step")
     a = ap.parse_args()
     print(machine_info())
+    if a.landings:
+        print_landings([int(s) for s in a.segments.split(",")], [int(s) for s in a.starts.split(",")])
+        return
     if a.attempts:
         print_attempts([int(s) for s in a.segments.split(",")], [int(s) for s in a.starts.split(",")])
         return

@@ -134,7 +134,7 @@ def test_the_registry_states_every_method_option_once():
     assert fields[-len(opts) :] == list(opts)
     assert {methods.option_owner(n) for n in ("rtol", "event_xtol", "hold_rate", "hold_apex")} == {"event"}
     assert {methods.option_owner(n) for n in ("dt", "theta", "dt_rule")} == {"timestep"}
-    assert methods.option_owner("step_energy_tol") == "rattle"
+    assert {methods.option_owner(n) for n in ("step_energy_tol", "landing_step")} == {"rattle"}
     for name, opt in opts.items():
         assert isinstance(opt, MethodOption) and opt.validated(opt.default) == opt.default, name
         assert getattr(SolverOptions(), name) == opt.default, name
@@ -148,6 +148,7 @@ def test_the_registry_states_every_method_option_once():
         "theta",
         "dt_rule",
         "step_energy_tol",
+        "landing_step",
     ]
     assert methods.option_names("sweep") == methods.option_names("simulate")
 

@@ -12,7 +12,7 @@ package's option) and the bounds its runs are audited against (``records.audit``
 
 from __future__ import annotations
 
-from ...options import MethodOption, non_negative, number_text
+from ...options import MethodOption, non_negative, number_text, one_of
 from ..bounds import AuditBounds
 
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
@@ -44,6 +44,14 @@ CONTACT_BOUNDS = {
 }
 
 
+LANDING_STEPS = ("whole", "cut")  # SolverOptions.landing_step: how a step in which a point lands is taken
+
+
+def _landing_key(options) -> str:
+    """A run's key names a landing step other than the default."""
+    return "" if options.method != "rattle" or options.landing_step == "whole" else f"_landing{options.landing_step}"
+
+
 def _etol_key(options) -> str:
     """A run's key names a bound that was set."""
     return "" if options.step_energy_tol is None else f"_etol{options.step_energy_tol:.6g}"
@@ -64,6 +72,21 @@ OPTIONS = (
         "the others)",
         run_key=_etol_key,
     ),
+    MethodOption(
+        "landing_step",
+        str,
+        "whole",
+        "How --method rattle takes a step in which a point lands: whole (the landing resolved at the step's "
+        "end, with the velocity the point reached there) or cut (the step cut to end just after the first "
+        "touch it holds, predicted from the points' heights and rates under gravity alone: the landing "
+        "resolved at its touch).",
+        one_of(LANDING_STEPS),
+        flag="--landing-step",
+        json="how the RATTLE method takes a step in which a point lands: whole or cut",
+        column="how the rattle method takes a step in which a point lands: whole or cut (not used by the "
+        "others; empty in tables written before the column: whole)",
+        run_key=_landing_key,
+    ),
 )
 
 
@@ -71,8 +94,12 @@ def summary(s: dict) -> str:
     """The method and its accuracy setting, from a run's summary (the command line's line)."""
     dt, etol = s.get("dt"), s.get("step_energy_tol")
     bound = STEP_ENERGY_TOL if etol is None else etol
-    return f"nonsmooth RATTLE (experimental), dt = {number_text(dt)} t_ff/N at most, " + (
-        f"a step changes U + T by at most {number_text(bound, '.3g')} E0"
-        if bound
-        else "no bound on a step's change of U + T"
+    return (
+        f"nonsmooth RATTLE (experimental), dt = {number_text(dt)} t_ff/N at most, "
+        + (
+            f"a step changes U + T by at most {number_text(bound, '.3g')} E0"
+            if bound
+            else "no bound on a step's change of U + T"
+        )
+        + (", landing steps cut at the touch" if s.get("landing_step") == "cut" else "")
     )

@@ -79,6 +79,7 @@ def run(setup, progress, stop) -> RunOutput:
     fb = np.zeros(FB_SIZE)
     etol = STEP_ENERGY_TOL if o.step_energy_tol is None else o.step_energy_tol
     fb[21] = etol * abs(setup.E0)
+    fb[22] = 1.0 if o.landing_step == "cut" else 0.0
     books = new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()

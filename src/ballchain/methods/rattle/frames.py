@@ -21,8 +21,10 @@ from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 # dt t_ff/N / 2^level (a step whose stage 1 or 2 failed is taken again halved, one that
 # changed U + T beyond its bound shortened as its h^3 error asks: ``_cut``, ``_growth``),
 # [20] without the bound, the steps taken at that size (after GROW_AFTER the step is
-# doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound)
-FB_SIZE = 22
+# doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound),
+# [22] 1 with landing step "cut" (``stepper.cut_at_touch``), [23] > 0: the next step is a
+# landing step taken again, cut to this length at its touch
+FB_SIZE = 24
 
 
 @njit(cache=True)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ...contacts.coulomb import grips
+from ...contacts.coulomb import anchors, grips
 from ...core.rules import (
     fall_ended,
     fall_over,
@@ -31,13 +31,16 @@ from .codes import (
 from .frames import _books_now, frame_substeps, record_frame
 from .friction import hold_stuck_stretch
 from .scheme import CUTS_MAX, SPLIT_CUTS, _budget, keep_warm_start, rattle_step
-from .state import active_points, undo_step
+from .state import active_points, point_vz, point_z, undo_step
 
 GROW_AFTER = 8  # without the energy bound: steps at a halved size before the next is tried doubled
 SAFETY = 0.8  # the energy control aims a step's change of U + T at this fraction of its bound
 SHRINK_MIN = 1.5  # ... and shortens a refused step at least this many fold
 GROW_MAX = 2.0  # ... and changes an accepted one's successor by at most this factor
 TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w| small)
+TOUCH_CUT = 0.9  # landing step "cut": a step that anchored a point that touched before this fraction of it ...
+TOUCH_PAST = 1.02  # ... is taken again, to end this many times the touch's time after its start ...
+TOUCH_MIN = 1.0 / 16.0  # ... but not shorter than this fraction of the step
 
 
 @njit(cache=True)
@@ -47,6 +50,35 @@ def _fastest_turn(ve):
     for i in range(ve.shape[0]):
         m = max(m, ve[i, 0] ** 2 + ve[i, 1] ** 2 + ve[i, 2] ** 2)
     return math.sqrt(m)
+
+
+@njit(cache=True)
+def touch_time(start, new_anchor, na):
+    """The earliest time s after a step's start at which one of the points it anchored
+    (new_anchor[:na]) reaches the floor under gravity alone, from its height z and rate z'
+    at the start (``start``): z + z' s - s^2/2 = 0, s = 2 z / (sqrt(z'^2 + 2 z) - z')."""
+    s = math.inf
+    for r in range(na):
+        j = new_anchor[r]
+        z, vz = max(point_z(start, j), 0.0), point_vz(start, j)
+        root = math.sqrt(vz * vz + 2.0 * z) - vz
+        s = min(s, 2.0 * z / root if root > 0.0 else 0.0)
+    return s
+
+
+@njit(cache=True)
+def cut_at_touch(h, na, model, sc, fb):
+    """Landing step "cut" (fb[22] = 1): after a step h that anchored points, the length of
+    the step to take instead, ending just after (TOUCH_PAST) the first of them touched
+    (``touch_time``), if that was before TOUCH_CUT h, at least TOUCH_MIN h; else 0 (the step
+    stands).  A step taken whole resolves a landing at its end, its point stopped with the
+    velocity it reached there, not at its touch: a loss in excess, first order in the step.
+    Not for a step that is itself such a cut (fb[23] > 0), nor where points do not land to
+    stay (restitution at the floor, a floor that lets them slide)."""
+    if na == 0 or fb[22] == 0.0 or fb[23] > 0.0 or model.e_floor > 0.0 or not anchors(model.friction):
+        return 0.0
+    s = touch_time(sc.start, sc.new_anchor, na)
+    return max(TOUCH_PAST * s, TOUCH_MIN * h) if s < TOUCH_CUT * h else 0.0
 
 
 @njit(cache=True)
@@ -112,6 +144,9 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     left = model.t_stop - t
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
+    whole = h
+    if fb[23] > 0.0:  # a landing step taken again, cut at its touch (``cut_at_touch``)
+        h = min(h, fb[23])
     etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
     if code == ERR_REBOUND:  # the same step with its impacts inelastic
@@ -125,6 +160,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         ws.valid[0] = 0
         fb[19] = min(float(CUTS_MAX), level + _cut(code, sc.acc[8], etol))
         fb[20] = 0.0
+        fb[23] = 0.0  # (the shorter step, whole, may be cut at its touch again)
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     if code < 0:
@@ -134,8 +170,17 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
             books.n_evals[0] += np.int64(sc.acc[5])
             return 0, t  # taken again with the stretch held (finite friction)
         return code, t
+    cut = cut_at_touch(h, na, model, sc, fb)
+    if cut > 0.0:  # taken again, to end at the touch
+        undo_step(mo, sc)
+        ws.valid[0] = 0
+        fb[23] = cut
+        books.n_evals[0] += np.int64(sc.acc[5])
+        return 0, t
     keep_warm_start(h, ws, sc)
-    fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb, grips(model.friction)))
+    fb[23] = 0.0
+    if h == whole:  # (after a step cut at its touch, the next at the size it was cut from)
+        fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb, grips(model.friction)))
     _books_now(books, fb)
     for q in range(5):
         fb[11 + q] = fb[q]
