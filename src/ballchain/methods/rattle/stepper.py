@@ -39,8 +39,10 @@ SHRINK_MIN = 1.5  # ... and shortens a refused step at least this many fold
 GROW_MAX = 2.0  # ... and changes an accepted one's successor by at most this factor
 TURN_MAX = 0.1  # rad: a step turns no segment further (second order needs h |w| small)
 TOUCH_CUT = 0.9  # landing step "cut": a step that anchored a point that touched before this fraction of it ...
-TOUCH_PAST = 1.02  # ... is taken again, to end this many times the touch's time after its start ...
-TOUCH_MIN = 1.0 / 16.0  # ... but not shorter than this fraction of the step
+TOUCH_BEFORE = 0.98  # ... is taken again, to end this many times the touch's time after its start ...
+TOUCH_MIN = 1.0 / 16.0  # ... if that is at least this fraction of the step; else ...
+TOUCH_AFTER = 1.02  # ... to end this many times the touch's time after its start (the landing in it) ...
+TOUCH_SHORTEST = 1.0 / 1024.0  # ... but not shorter than this fraction of the step
 
 
 @njit(cache=True)
@@ -69,16 +71,24 @@ def touch_time(start, new_anchor, na):
 @njit(cache=True)
 def cut_at_touch(h, na, model, sc, fb):
     """Landing step "cut" (fb[22] = 1): after a step h that anchored points, the length of
-    the step to take instead, ending just after (TOUCH_PAST) the first of them touched
-    (``touch_time``), if that was before TOUCH_CUT h, at least TOUCH_MIN h; else 0 (the step
-    stands).  A step taken whole resolves a landing at its end, its point stopped with the
-    velocity it reached there, not at its touch: a loss in excess, first order in the step.
-    Not for a step that is itself such a cut (fb[23] > 0), nor where points do not land to
-    stay (restitution at the floor, a floor that lets them slide)."""
+    the step to take instead, if the first of them touched (``touch_time``, s) before
+    TOUCH_CUT h; else 0 (the step stands).  The step taken again ends just before the touch
+    (TOUCH_BEFORE s), where that leaves at least TOUCH_MIN h, and the landing comes in a
+    step of its own after it; else just after it (TOUCH_AFTER s, at least TOUCH_SHORTEST h),
+    the landing at that step's end.  A step taken whole resolves a landing at its end: its
+    point stopped with the velocity it reached there, and the locks beside it held through
+    the touch, though the exact sequence may release them before it (open, land, lock);
+    a step that ends before the touch decides those releases first.  Not for a step that is
+    itself such a cut (fb[23] > 0), nor where points do not land to stay (restitution at the
+    floor, a floor that lets them slide)."""
     if na == 0 or fb[22] == 0.0 or fb[23] > 0.0 or model.e_floor > 0.0 or not anchors(model.friction):
         return 0.0
     s = touch_time(sc.start, sc.new_anchor, na)
-    return max(TOUCH_PAST * s, TOUCH_MIN * h) if s < TOUCH_CUT * h else 0.0
+    if s >= TOUCH_CUT * h:
+        return 0.0
+    if TOUCH_BEFORE * s >= TOUCH_MIN * h:
+        return TOUCH_BEFORE * s
+    return max(TOUCH_AFTER * s, TOUCH_SHORTEST * h)
 
 
 @njit(cache=True)
