@@ -77,9 +77,10 @@ OPTIONS = (
         str,
         "whole",
         "How --method rattle takes a step in which a point lands: whole (the landing resolved at the step's "
-        "end, with the velocity the point reached there) or cut (the step cut to end just after the first "
-        "touch it holds, predicted from the points' heights and rates under gravity alone: the landing "
-        "resolved at its touch).",
+        "end, with the velocity the point reached there, the locks beside it held through the touch) or cut "
+        "(the step taken again to end just before the first touch it holds, predicted from the points' "
+        "heights and rates under gravity alone, so that the locks beside the point are released first; the "
+        "landing then in a short step of its own, ending just after the touch).",
         one_of(LANDING_STEPS),
         flag="--landing-step",
         json="how the RATTLE method takes a step in which a point lands: whole or cut",

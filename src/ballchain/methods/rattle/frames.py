@@ -23,7 +23,7 @@ from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 # [20] without the bound, the steps taken at that size (after GROW_AFTER the step is
 # doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound),
 # [22] 1 with landing step "cut" (``stepper.cut_at_touch``), [23] > 0: the next step is a
-# landing step taken again, cut to this length at its touch
+# landing step taken again, cut to this length (``stepper.cut_at_touch``)
 FB_SIZE = 24
 
 

@@ -155,7 +155,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     whole = h
-    if fb[23] > 0.0:  # a landing step taken again, cut at its touch (``cut_at_touch``)
+    if fb[23] > 0.0:  # a landing step taken again, cut near its touch (``cut_at_touch``)
         h = min(h, fb[23])
     etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
@@ -181,7 +181,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
             return 0, t  # taken again with the stretch held (finite friction)
         return code, t
     cut = cut_at_touch(h, na, model, sc, fb)
-    if cut > 0.0:  # taken again, to end at the touch
+    if cut > 0.0:  # taken again, to end just before (or, where the touch is early, just after) the touch
         undo_step(mo, sc)
         ws.valid[0] = 0
         fb[23] = cut
