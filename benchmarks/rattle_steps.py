@@ -113,18 +113,21 @@ def _header(*cells: str) -> None:
 
 def landings_of(n: int, key: int, how: str) -> dict:
     """One fall with ``--landing-step how``: its points anchored, those anchored in a step
-    taken again cut at its touch (the step's fb[23] > 0 when it began), its accepted steps
-    and Newton evaluations."""
-    count = {"anchored": 0, "in_cut": 0}
+    cut at a touch (the accepted step's fb[25] > 0), the steps taken again to be cut at
+    their touch (a landing not foreseen), its accepted steps and Newton evaluations."""
+    count = {"anchored": 0, "in_cut": 0, "retaken": 0}
 
     def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
-        before, was_cut = int((mo.anchored > 0).sum()), fb[23] > 0.0
+        before = int((mo.anchored > 0).sum())
         s0 = int(books.n_steps[0])
+        pending = fb[23]
         code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
         if int(books.n_steps[0]) > s0:
             new = int((mo.anchored > 0).sum()) - before
             count["anchored"] += new
-            count["in_cut"] += new if was_cut else 0
+            count["in_cut"] += new if fb[25] > 0.0 else 0
+        elif fb[23] > 0.0 and pending == 0.0 and code == 0:
+            count["retaken"] += 1
         return code, t
 
     r = fall_by_attempts(n, key, SolverOptions(method="rattle", landing_step=how), one_attempt)
@@ -140,6 +143,7 @@ def print_landings(segments, starts) -> None:
         "t_fall/t_ff",
         "points anchored",
         "in a cut step",
+        "steps taken again at a touch",
         "steps / N",
         "evaluations / N",
         "steps, cut / whole",
@@ -150,7 +154,7 @@ def print_landings(segments, starts) -> None:
             w = landings_of(n, key, "whole")
             for how, s in (("whole", w), ("cut", landings_of(n, key, "cut"))):
                 print(
-                    f"| {n} | {key} | {how} | {s['status']} | {s['ratio']:.4f} | {s['anchored']} | {s['in_cut']} | "
+                    f"| {n} | {key} | {how} | {s['status']} | {s['ratio']:.4f} | {s['anchored']} | {s['in_cut']} | {s['retaken']} | "
                     f"{s['steps'] / n:.1f} | {s['evals'] / n:.1f} | {s['steps'] / w['steps']:.3f} | "
                     f"{s['evals'] / w['evals']:.3f} |"
                 )

@@ -78,9 +78,10 @@ OPTIONS = (
         "whole",
         "How --method rattle takes a step in which a point lands: whole (the landing resolved at the step's "
         "end, with the velocity the point reached there, the locks beside it held through the touch) or cut "
-        "(the step taken again to end just before the first touch it holds, predicted from the points' "
+        "(a step that would hold a touch ends just before it, the touch foreseen from the free points' "
         "heights and rates under gravity alone, so that the locks beside the point are released first; the "
-        "landing then in a short step of its own, ending just after the touch).",
+        "landing then in a short step of its own, ending just after the touch; a landing not foreseen "
+        "takes its step again so).",
         one_of(LANDING_STEPS),
         flag="--landing-step",
         json="how the RATTLE method takes a step in which a point lands: whole or cut",

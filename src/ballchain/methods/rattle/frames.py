@@ -22,9 +22,10 @@ from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 # changed U + T beyond its bound shortened as its h^3 error asks: ``_cut``, ``_growth``),
 # [20] without the bound, the steps taken at that size (after GROW_AFTER the step is
 # doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound),
-# [22] 1 with landing step "cut" (``stepper.cut_at_touch``), [23] > 0: the next step is a
-# landing step taken again, cut to this length (``stepper.cut_at_touch``)
-FB_SIZE = 24
+# [22] 1 with landing step "cut" (``stepper.landing_cut``), [23] > 0: the step is cut at a
+# touch to this length (``stepper.touch_ahead``, ``stepper.cut_at_touch``), [24] how: 1 to
+# end before the touch, 2 to take the landing just after it, [25] the last accepted step's [24]
+FB_SIZE = 26
 
 
 @njit(cache=True)

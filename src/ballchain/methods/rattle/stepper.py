@@ -54,41 +54,80 @@ def _fastest_turn(ve):
     return math.sqrt(m)
 
 
+@njit(cache=True, inline="always")
+def gravity_touch(z, vz):
+    """The time s at which a point at height z >= 0 with rate z' reaches the floor under
+    gravity alone: z + z' s - s^2/2 = 0, s = 2 z / (sqrt(z'^2 + 2 z) - z') (sqrt(b/g))."""
+    z = max(z, 0.0)
+    root = math.sqrt(vz * vz + 2.0 * z) - vz
+    return 2.0 * z / root if root > 0.0 else 0.0
+
+
 @njit(cache=True)
 def touch_time(start, new_anchor, na):
-    """The earliest time s after a step's start at which one of the points it anchored
-    (new_anchor[:na]) reaches the floor under gravity alone, from its height z and rate z'
-    at the start (``start``): z + z' s - s^2/2 = 0, s = 2 z / (sqrt(z'^2 + 2 z) - z')."""
+    """The earliest ``gravity_touch`` of the points a step anchored (new_anchor[:na]), from
+    the state at its start (``start``)."""
     s = math.inf
     for r in range(na):
         j = new_anchor[r]
-        z, vz = max(point_z(start, j), 0.0), point_vz(start, j)
-        root = math.sqrt(vz * vz + 2.0 * z) - vz
-        s = min(s, 2.0 * z / root if root > 0.0 else 0.0)
+        s = min(s, gravity_touch(point_z(start, j), point_vz(start, j)))
     return s
 
 
 @njit(cache=True)
-def cut_at_touch(h, na, model, sc, fb):
-    """Landing step "cut" (fb[22] = 1): after a step h that anchored points, the length of
-    the step to take instead, if the first of them touched (``touch_time``, s) before
-    TOUCH_CUT h; else 0 (the step stands).  The step taken again ends just before the touch
-    (TOUCH_BEFORE s), where that leaves at least TOUCH_MIN h, and the landing comes in a
-    step of its own after it; else just after it (TOUCH_AFTER s, at least TOUCH_SHORTEST h),
-    the landing at that step's end.  A step taken whole resolves a landing at its end: its
-    point stopped with the velocity it reached there, and the locks beside it held through
-    the touch, though the exact sequence may release them before it (open, land, lock);
-    a step that ends before the touch decides those releases first.  Not for a step that is
-    itself such a cut (fb[23] > 0), nor where points do not land to stay (restitution at the
-    floor, a floor that lets them slide)."""
-    if na == 0 or fb[22] == 0.0 or fb[23] > 0.0 or model.e_floor > 0.0 or not anchors(model.friction):
-        return 0.0
-    s = touch_time(sc.start, sc.new_anchor, na)
+def landing_cut(s, h, after):
+    """The rule of landing step "cut" for a step h in which a point touches the floor at s:
+    (length, how).  A step taken whole resolves a landing at its end: its point stopped with
+    the velocity it reached there, and the locks beside it held through the touch, though
+    the exact sequence may release them before it (open, land, lock).  So a step in which
+    the touch comes before TOUCH_CUT h ends just before it (TOUCH_BEFORE s; how = 1), where
+    that leaves at least TOUCH_MIN h, and the step after it takes the landing, ending just
+    after the touch (TOUCH_AFTER s, at least TOUCH_SHORTEST h; how = 2), if ``after``;
+    else (0, 0): the step stands whole."""
     if s >= TOUCH_CUT * h:
-        return 0.0
+        return 0.0, 0
     if TOUCH_BEFORE * s >= TOUCH_MIN * h:
-        return TOUCH_BEFORE * s
-    return max(TOUCH_AFTER * s, TOUCH_SHORTEST * h)
+        return TOUCH_BEFORE * s, 1
+    if after:
+        return max(TOUCH_AFTER * s, TOUCH_SHORTEST * h), 2
+    return 0.0, 0
+
+
+@njit(cache=True, inline="always")
+def _cuts_landings(model, fb):
+    """Landing step "cut" (fb[22] = 1) where points land to stay: not with restitution at
+    the floor, nor on a floor that lets them slide."""
+    return fb[22] != 0.0 and model.e_floor == 0.0 and anchors(model.friction)
+
+
+@njit(cache=True)
+def touch_ahead(h, model, mo, fb):
+    """Landing step "cut", ahead of the step: (length, how) of ``landing_cut`` for the
+    earliest ``gravity_touch`` of the free points moving down, from the state now; the
+    landing just after a touch (how = 2) only in the step after one that ended before a
+    touch (fb[25] = 1), so that a point that hangs just above the floor cannot shrink the
+    steps to TOUCH_SHORTEST.  (0, 0): the step is not cut."""
+    if not _cuts_landings(model, fb):
+        return 0.0, 0
+    s = math.inf
+    for j in range(active_points(mo.anchored)):
+        if mo.anchored[j] == 0:
+            vz = point_vz(mo, j)
+            if vz < 0.0:
+                s = min(s, gravity_touch(point_z(mo, j), vz))
+    return landing_cut(s, h, fb[25] == 1.0)
+
+
+@njit(cache=True)
+def cut_at_touch(h, na, model, sc, fb):
+    """Landing step "cut", after a step h that anchored points (na) and was not cut
+    (fb[23] = 0): (length, how) of ``landing_cut`` for the earliest touch of the points it
+    anchored (``touch_time``), the step to be taken again so; (0, 0): it stands.  Catches
+    the landings that ``touch_ahead`` did not foresee (a point moving up at the step's
+    start, a landing right after a step that did not end before a touch)."""
+    if na == 0 or fb[23] > 0.0 or not _cuts_landings(model, fb):
+        return 0.0, 0
+    return landing_cut(touch_time(sc.start, sc.new_anchor, na), h, True)
 
 
 @njit(cache=True)
@@ -155,7 +194,9 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     whole = h
-    if fb[23] > 0.0:  # a landing step taken again, cut near its touch (``cut_at_touch``)
+    if fb[23] == 0.0:  # landing step "cut": a touch foreseen in the step
+        fb[23], fb[24] = touch_ahead(h, model, mo, fb)
+    if fb[23] > 0.0:  # cut at a touch (``touch_ahead``, or taken again: ``cut_at_touch``)
         h = min(h, fb[23])
     etol = fb[21]
     code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
@@ -170,7 +211,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         ws.valid[0] = 0
         fb[19] = min(float(CUTS_MAX), level + _cut(code, sc.acc[8], etol))
         fb[20] = 0.0
-        fb[23] = 0.0  # (the shorter step, whole, may be cut at its touch again)
+        fb[23] = 0.0  # (the shorter step may be cut at its touch again)
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     if code < 0:
@@ -180,15 +221,15 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
             books.n_evals[0] += np.int64(sc.acc[5])
             return 0, t  # taken again with the stretch held (finite friction)
         return code, t
-    cut = cut_at_touch(h, na, model, sc, fb)
+    cut, how = cut_at_touch(h, na, model, sc, fb)
     if cut > 0.0:  # taken again, to end just before (or, where the touch is early, just after) the touch
         undo_step(mo, sc)
         ws.valid[0] = 0
-        fb[23] = cut
+        fb[23], fb[24] = cut, how
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
     keep_warm_start(h, ws, sc)
-    fb[23] = 0.0
+    fb[23], fb[25] = 0.0, fb[24]
     if h == whole:  # (after a step cut at its touch, the next at the size it was cut from)
         fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb, grips(model.friction)))
     _books_now(books, fb)
