@@ -5,6 +5,7 @@ docs/rattle.md and the README's "Which method when".
     python benchmarks/method_speed.py --segments 1024 --starts 5
     python benchmarks/method_speed.py --segments 4096 --methods rattle,timestep --starts 1
     python benchmarks/method_speed.py --methods event,rattle,rattle:dt=0.1:step_energy_tol=1e-6
+    python benchmarks/method_speed.py --segments 512 --methods rattle,rattle:landing_step=cut
 
 A method may carry options (``method:option=value:...``, SolverOptions' names): a row of
 its own, beside the same method at its defaults.
@@ -35,10 +36,19 @@ from ballchain.model import ChainParams, InitialCondition, SolverOptions  # noqa
 METHODS = ("event", "timestep", "rattle")
 
 
+def _value(text: str) -> float | str:
+    """An option's value: a number where it reads as one ('1e-6'), else the word ('cut')."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
 def _setting(spec: str) -> tuple[str, dict]:
-    """'rattle:dt=0.1:step_energy_tol=1e-6' -> ('rattle', {'dt': 0.1, 'step_energy_tol': 1e-6})."""
+    """'rattle:dt=0.1:step_energy_tol=1e-6' -> ('rattle', {'dt': 0.1, 'step_energy_tol': 1e-6});
+    'rattle:landing_step=cut' -> ('rattle', {'landing_step': 'cut'})."""
     method, *options = spec.split(":")
-    return method, {k: float(v) for k, v in (o.split("=", 1) for o in options)}
+    return method, {k: _value(v) for k, v in (o.split("=", 1) for o in options)}
 
 
 def _fall(n: int, key: int, spec: str):
