@@ -83,7 +83,7 @@ def window_losses(
     fb[19] = 0.0 if h_now is None else max(0.0, math.log2(h / h_now))  # (the step is h / 2^fb[19])
     if etol_abs is not None:
         fb[21] = etol_abs
-    fb[22], fb[23] = float(cut), 0.0
+    fb[22], fb[23], fb[24], fb[25] = float(cut), 0.0, 0.0, 0.0  # (no cut pending, none before)
     frames = new_frames(n, math.inf, 16)
     frames.next[0] = math.inf
     trace, log = new_trace(1 << 16), new_log(1 << 16)
