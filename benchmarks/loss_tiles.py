@@ -23,7 +23,8 @@ independent), then per step the mean over the starts and its standard error over
 With ``--dts`` holding ``--ref``/2 the reference's own error shows.  ``--biggest K``: each
 sum split into the K windows whose E_land differs most from the reference's and the rest.
 A step written ``dt:cut`` or ``dt:step_energy_tol:cut`` takes its landing steps cut at the
-touch (``--landing-step cut``).
+touch (``--landing-step cut``, the method's default), one without ``:cut`` whole
+(``--landing-step whole``); the base fall takes its landing steps whole.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from ballchain.methods.rattle.codes import RT_LANDED, RT_RETURN, RT_STOP  # noqa
 from ballchain.methods.rattle.stepper import run_steps  # noqa: E402
 from ballchain.model import SolverOptions  # noqa: E402
 
-DEFAULT = SolverOptions(method="rattle")
+DEFAULT = SolverOptions(method="rattle", landing_step="whole")  # the base fall (its windows' copies: by their specs)
 
 
 def _copy(x):
