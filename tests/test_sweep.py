@@ -579,6 +579,8 @@ def test_committed_tables_keep_their_run_ids(name):
         given = {k: r[k] for k in OPTION_COLUMNS if r[k] == r[k] and r[k] != ""}  # (NaN, '': not in the table)
         if r["method"] == "timestep":
             given.setdefault("theta", 0.5)  # the only position update before the column
+        if r["method"] == "rattle":
+            given.setdefault("landing_step", "whole")  # the only landing step before the column
         until = None if math.isnan(r["until"]) else r["until"]
         options = SolverOptions(method=r["method"], until=until, frames_per_tff=r["frames_per_tff"], **given)
         assert run_id(params, ic, options.for_segments(r["segments"])) == r["run_id"]
