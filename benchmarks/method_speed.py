@@ -5,7 +5,7 @@ docs/rattle.md and the README's "Which method when".
     python benchmarks/method_speed.py --segments 1024 --starts 5
     python benchmarks/method_speed.py --segments 4096 --methods rattle,timestep --starts 1
     python benchmarks/method_speed.py --methods event,rattle,rattle:dt=0.1:step_energy_tol=1e-6
-    python benchmarks/method_speed.py --segments 512 --methods rattle,rattle:landing_step=cut
+    python benchmarks/method_speed.py --segments 512 --methods rattle,rattle:landing_step=whole
 
 A method may carry options (``method:option=value:...``, SolverOptions' names): a row of
 its own, beside the same method at its defaults.

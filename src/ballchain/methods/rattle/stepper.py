@@ -228,7 +228,8 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         fb[23], fb[24] = cut, how
         books.n_evals[0] += np.int64(sc.acc[5])
         return 0, t
-    keep_warm_start(h, ws, sc)
+    if fb[24] != 2.0:  # (a landing's own short step: its impact impulse, scaled up to the
+        keep_warm_start(h, ws, sc)  # next step's size, is no guess; the step's before it is)
     fb[23], fb[25] = 0.0, fb[24]
     if h == whole:  # (after a step cut at its touch, the next at the size it was cut from)
         fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb, grips(model.friction)))
