@@ -22,8 +22,9 @@ method's internals: the compiled loop is made to return after every attempt
 
 ``--landings``: instead, one fall with each ``--landing-step`` (whole, cut): the points
 anchored, how many of them in a step taken again cut at its touch, the accepted steps and
-the Newton evaluations per segment, their ratio cut / whole, and t_fall/t_ff (the two
-falls part: single falls are chaotic).  Read at each attempt of a step, as ``--attempts``.
+the Newton evaluations per segment, their ratio cut / whole, t_fall/t_ff (the two
+falls part: single falls are chaotic), and the attempts of a step that follow a landing's
+own short step (cut): the share refused and their Newton evaluations each.  Read at each attempt of a step, as ``--attempts``.
 """
 
 from __future__ import annotations
@@ -114,20 +115,27 @@ def _header(*cells: str) -> None:
 def landings_of(n: int, key: int, how: str) -> dict:
     """One fall with ``--landing-step how``: its points anchored, those anchored in a step
     cut at a touch (the accepted step's fb[25] > 0), the steps taken again to be cut at
-    their touch (a landing not foreseen), its accepted steps and Newton evaluations."""
-    count = {"anchored": 0, "in_cut": 0, "retaken": 0}
+    their touch (a landing not foreseen), its accepted steps and Newton evaluations, and
+    the attempts that follow a landing's own short step (fb[25] = 2 before them): their
+    number, how many were refused, and their Newton evaluations."""
+    count = {"anchored": 0, "in_cut": 0, "retaken": 0, "after": 0, "after_refused": 0, "after_evals": 0.0}
 
     def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         before = int((mo.anchored > 0).sum())
         s0 = int(books.n_steps[0])
-        pending = fb[23]
+        pending, after_landing = fb[23], fb[25] == 2.0
         code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
-        if int(books.n_steps[0]) > s0:
+        accepted = int(books.n_steps[0]) > s0
+        if accepted:
             new = int((mo.anchored > 0).sum()) - before
             count["anchored"] += new
             count["in_cut"] += new if fb[25] > 0.0 else 0
         elif fb[23] > 0.0 and pending == 0.0 and code == 0:
             count["retaken"] += 1
+        if after_landing:
+            count["after"] += 1
+            count["after_refused"] += 0 if accepted else 1
+            count["after_evals"] += sc.acc[7]
         return code, t
 
     r = fall_by_attempts(n, key, SolverOptions(method="rattle", landing_step=how), one_attempt)
@@ -148,6 +156,7 @@ def print_landings(segments, starts) -> None:
         "evaluations / N",
         "steps, cut / whole",
         "evaluations, cut / whole",
+        "attempts after a landing's own step: refused, evaluations each",
     )
     for n in segments:
         for key in starts:
@@ -156,7 +165,8 @@ def print_landings(segments, starts) -> None:
                 print(
                     f"| {n} | {key} | {how} | {s['status']} | {s['ratio']:.4f} | {s['anchored']} | {s['in_cut']} | {s['retaken']} | "
                     f"{s['steps'] / n:.1f} | {s['evals'] / n:.1f} | {s['steps'] / w['steps']:.3f} | "
-                    f"{s['evals'] / w['evals']:.3f} |"
+                    f"{s['evals'] / w['evals']:.3f} | "
+                    + (f"{s['after_refused'] / s['after']:.2f}, {s['after_evals'] / s['after']:.1f} |" if s["after"] else " |")
                 )
 
 
