@@ -166,7 +166,11 @@ def print_landings(segments, starts) -> None:
                     f"| {n} | {key} | {how} | {s['status']} | {s['ratio']:.4f} | {s['anchored']} | {s['in_cut']} | {s['retaken']} | "
                     f"{s['steps'] / n:.1f} | {s['evals'] / n:.1f} | {s['steps'] / w['steps']:.3f} | "
                     f"{s['evals'] / w['evals']:.3f} | "
-                    + (f"{s['after_refused'] / s['after']:.2f}, {s['after_evals'] / s['after']:.1f} |" if s["after"] else " |")
+                    + (
+                        f"{s['after_refused'] / s['after']:.2f}, {s['after_evals'] / s['after']:.1f} |"
+                        if s["after"]
+                        else " |"
+                    )
                 )
 
 
