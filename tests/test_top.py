@@ -136,3 +136,39 @@ def test_the_time_steppers_loss_of_a_top_shrinks_with_dt():
         lost.append(1.0 - (r.frame_kinetic[-1] + r.frame_potential[-1]) / start)
     assert all(x > 0 for x in lost)
     assert lost[0] / lost[1] > 1.35 and lost[1] / lost[2] > 1.45
+
+
+def _top_end_chain(k: int, n: int, locked: list[int], w_top):
+    """A chain of n segments whose points k..n are anchored (the segments below k lie flat
+    on the floor, at rest) and whose top end, segments 0..k-1, stands upright with the
+    rate w_top each; ``locked``: the hinges between the top end's segments that are held."""
+    from ballchain.core.state import new_chain
+
+    e = np.tile([1.0, 0.0, 0.0], (n, 1))
+    e[:k] = [0.0, 0.0, 1.0]
+    w = np.zeros((n, 3))
+    w[:k] = w_top
+    chain = new_chain(e, w, math.pi / 4)
+    chain.anchored[k:] = 1
+    chain.locked[: len(locked)] = locked
+    return chain
+
+
+def test_a_run_stopped_at_the_time_cap_names_the_top_end_that_keeps_moving():
+    """``stop_status``: a top end of one segment, or of several with free hinges, moving on
+    its landed point (which nothing but a lock slows) is named with its kinetic energy; a
+    single segment turning about its lower end at |w| perpendicular to its axis has
+    T = 1/2 (m b^2/3 + m b^2) |w|^2 = 2/3 |w|^2 m g b (b = m = g = 1); every hinge locked is
+    the heavy top; a chain at rest is not a top."""
+    from ballchain.methods.outputs import spinning_top_note, stop_status
+    from ballchain.model import SolverOptions
+
+    status, message = stop_status(SolverOptions(method="rattle"), _top_end_chain(1, 4, [], [0.0, 1.5, 0.0]))
+    assert status == "max_time"
+    assert "its top end, 1 segment off the floor, moves on landed point 1 (kinetic energy 1.5 m g b)" in message
+    assert "1 of the 2 hinges between them locked" in spinning_top_note(_top_end_chain(3, 6, [1, 0], [0.0, 1.0, 0.0]))
+    assert "heavy top" in spinning_top_note(_top_end_chain(3, 6, [1, 1], [0.0, 1.0, 0.0]))
+    assert spinning_top_note(_top_end_chain(3, 6, [1, 0], [0.0, 0.0, 0.0])) == ""
+    assert (
+        spinning_top_note(_top_end_chain(3, 6, [1, 0], [0.0, 1.0, 0.0])._replace(anchored=np.zeros(7, np.uint8))) == ""
+    )

@@ -211,20 +211,31 @@ def spinning_top_note(chain: Chain) -> str:
     """'; its top end, k segments locked at their limits, turns on landed point k ...' if
     the only airborne part is the top end (points 0..k-1 free, every point from k on
     anchored), of two segments or more, every hinge between them locked: one rigid body
-    on a frictionless pivot, a heavy top, which nothing in the model slows down (its
-    kinetic energy, m g b: ``kinematics.kinetic_energy``), else ''."""
+    on a frictionless pivot, a heavy top, which nothing in the model slows down; '; its
+    top end, k segments off the floor (j of the k - 1 hinges between them locked), moves
+    on landed point k ...' if some of those hinges are free: bodies joined at free hinges
+    on that pivot, which only a lock slows down (their kinetic energy, m g b:
+    ``kinematics.kinetic_energy``); else ''."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if e.shape[0] == 0 or float(np.max(np.abs(w))) < REST_RATE:
         return ""
     k = int(np.argmax(anchored != 0)) if np.any(anchored != 0) else -1
-    if k < 2 or np.any(anchored[:k] != 0) or np.any(anchored[k:] == 0) or not np.all(chain.locked[: k - 1] != 0):
+    if k < 1 or np.any(anchored[:k] != 0) or np.any(anchored[k:] == 0):
         return ""
     n = e.shape[0]  # (the landed segments below are at rest: the chain's T is the top's)
     t = float(kinetic_energy(e, w, np.zeros((n + 1, 3)), np.zeros((n, 3))))
+    held = int(np.count_nonzero(chain.locked[: k - 1]))
+    if k >= 2 and held == k - 1:
+        return (
+            f"; its top end, {k} segments locked at their bend limits, turns on landed point {k} as one "
+            f"rigid body (kinetic energy {t:.4g} m g b): a heavy top on a frictionless pivot, which nothing "
+            f"in the model slows down (docs/model.md, section 4)"
+        )
+    hinges = f" ({held} of the {k - 1} hinges between them locked)" if k >= 2 else ""
     return (
-        f"; its top end, {k} segments locked at their bend limits, turns on landed point {k} as one "
-        f"rigid body (kinetic energy {t:.4g} m g b): a heavy top on a frictionless pivot, which nothing "
-        f"in the model slows down (docs/model.md, section 4)"
+        f"; its top end, {k} segment{'s' if k > 1 else ''} off the floor{hinges}, moves on landed point {k} "
+        f"(kinetic energy {t:.4g} m g b): on a frictionless pivot, which nothing in the model slows down "
+        f"but a lock when a free hinge reaches its limit (docs/model.md, section 4)"
     )
 
 
