@@ -211,11 +211,11 @@ def spinning_top_note(chain: Chain) -> str:
     """'; its top end, k segments locked at their limits, turns on landed point k ...' if
     the only airborne part is the top end (points 0..k-1 free, every point from k on
     anchored), of two segments or more, every hinge between them locked: one rigid body
-    on a frictionless pivot, a heavy top, which nothing in the model slows down; '; its
-    top end, k segments off the floor (j of the k - 1 hinges between them locked), moves
-    on landed point k ...' if some of those hinges are free: bodies joined at free hinges
-    on that pivot, which only a lock slows down (their kinetic energy, m g b:
-    ``kinematics.kinetic_energy``); else ''."""
+    on a frictionless pivot, a heavy top, which nothing in the model slows down; '; the
+    only part off the floor is its top end, k segments (j of the k - 1 hinges between them
+    locked), moving on landed point k ...' if some of those hinges are free and some
+    segment has landed: bodies joined at free hinges on that pivot (their kinetic energy,
+    m g b: ``kinematics.kinetic_energy``); else ''."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if e.shape[0] == 0 or float(np.max(np.abs(w))) < REST_RATE:
         return ""
@@ -231,11 +231,12 @@ def spinning_top_note(chain: Chain) -> str:
             f"rigid body (kinetic energy {t:.4g} m g b): a heavy top on a frictionless pivot, which nothing "
             f"in the model slows down (docs/model.md, section 4)"
         )
+    if k >= n:  # (nothing has landed: the chain on its starting pivot, still falling)
+        return ""
     hinges = f" ({held} of the {k - 1} hinges between them locked)" if k >= 2 else ""
     return (
-        f"; its top end, {k} segment{'s' if k > 1 else ''} off the floor{hinges}, moves on landed point {k} "
-        f"(kinetic energy {t:.4g} m g b): on a frictionless pivot, which nothing in the model slows down "
-        f"but a lock when a free hinge reaches its limit (docs/model.md, section 4)"
+        f"; the only part off the floor is its top end, {k} segment{'s' if k > 1 else ''}{hinges}, "
+        f"moving on landed point {k} (kinetic energy {t:.4g} m g b; docs/model.md, section 4)"
     )
 
 
