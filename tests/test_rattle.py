@@ -216,3 +216,14 @@ def test_a_landing_step_cut_at_the_touch_lands_the_point_there():
         assert abs(t_cut - t_ref) <= 0.05 * h, (dt, (t_cut - t_ref) / h)
         assert abs(lost_cut - lost_ref) <= 1e-3
         assert abs(lost_cut - lost_ref) < abs(runs["whole"][2] - lost_ref) / 4.0
+
+
+def test_the_method_line_names_a_whole_landing_step_also_in_files_before_the_key():
+    """A RATTLE file written before `landing_step` was recorded took its landing steps whole
+    (the only rule then): its method line says so, as a whole run's does; a cut run's does not."""
+    from ballchain.methods.rattle import summary
+
+    base = {"method": "rattle", "dt": 0.05, "step_energy_tol": None}
+    assert summary(base).endswith(", landing steps whole")
+    assert summary({**base, "landing_step": "whole"}).endswith(", landing steps whole")
+    assert "landing steps" not in summary({**base, "landing_step": "cut"})

@@ -105,5 +105,5 @@ def summary(s: dict) -> str:
             if bound
             else "no bound on a step's change of U + T"
         )
-        + (", landing steps whole" if s.get("landing_step") == "whole" else "")
+        + ("" if s.get("landing_step") == "cut" else ", landing steps whole")  # files before the key: whole
     )
