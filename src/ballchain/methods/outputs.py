@@ -5,6 +5,7 @@ arrays, and what a method hands back (``RunOutput``).  The compiled side of each
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 from dataclasses import dataclass
 
@@ -238,6 +239,50 @@ def spinning_top_note(chain: Chain) -> str:
         f"; the only part off the floor is its top end, {k} segment{'s' if k > 1 else ''}{hinges}, "
         f"moving on landed point {k} (kinetic energy {t:.4g} m g b; docs/model.md, section 4)"
     )
+
+
+CLOSED_STRETCH_GAP = 1e-2  # a locked stretch between two anchors this near (relative) an extreme of its chord is named
+
+
+def stretch_chord_extremes(k: int, alpha: float) -> tuple[float, float]:
+    """The least and greatest distance (b) between the ends of k segments (length 2b) whose
+    k - 1 hinges all bend by alpha: the planar arc, 2 sin(k alpha/2) / sin(alpha/2) (the
+    least while k alpha <= pi), and the planar zigzag, its axes alternating between two:
+    2 sqrt(m1^2 + m2^2 + 2 m1 m2 cos alpha), m1 = ceil(k/2), m2 = floor(k/2) (2 k cos(alpha/2)
+    for even k)."""
+    m1, m2 = (k + 1) // 2, k // 2
+    zigzag = 2.0 * math.sqrt(m1 * m1 + m2 * m2 + 2.0 * m1 * m2 * math.cos(alpha))
+    return 2.0 * math.sin(k * alpha / 2.0) / math.sin(alpha / 2.0), zigzag
+
+
+def closed_stretch_note(e, anchored, locked, anchor_pos, alpha: float) -> str:
+    """'; the stretch of k segments ... is within x of its tightest curl ...' for the first
+    stretch of k >= 2 segments between two anchored points a and a + k, the points between
+    them free and its k - 1 hinges locked, whose anchors' distance D lies within
+    CLOSED_STRETCH_GAP (relative) of the chord of the planar arc (k alpha <= pi) or of the
+    planar zigzag at the limits (``stretch_chord_extremes``): there the anchors leave its
+    free twists almost no room, a near-singular configuration of its constraints; else ''."""
+    held = np.flatnonzero(np.asarray(anchored) != 0)
+    for a, b in zip(held[:-1], held[1:]):
+        k = int(b - a)
+        if k < 2 or not np.all(np.asarray(locked)[a : b - 1] != 0):
+            continue
+        d = float(np.linalg.norm(np.asarray(anchor_pos[b]) - np.asarray(anchor_pos[a])))
+        arc, zigzag = stretch_chord_extremes(k, alpha)
+        shapes = (
+            (arc, "tightest curl (a planar arc)", k * alpha <= math.pi),
+            (zigzag, "straightest reach (a planar zigzag)", True),
+        )
+        for chord, shape, extreme in shapes:
+            if not extreme or abs(d - chord) > CLOSED_STRETCH_GAP * chord:
+                continue
+            return (
+                f"; the stretch of {k} segments {a}-{b - 1} between anchored points {a} and {b}, its {k - 1} "
+                f"hinges locked, is within {abs(d - chord) / chord:.2g} of the chord of its {shape}: the anchors "
+                f"leave its twists almost no room (a near-singular configuration of its constraints), and it "
+                f"moves in that room faster than the step can follow"
+            )
+    return ""
 
 
 class SimulationError(RuntimeError):

@@ -17,6 +17,7 @@ from ..outputs import (
     LoopCodes,
     RunOutput,
     TraceBuffer,
+    closed_stretch_note,
     drive,
     loop_verdict,
 )
@@ -92,6 +93,8 @@ def run(setup, progress, stop) -> RunOutput:
         if code == ERR_NEWTON:
             j, kind, value = sc.unmet
             where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step 2^10 times shorter than --dt)"
+        elif code == ERR_STEP_ENERGY:
+            where += closed_stretch_note(mo.e, mo.anchored, mo.locked, mo.anchor_pos, p.alpha)
         elif code == ERR_ACTIVE_SET and sc.unmet[0] >= 0:
             where += f" (the last row it switched: point {int(sc.unmet[0])}, its {ROW_NAMES.get(int(sc.unmet[1]), 'row')} row)"
         return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
