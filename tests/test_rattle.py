@@ -227,3 +227,20 @@ def test_the_method_line_names_a_whole_landing_step_also_in_files_before_the_key
     assert summary(base).endswith(", landing steps whole")
     assert summary({**base, "landing_step": "whole"}).endswith(", landing steps whole")
     assert "landing steps" not in summary({**base, "landing_step": "cut"})
+
+
+def test_a_longer_step_is_halved_more_so_its_shortest_is_the_default_steps():
+    """--dt longer than the default takes ceil(log2(dt / 0.05)) more halvings, so that its
+    shortest step, dt / 2^(10 + extra), is never longer than the default's, 0.05 / 2^10 (a
+    longer ceiling must not be coarser where the steps must be short); the default and
+    shorter steps keep 10."""
+    from ballchain.methods.rattle import DEFAULT_DT
+    from ballchain.methods.rattle.scheme import CUTS_MAX, extra_cuts
+
+    for dt in (0.0125, 0.025, DEFAULT_DT):
+        assert extra_cuts(dt) == 0
+    for dt in (0.06, 0.1, 0.2, 0.35, 1.0):
+        k = extra_cuts(dt)
+        assert dt / 2 ** (CUTS_MAX + k) <= DEFAULT_DT / 2**CUTS_MAX * (1 + 1e-12)
+        assert dt / 2 ** (CUTS_MAX + k - 1) > DEFAULT_DT / 2**CUTS_MAX  # (no halving more than that)
+    assert extra_cuts(0.1) == 1 and extra_cuts(0.2) == 2

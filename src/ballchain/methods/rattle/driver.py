@@ -36,6 +36,7 @@ from .codes import (
 )
 from .frames import FB_SIZE
 from .rows import new_rows
+from .scheme import CUTS_MAX, extra_cuts
 from .state import Motion, base_at_origin, kinetic_energy_rattle, maximal_state, new_frame_work, new_scratch
 from .stepper import run_steps
 
@@ -46,8 +47,8 @@ RETURN_EVERY = 2048  # steps taken in compiled code between returns to Python (p
 LOOP_CODES = LoopCodes(RT_STOP, RT_BUFFER, RT_RETURN, RT_LANDED, RT_MAX_STEPS)
 ERROR_MESSAGES = {
     ERR_NEWTON: "stage 1 (the positions) did not meet its constraints within its Newton iterations",
-    ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even 2^10 times shorter than --dt",
-    ERR_STEP_NAN: "a step's state was not finite even 2^10 times shorter than --dt (a singular stage)",
+    ERR_STEP_ENERGY: "a step changed U + T beyond --step-energy-tol even at its shortest",
+    ERR_STEP_NAN: "a step's state was not finite even at its shortest (a singular stage)",
     ERR_ACTIVE_SET: "a stage's active set of limits and floor contacts did not settle",
     ERR_NAN: "non-finite state (blow-up)",
 }
@@ -81,6 +82,7 @@ def run(setup, progress, stop) -> RunOutput:
     etol = STEP_ENERGY_TOL if o.step_energy_tol is None else o.step_energy_tol
     fb[21] = etol * abs(setup.E0)
     fb[22] = 1.0 if o.landing_step == "cut" else 0.0
+    fb[26] = extra_cuts(o.dt)
     books = new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
@@ -90,11 +92,14 @@ def run(setup, progress, stop) -> RunOutput:
         code, t = run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames.compiled, trace.compiled, log.compiled)
         rates_for_axes(mo.e, mo.ve, chain.Y[1])  # w = e x de/dt
         where = f"at t/t_ff = {t / setup.t_ff:.6f}"
+        shortest = f"--dt / 2^{CUTS_MAX + int(fb[26])}"
         if code == ERR_NEWTON:
             j, kind, value = sc.unmet
-            where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step 2^10 times shorter than --dt)"
+            where += f" (point {int(j)}, its {ROW_NAMES.get(int(kind), 'row')} row off by {value:.3g}, the step at its shortest, {shortest})"
         elif code == ERR_STEP_ENERGY:
-            where += closed_stretch_note(mo.e, mo.anchored, mo.locked, mo.anchor_pos, p.alpha)
+            where += f" ({shortest})" + closed_stretch_note(mo.e, mo.anchored, mo.locked, mo.anchor_pos, p.alpha)
+        elif code == ERR_STEP_NAN:
+            where += f" ({shortest})"
         elif code == ERR_ACTIVE_SET and sc.unmet[0] >= 0:
             where += f" (the last row it switched: point {int(sc.unmet[0])}, its {ROW_NAMES.get(int(sc.unmet[1]), 'row')} row)"
         return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)

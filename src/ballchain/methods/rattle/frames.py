@@ -24,8 +24,9 @@ from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 # doubled), [21] the most a step may change U + T (SolverOptions.step_energy_tol E0; 0: no bound),
 # [22] 1 with landing step "cut" (``stepper.landing_cut``), [23] > 0: the step is cut at a
 # touch to this length (``stepper.touch_ahead``, ``stepper.cut_at_touch``), [24] how: 1 to
-# end before the touch, 2 to take the landing just after it, [25] the last accepted step's [24]
-FB_SIZE = 26
+# end before the touch, 2 to take the landing just after it, [25] the last accepted step's [24],
+# [26] the halvings a step takes beyond CUTS_MAX and SPLIT_CUTS (``scheme.extra_cuts``: 0 at the default --dt)
+FB_SIZE = 27
 
 
 @njit(cache=True)
@@ -85,9 +86,10 @@ def _step_forces(h, sc, fb):
 @njit(cache=True)
 def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
     """fm <- the state hf after the last step's start, and fb[0:5] its books: one step of
-    hf, or, where that fails, 2, 4, ... equal steps (at most 2^CUTS_MAX).  Returns the
+    hf, or, where that fails, 2, 4, ... equal steps (at most 2^(CUTS_MAX + fb[26])).  Returns the
     length of the last of them (the frame's forces are its means), or the failure's code."""
-    for cuts in range(CUTS_MAX + 1):
+    cuts_max = CUTS_MAX + int(fb[26])
+    for cuts in range(cuts_max + 1):
         m = 2**cuts
         copy_motion(sc.start, fm)
         fws.valid[0] = 0
@@ -96,7 +98,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             fb[q] = fb[11 + q]
         code = 0
         for _ in range(m):
-            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False, _budget(cuts))
+            code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False, _budget(cuts, cuts_max))
             if code < 0:
                 break
             keep_warm_start(hf / m, fws, fsc)

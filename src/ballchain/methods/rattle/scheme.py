@@ -280,11 +280,20 @@ def _largest_turn(e0, e1):
     return math.sqrt(m)
 
 
-CUTS_MAX = 10  # a step is halved at most this many times (its level is at most this)
+CUTS_MAX = 10  # a step of the default --dt is halved at most this many times (a longer --dt: more, ``extra_cuts``)
+
+
+def extra_cuts(dt: float) -> int:
+    """The halvings a step of ``dt`` (t_ff/N) takes beyond CUTS_MAX (and SPLIT_CUTS), so
+    that its shortest step is no longer than the default step's: ceil(log2(dt / 0.05)), at
+    least 0 (a longer --dt is no coarser where the steps must be short)."""
+    from . import DEFAULT_DT
+
+    return max(0, math.ceil(math.log2(dt / DEFAULT_DT) - 1e-12))
 
 
 @njit(cache=True)
-def _budget(level):
+def _budget(level, cuts_max):
     """Stage 1's Newton iterations at most in a step at this level: ITER_BUDGET while it
-    may still be halved, else every round's."""
-    return ITER_BUDGET if level < CUTS_MAX else NEWTON_MAX * ROUNDS_MAX
+    may still be halved (level < cuts_max, the run's most halvings), else every round's."""
+    return ITER_BUDGET if level < cuts_max else NEWTON_MAX * ROUNDS_MAX

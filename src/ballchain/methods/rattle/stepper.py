@@ -184,10 +184,11 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
         _books_now(books, fb)
         record_frame(t, mo, fb, frames)
     level = fb[19]  # the step is h / 2^level (level >= 0, not only whole: the energy control sets it)
+    cuts_max, split_cuts = CUTS_MAX + fb[26], SPLIT_CUTS + fb[26]  # (a longer --dt halves more: ``extra_cuts``)
     wmax = _fastest_turn(mo.ve[: active_points(mo.anchored) - 1])  # a step turns no segment more than TURN_MAX
     #   (the landed segments, past the active points, are at rest)
     if h / 2.0**level * wmax > TURN_MAX:
-        level = min(float(CUTS_MAX), math.log2(h * wmax / TURN_MAX))
+        level = min(cuts_max, math.log2(h * wmax / TURN_MAX))
     fb[19] = level
     h = h / 2.0**level
     left = model.t_stop - t
@@ -199,17 +200,17 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     if fb[23] > 0.0:  # cut at a touch (``touch_ahead``, or taken again: ``cut_at_touch``)
         h = min(h, fb[23])
     etol = fb[21]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < split_cuts, _budget(level, cuts_max))
     if code == ERR_REBOUND:  # the same step with its impacts inelastic
         undo_step(mo, sc)
         ws.valid[0] = 0
         sc.inelastic[0] = 1
-        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < SPLIT_CUTS, _budget(level))
+        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < split_cuts, _budget(level, cuts_max))
         sc.inelastic[0] = 0
-    if code < 0 and code != ERR_NAN and level < CUTS_MAX:  # taken again, shorter
+    if code < 0 and code != ERR_NAN and level < cuts_max:  # taken again, shorter
         undo_step(mo, sc)
         ws.valid[0] = 0
-        fb[19] = min(float(CUTS_MAX), level + _cut(code, sc.acc[8], etol))
+        fb[19] = min(cuts_max, level + _cut(code, sc.acc[8], etol))
         fb[20] = 0.0
         fb[23] = 0.0  # (the shorter step may be cut at its touch again)
         books.n_evals[0] += np.int64(sc.acc[5])
