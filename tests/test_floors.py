@@ -47,6 +47,8 @@ def test_floor_model_agrees_with_its_reference(name):
         e, anchored, pv = random_chain(rng, n)
         watched = np.array([dispatch.floor_watched(code, anchored, j) for j in range(n + 1)])
         np.testing.assert_array_equal(watched, ref.watched(anchored))
+        j0, j1 = dispatch.floor_watched_range(code, anchored)
+        assert not watched[:j0].any() and not watched[j1:].any()
         vals = dispatch.floor_values(code, e, anchored, np.zeros(n + 1))
         want = ref.values(e, anchored)
         np.testing.assert_allclose(vals[np.isfinite(want)], want[np.isfinite(want)], rtol=0, atol=1e-12)
@@ -59,6 +61,12 @@ def test_floor_model_agrees_with_its_reference(name):
             out = np.zeros(n + 1, np.int64)
             k = dispatch.floor_contacts(code, e, pts, pv, anchored, landing, Z_TOL, out)
             assert sorted(out[:k].tolist()) == sorted(ref.contacts(e, pv, anchored, landing))
+        out = np.zeros(n + 1, np.int64)
+        k = dispatch.floor_cascade(code, e, anchored, Z_TOL, out)
+        assert out[:k].tolist() == ref.cascade(e, anchored)
+        anchor_pos = rng.normal(size=(n + 1, 3))
+        for j in np.flatnonzero(watched):
+            assert dispatch.floor_level(code, anchor_pos, j) == ref.level(anchor_pos, j)
 
 
 def test_the_floors_differ_where_the_models_do():

@@ -49,6 +49,16 @@ class AnchorAll:
         z = heights(e)
         return [j for j in range(e.shape[0]) if anchored[j] == 0 and z[j] <= Z_TOL and point_velocity[j, 2] <= RATE_TOL]
 
+    @staticmethod
+    def level(anchor_pos, j):
+        """Every point meets the floor at z = 0."""
+        return 0.0
+
+    @staticmethod
+    def cascade(e, anchored):
+        """A point lands by its own touch only."""
+        return []
+
 
 class Pivot:
     """Only the upper end of the bottom airborne segment is watched, by the sine of that
@@ -75,6 +85,17 @@ class Pivot:
     def contacts(e, point_velocity, anchored, landing_event):
         if not landing_event:
             return []
+        return Pivot.cascade(e, anchored)
+
+    @staticmethod
+    def level(anchor_pos, j):
+        """The watched point's segment lies flat at the height of its lower end, the pivot."""
+        return anchor_pos[j + 1][2]
+
+    @staticmethod
+    def cascade(e, anchored):
+        """The bottom airborne segment and those above it while each lies flat or points
+        below the horizontal: their upper ends."""
         out = []
         m = bottom_airborne(anchored)
         while m >= 0 and e[m, 2] / np.linalg.norm(e[m]) <= Z_TOL:

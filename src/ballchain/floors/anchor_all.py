@@ -23,6 +23,12 @@ def watched(anchored, j):
 
 
 @njit(cache=True)
+def watched_range(anchored):
+    """The points j0 <= j < j1 among which the watched ones are: all of them."""
+    return 0, anchored.shape[0]
+
+
+@njit(cache=True)
 def value(e, j):
     """The height of point j."""
     return point_height(e, j)
@@ -50,3 +56,16 @@ def contacts(e, pts, pv, anchored, landing_event, ztol, out):
             out[na] = j
             na += 1
     return na
+
+
+@njit(cache=True)
+def level(anchor_pos, j):
+    """The height at which a watched point meets the floor: the floor's, z = 0."""
+    return 0.0
+
+
+@njit(cache=True)
+def cascade(e, anchored, ztol, out):
+    """The points that land with a touch beyond the ones that touch: none (a point lands
+    by its own touch only)."""
+    return 0

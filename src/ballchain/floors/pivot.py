@@ -3,7 +3,8 @@
 Watched: the upper end j of the bottom airborne segment, by e_j,z / |e_j| (the segment
 turns about its lower end on the floor).  When it lies flat (e_z <= Z_TOL) its upper end
 anchors for good (``registry.CONTACT_FIXED``), cascading up while the next segment lies
-flat too.  The top end reaching z = 0 is an event of its own (t_fall), with no change of
+flat too (``cascade``); a time-stepper holds the watched point at the height of its
+segment's lower end (``level``).  The top end reaching z = 0 is an event of its own (t_fall), with no change of
 state.
 """
 
@@ -25,6 +26,16 @@ def watched(anchored, j):
 
 
 @njit(cache=True)
+def watched_range(anchored):
+    """The points j0 <= j < j1 among which the watched one is: itself (none when every
+    segment has landed)."""
+    m = bottom_airborne(anchored)
+    if m >= 0 and anchored[m] == 0:
+        return m, m + 1
+    return 0, 0
+
+
+@njit(cache=True)
 def value(e, j):
     """e_j,z / |e_j| of the segment whose upper end is point j (e need not be unit)."""
     return e[j, 2] / math.sqrt(e[j, 0] ** 2 + e[j, 1] ** 2 + e[j, 2] ** 2)
@@ -42,15 +53,30 @@ def values(e, anchored, out):
 
 
 @njit(cache=True)
+def level(anchor_pos, j):
+    """The height at which the watched point j meets the floor: its segment lies flat when
+    j is as high as the segment's lower end, the pivot j + 1 (z = 0, or below it where a
+    cascade anchored the pivot)."""
+    return anchor_pos[j + 1, 2]
+
+
+@njit(cache=True)
+def cascade(e, anchored, ztol, out):
+    """Once the bottom airborne segment has landed (its upper end anchored): the segments
+    above it that lie flat or point below the horizontal (e_z <= ztol) land in the same
+    instant, from the bottom up; their upper ends in out, their number."""
+    na = 0
+    m = bottom_airborne(anchored)
+    while m >= 0 and value(e, m) <= ztol:
+        out[na] = m
+        na += 1
+        m -= 1
+    return na
+
+
+@njit(cache=True)
 def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     """After a landing event: the upper end of the bottom airborne segment once it lies
     flat (e_z <= ztol; ``Z_TOL`` at an event instant), cascading up while the next one
-    does too; their number (indices in out)."""
-    na = 0
-    if landing_event:
-        m = bottom_airborne(anchored)
-        while m >= 0 and value(e, m) <= ztol:
-            out[na] = m
-            na += 1
-            m -= 1
-    return na
+    does too (``cascade``); their number (indices in out)."""
+    return cascade(e, anchored, ztol, out) if landing_event else 0

@@ -13,10 +13,12 @@ from ...core.rules import (
     LOG_BOUNCE,
     LOG_LANDING,
     LOG_LOCK,
+    LOG_TOP,
     LOG_UNLOCK,
     fall_ended,
     landed_count,
 )
+from ...floors.dispatch import top_event
 from ...jit import njit
 from .blocks import factor_blocks, solve_blocks
 from .rows import (
@@ -196,7 +198,7 @@ def _hinge_impulse(k, kind1, nrow1, x1, rb1, ra1, kind2, nrow2, x2, rb2, ra2):
 
 
 @njit(cache=True)
-def commit(t, h, na, mo, ws, sc, books, log):
+def commit(t, h, na, model, mo, ws, sc, books, log):
     """The step's books and log: energy lost at hinges and landings, the floor's impulse
     (a step with a landing: the impacts' account, else the flow), the landed segments'
     weight, locks (a hinge starts taking impulse in stage 2), unlocks, landings (sharing
@@ -235,11 +237,13 @@ def commit(t, h, na, mo, ws, sc, books, log):
                 log, t + h, kind, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],
                 share * sc.acc[1], sc.pts, j,
             )  # fmt: skip
-        if _top_touched(na, anchored, sc):  # the top end landed: when, within the step
+        if not top_event(model.floor) and _top_touched(na, anchored, sc):  # the top end landed: when, within the step
             zs = sc.start.c[0, 2] + sc.start.e[0, 2]
             zf = zs + h * (sc.start.vc[0, 2] + sc.start.ve[0, 2]) - 0.5 * h * h
             s = zs / (zs - zf) if zf < 0.0 < zs else 1.0
             fall_ended(books, t + min(max(s, 0.0), 1.0) * h, False, True)
+    if top_event(model.floor):
+        _top_reached(t, h, mo, sc, books, log)
     books.n_steps[0] += 1
     books.n_evals[0] += np.int64(sc.acc[5])
     if base_at_origin(mo):
@@ -247,6 +251,23 @@ def commit(t, h, na, mo, ws, sc, books, log):
     else:
         for j in range(mo.anchored.shape[0]):  # (a floor that let the bottom end slide)
             books.lowest[0] = min(books.lowest[0], point_z(mo, j))
+
+
+@njit(cache=True)
+def _top_reached(t, h, mo, sc, books, log):
+    """A floor model whose top end's height is an event of its own (``top_event``): the
+    fall ends where z_0 crosses 0 within the step, z_0(t + s h) = z_s + s (z_f - z_s), or
+    at the step's end if it anchored the top end (a step cut at its touch, ending a hair
+    above the floor); logged as the event "top"."""
+    zs, zf = point_z(sc.start, 0), point_z(mo, 0)
+    if zs > 0.0 >= zf:
+        s = zs / (zs - zf)
+    elif mo.anchored[0] != 0 and sc.start.anchored[0] == 0:
+        s = 1.0
+    else:
+        return
+    if fall_ended(books, t + s * h, True, False):
+        log_row(log, books.t_fall[0], LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, sc.pts, 0)
 
 
 @njit(cache=True)

@@ -9,7 +9,6 @@ import numpy as np
 from ...contacts.coulomb import grips, slides
 from ...core.kinematics import rates_for_axes
 from ...core.state import new_books, new_chain, new_model
-from ...errors import ParameterError
 from ...floors.registry import FLOOR_CODES
 from ..outputs import (
     FrameBuffer,
@@ -54,18 +53,11 @@ ERROR_MESSAGES = {
 }
 
 
-def check(params) -> None:
-    """Refuse what the method cannot honour yet, in one line."""
-    if params.floor != "all":
-        raise ParameterError(f"--method rattle supports --floor all only, got --floor {params.floor}")
-
-
 def run(setup, progress, stop) -> RunOutput:
     """The fall of ``setup`` (``engine.Setup``) by nonsmooth RATTLE.
     ``progress(t, chain, log, books)`` is called on each return from compiled code;
     ``stop.reason`` (not None) asks the run to stop there (status ``interrupted``)."""
     p, o, n = setup.params, setup.options, setup.params.segments
-    check(p)
     model = new_model(
         p.alpha, FLOOR_CODES[p.floor], p.anchor_cone or grips(p.friction), o, setup.t_stop, 0.0, RETURN_EVERY, 0, setup.t_ff,
         e_lock=p.restitution_lock, e_floor=p.restitution_floor, friction=p.friction,
@@ -116,4 +108,4 @@ def run(setup, progress, stop) -> RunOutput:
     return out
 
 
-__all__ = ["run", "check"]
+__all__ = ["run"]

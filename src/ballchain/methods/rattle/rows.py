@@ -12,7 +12,8 @@ above it (a = j - 1, columns 0:6 = (c_a, e_a)) and the one below (c = j, columns
   kind 6-8   anchor, upper end of c: c_c + e_c - p_j = 0                   linear
   kind 9     the axis of c:         (|e_c|^2 - 1) / 2 = 0                  quadratic
   kind 10    bend limit of hinge a: e_a . e_c - cos(alpha) >= 0            bilinear, unilateral
-  kind 11    floor under point j:   z_j = c_c,z + e_c,z >= 0               linear, unilateral
+  kind 11    floor under point j:   z_j = c_c,z + e_c,z >= z_floor          linear, unilateral
+             (z_floor: 0, or on the floor "pivot" the height of the segment's lower end)
   kind 12    floor under point j, on the segment above (point N, the bottom end, on a
              frictionless floor: no segment below it): z_j = c_a,z - e_a,z >= 0
 
@@ -31,6 +32,7 @@ from collections import namedtuple
 import numpy as np
 
 from ...core.rules import is_landed
+from ...floors.dispatch import floor_level
 from ...jit import njit
 
 RMAX = 8  # rows per point at most
@@ -114,9 +116,10 @@ def has_columns(k, below):
 
 
 @njit(cache=True)
-def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
+def row_values(c, e, anchor_pos, cos_alpha, floor, kind, nrow, out):
     """out[j, r] = the constraint function of row r of point j at (c, e); returns the
-    largest |value| (inf if one is not a number)."""
+    largest |value| (inf if one is not a number).  A floor row's is z_j less the height at
+    which the floor model ``floor`` meets point j (``floors.dispatch.floor_level``)."""
     worst = 0.0
     for j in range(nrow.shape[0]):
         a = j - 1
@@ -136,7 +139,7 @@ def row_values(c, e, anchor_pos, cos_alpha, kind, nrow, out):
             elif k == K_BEND:
                 v = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - cos_alpha
             elif k == K_FLOOR:
-                v = c[j, 2] + e[j, 2]
+                v = c[j, 2] + e[j, 2] - floor_level(floor, anchor_pos, j)
             else:
                 v = c[a, 2] - e[a, 2]
             out[j, r] = v

@@ -15,6 +15,7 @@ from ...core.rules import (
     limit_in_force,
     unit_hinge_gap,
 )
+from ...floors.dispatch import floor_level, floor_watched_range
 from ...jit import njit
 from .blocks import factor_blocks, solve_blocks
 from .codes import ERR_ACTIVE_SET, ERR_NEWTON
@@ -133,11 +134,20 @@ def switch_on_violated(model, mo, floor_on, margin):
             if g < -margin and limit_in_force(anchored, k, model.cone, model.alpha):
                 locked[k] = 1
                 changed = True
-    for j in range(e.shape[0] + 1):  # (the last point: the bottom end, free on a frictionless floor)
-        if anchored[j] == 0 and floor_on[j] == 0 and point_z(mo, j) < -margin:
+    j0, j1 = floor_watched_range(model.floor, anchored)  # (all: every point, the last one the bottom end,
+    for j in range(j0, j1):  # free on a frictionless floor; pivot: the upper end of the bottom airborne segment)
+        if anchored[j] == 0 and floor_on[j] == 0 and floor_gap(model, mo, j) < -margin:
             floor_on[j] = 1
             changed = True
     return changed
+
+
+@njit(cache=True, inline="always")
+def floor_gap(model, mo, j):
+    """How far point j is above where the floor model meets it (b; < 0: through the
+    floor): z_j, or on the floor "pivot" z_j less its segment's lower end's
+    (``floors.dispatch.floor_level``)."""
+    return point_z(mo, j) - floor_level(model.floor, mo.anchor_pos, j)
 
 
 @njit(cache=True)
@@ -232,7 +242,7 @@ def stage1(h, model, mo, ws, sc, budget):
                 _record_unmet(ws, sc)
                 return ERR_NEWTON
             add_impulses(h, mo, ws, sc, True)
-            res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, ws.kind, ws.nrow, sc.val)
+            res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, model.floor, ws.kind, ws.nrow, sc.val)
             sc.acc[7] += 1.0
             if res <= tol or (grip and exact and res <= STALL_TOL and res > NEWTON_RATE * last):
                 met = True  # (finite friction: a stall on the exact matrix within STALL_TOL is met, ``STALL_TOL``)
@@ -314,9 +324,10 @@ def _record_unsettled(model, mo, ws, sc, tol):
         if g < -tol and limit_in_force(mo.anchored, k, model.cone, model.alpha):
             sc.unmet[0], sc.unmet[1], sc.unmet[2] = k + 1, K_BEND, g
             return
-    for j in range(e.shape[0] + 1):
-        if mo.anchored[j] == 0 and point_z(mo, j) < -tol:
-            sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, K_FLOOR, point_z(mo, j)
+    j0, j1 = floor_watched_range(model.floor, mo.anchored)
+    for j in range(j0, j1):
+        if mo.anchored[j] == 0 and floor_gap(model, mo, j) < -tol:
+            sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, K_FLOOR, floor_gap(model, mo, j)
             return
 
 

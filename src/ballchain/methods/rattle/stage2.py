@@ -13,6 +13,7 @@ from ...core.rules import (
     is_landed,
     limit_in_force,
 )
+from ...floors.dispatch import floor_cascade
 from ...jit import njit
 from .blocks import solve_blocks
 from .codes import ERR_ACTIVE_SET
@@ -103,7 +104,23 @@ def land(t, h, model, mo, sc, landings):
             sc.new_anchor[na] = j
             na += 1
         sc.floor_on[j] = 0
+    if na > 0 and not slide:
+        na = _cascade(t, model, mo, sc, na)
     return na, ns
+
+
+@njit(cache=True)
+def _cascade(t, model, mo, sc, na):
+    """The points that land with the step's touches (``floors.dispatch.floor_cascade``: on
+    the floor "pivot", the segments above the one that landed that lie flat or point below
+    the horizontal), anchored where they are, after the na listed; returns the new count."""
+    k = floor_cascade(model.floor, mo.e, mo.anchored, position_tol(mo.e.shape[0]), sc.new_anchor[na:])
+    for r in range(k):
+        j = sc.new_anchor[na + r]
+        hold_at(mo, j, sc.pts)
+        mo.anchored[j] = 2
+        mo.anchor_t[j] = t
+    return na + k
 
 
 @njit(cache=True)

@@ -14,6 +14,7 @@ from ...core.rules import (
     fall_ended,
     fall_over,
 )
+from ...floors.dispatch import floor_watched_range
 from ...jit import entry, njit
 from .books import commit
 from .codes import (
@@ -31,7 +32,8 @@ from .codes import (
 from .frames import _books_now, frame_substeps, record_frame
 from .friction import hold_stuck_stretch
 from .scheme import CUTS_MAX, SPLIT_CUTS, _budget, keep_warm_start, rattle_step
-from .state import active_points, point_vz, point_z, undo_step
+from .stage1 import floor_gap
+from .state import active_points, point_vz, undo_step
 
 GROW_AFTER = 8  # without the energy bound: steps at a halved size before the next is tried doubled
 SAFETY = 0.8  # the energy control aims a step's change of U + T at this fraction of its bound
@@ -64,13 +66,16 @@ def gravity_touch(z, vz):
 
 
 @njit(cache=True)
-def touch_time(start, new_anchor, na):
-    """The earliest ``gravity_touch`` of the points a step anchored (new_anchor[:na]), from
-    the state at its start (``start``)."""
+def touch_time(model, start, new_anchor, na):
+    """The earliest ``gravity_touch`` of the points a step anchored (new_anchor[:na]) that
+    the floor watched at its start (not those that landed with them: ``floor_cascade``),
+    from the state at its start (``start``)."""
     s = math.inf
+    j0, j1 = floor_watched_range(model.floor, start.anchored)
     for r in range(na):
         j = new_anchor[r]
-        s = min(s, gravity_touch(point_z(start, j), point_vz(start, j)))
+        if j0 <= j < j1:
+            s = min(s, gravity_touch(floor_gap(model, start, j), point_vz(start, j)))
     return s
 
 
@@ -110,11 +115,12 @@ def touch_ahead(h, model, mo, fb):
     if not _cuts_landings(model, fb):
         return 0.0, 0
     s = math.inf
-    for j in range(active_points(mo.anchored)):
+    j0, j1 = floor_watched_range(model.floor, mo.anchored)
+    for j in range(j0, min(j1, active_points(mo.anchored))):
         if mo.anchored[j] == 0:
             vz = point_vz(mo, j)
             if vz < 0.0:
-                s = min(s, gravity_touch(point_z(mo, j), vz))
+                s = min(s, gravity_touch(floor_gap(model, mo, j), vz))
     return landing_cut(s, h, fb[25] == 1.0)
 
 
@@ -127,7 +133,7 @@ def cut_at_touch(h, na, model, sc, fb):
     start, a landing right after a step that did not end before a touch)."""
     if na == 0 or fb[23] > 0.0 or not _cuts_landings(model, fb):
         return 0.0, 0
-    return landing_cut(touch_time(sc.start, sc.new_anchor, na), h, True)
+    return landing_cut(touch_time(model, sc.start, sc.new_anchor, na), h, True)
 
 
 @njit(cache=True)
@@ -238,7 +244,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     for q in range(5):
         fb[11 + q] = fb[q]
     fb[16], fb[17], fb[18] = t, h, 1.0
-    commit(t, h, na, mo, ws, sc, books, log)
+    commit(t, h, na, model, mo, ws, sc, books, log)
     kt = trace.count[0]
     z_end = mo.c[0, 2] + mo.e[0, 2]
     trace.t[kt] = t + h
