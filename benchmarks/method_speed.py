@@ -6,11 +6,12 @@ docs/rattle.md and the README's "Which method when".
     python benchmarks/method_speed.py --segments 4096 --methods rattle,timestep --starts 1
     python benchmarks/method_speed.py --methods event,rattle,rattle:dt=0.1:step_energy_tol=1e-6
     python benchmarks/method_speed.py --segments 512 --methods rattle,rattle:landing_step=whole
+    python benchmarks/method_speed.py --floor pivot                    # the floor "pivot"
 
 A method may carry options (``method:option=value:...``, SolverOptions' names): a row of
 its own, beside the same method at its defaults.
 
-Random starts of seed 2026 (spawn keys 0, 1, ...), alpha = pi/4, floor all, one frame per
+Random starts of seed 2026 (spawn keys 0, 1, ...), alpha = pi/4, floor all (or --floor), one frame per
 t_ff (frames do not change a fall), every method at its defaults.  The methods take turns
 on each start (their order rotating from start to start), so that the machine's drift
 hits all alike.  Falls are chaotic: a start's fall differs between the methods, and so does
@@ -51,11 +52,13 @@ def _setting(spec: str) -> tuple[str, dict]:
     return method, {k: _value(v) for k, v in (o.split("=", 1) for o in options)}
 
 
-def _fall(n: int, key: int, spec: str):
+def _fall(n: int, key: int, spec: str, floor: str = "all"):
     method, options = _setting(spec)
     start = InitialCondition(kind="random", seed=2026, spawn_key=(key,))
     return simulate(
-        ChainParams(segments=n, alpha=math.pi / 4), start, SolverOptions(method=method, frames_per_tff=1, **options)
+        ChainParams(segments=n, alpha=math.pi / 4, floor=floor),
+        start,
+        SolverOptions(method=method, frames_per_tff=1, **options),
     )
 
 
@@ -71,12 +74,14 @@ def main() -> None:
     ap.add_argument("--segments", default="128,1024")
     ap.add_argument("--starts", type=int, default=3)
     ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--floor", default="all", choices=("all", "pivot"))
     a = ap.parse_args()
     methods = a.methods.split(",")
     print(machine_info())
+    print(f"floor {a.floor}")
     for m in methods:
         load_kernels(_setting(m)[0])
-        _fall(8, 0, m)  # compiled (or loaded) before any fall is timed
+        _fall(8, 0, m, a.floor)  # compiled (or loaded) before any fall is timed
     print(
         "\n| N | method | starts | wall per fall (s) | steps per fall | ns / segment / step | status | event wall / its | timestep wall / its |"
     )
@@ -85,7 +90,7 @@ def main() -> None:
         runs = {m: [] for m in methods}
         for key in range(a.starts):
             for m in methods[key % len(methods) :] + methods[: key % len(methods)]:
-                r = _fall(n, key, m)
+                r = _fall(n, key, m, a.floor)
                 runs[m].append(r)
                 print(f"  N = {n}, start {key}, {m}: {r.wall_seconds:.2f} s, {r.status}", file=sys.stderr, flush=True)
         for m in methods:

@@ -1,7 +1,7 @@
 """Where the nonsmooth RATTLE method (``--method rattle``, experimental) stands: its order
 where the motion is smooth, a fall with no limits, a fall with limits, and the spinning top.
 
-    python benchmarks/rattle_status.py           # tables 1-3
+    python benchmarks/rattle_status.py           # tables 1-3 and 5
     python benchmarks/rattle_status.py --cost    # table 4
 
 Prints Markdown tables (the numbers of ``docs/rattle.md``):
@@ -20,7 +20,12 @@ Prints Markdown tables (the numbers of ``docs/rattle.md``):
    512 (random starts of seed 2026, the first two) -- steps per fall over N, block
    factorisations per step (refused steps' included), ns per segment and step -- and the
    first 2000 steps of a fall at N = 256 .. 4096: ns per segment and step (flat in N: the
-   step is O(N)) and factorisations per step.
+   step is O(N)) and factorisations per step;
+5. the floor "pivot": the first landing of an 8-segment chain with no limits (helix eps
+   0.02) against the exact method's at rtol 1e-12 for dt = 0.1 .. 0.0125 (the step control
+   off): the error and its ratio per halving; whole falls at N = 16 with and without limits
+   at the defaults, beside the exact method's; a rod (N = 1, released at rest at 0.1 rad)
+   against its closed-form fall time (``theory.rod_fall_time``).
 """
 
 from __future__ import annotations
@@ -101,6 +106,49 @@ def top() -> None:
         )
 
 
+def _kind_times(r, kind: str) -> np.ndarray:
+    from ballchain.core.kinds import EVENT_CODES
+
+    return np.asarray(r.event_t)[np.asarray(r.event_kind) == EVENT_CODES[kind]]
+
+
+def pivot() -> None:
+    from ballchain.theory import rod_fall_time
+
+    params = ChainParams(segments=8, alpha=math.pi, floor="pivot")
+    ref = simulate(params, options=SolverOptions(rtol=1e-12))
+    first = _kind_times(ref, "landing")[0]
+    print("\n| dt (t_ff/N) | first landing: error (t_ff) | ratio | imbalance / E0 at the end |")
+    print("|---|---|---|---|")
+    prev = None
+    for dt in (0.1, 0.05, 0.025, 0.0125):
+        r = simulate(params, options=SolverOptions(method="rattle", dt=dt, step_energy_tol=0))
+        err = abs(_kind_times(r, "landing")[0] - first) / r.t_ff
+        ratio = f"{prev / err:.2f}" if prev else ""
+        print(f"| {dt:g} | {err:.3g} | {ratio} | {r.energy['imbalance'] / r.energy['initial']:+.2e} |")
+        prev = err
+    print("\n| N | alpha | method | status | t_fall / t_ff | imbalance / E0 | E_lock / E0 | steps |")
+    print("|---|---|---|---|---|---|---|---|")
+    for alpha, name in ((math.pi, "pi"), (math.pi / 4, "pi/4")):
+        for method in ("event", "rattle"):
+            r = simulate(ChainParams(segments=16, alpha=alpha, floor="pivot"), options=SolverOptions(method=method))
+            e = r.energy
+            print(
+                f"| 16 | {name} | {method} | {r.status} | {r.t_fall / r.t_ff:.4f} | {e['imbalance'] / e['initial']:+.2e} "
+                f"| {e['lost_locking'] / e['initial']:.4f} | {r.n_steps} |"
+            )
+    theta0 = 0.1
+    e0 = np.array([[math.sin(theta0), 0.0, math.cos(theta0)]])
+    r = simulate(
+        ChainParams(segments=1, floor="pivot"), options=SolverOptions(method="rattle"), state=(e0, np.zeros((1, 3)))
+    )
+    exact = rod_fall_time(theta0)
+    print(
+        f"\nA rod on its pivot (N = 1, from rest at {theta0} rad): t_fall {r.t_fall:.6f} sqrt(b/g) "
+        f"against the closed form's {exact:.6f} (relative error {(r.t_fall - exact) / exact:+.1e})."
+    )
+
+
 def _timed(n: int, key: int, **options):
     start = InitialCondition(kind="random", seed=2026, spawn_key=(key,))
     t0 = time.perf_counter()
@@ -136,3 +184,4 @@ if __name__ == "__main__":
         convergence()
         falls()
         top()
+        pivot()
