@@ -149,6 +149,26 @@ def test_on_the_pivot_floor_a_rod_falls_in_its_closed_form_time():
     assert r.t_fall == pytest.approx(rod_fall_time(theta0), rel=1e-4)
 
 
+@pytest.mark.parametrize("kind", ["helix", "planar"])
+def test_on_the_pivot_floor_segments_that_lie_flat_land_together_as_in_the_exact_method(kind):
+    """N = 3, alpha = pi: when the bottom segment lies flat, the segments above it that
+    point below the horizontal land in the same instant (the cascade), anchored where they
+    are (below the floor); the same points land together as in the exact method, at its
+    instants to 1e-3 and heights to 2e-3 b, and the top end's crossing of z = 0 (t_fall)
+    to 1e-3."""
+    params, ic = ChainParams(segments=3, alpha=math.pi, floor="pivot"), InitialCondition(kind=kind)
+    ref = simulate(params, ic, SolverOptions(rtol=1e-12))
+    r = simulate(params, ic, SolverOptions(method="rattle"))
+    assert r.status == "landed", r.message
+    together = np.isclose(ref.anchor_t[:, None], ref.anchor_t[None, :], rtol=0, atol=1e-9)
+    assert together[:3, :3].sum() > 3  # (a cascade: at least two points landed at one instant)
+    assert np.array_equal(np.isclose(r.anchor_t[:, None], r.anchor_t[None, :], rtol=0, atol=1e-12), together)
+    np.testing.assert_allclose(r.anchor_t, ref.anchor_t, rtol=0, atol=1e-3)
+    np.testing.assert_allclose(np.asarray(r.anchor_pos)[:, 2], np.asarray(ref.anchor_pos)[:, 2], rtol=0, atol=2e-3)
+    assert abs(r.t_fall - ref.t_fall) < 1e-3
+    assert abs(r.energy["imbalance"]) <= 1e-4 * r.energy["initial"]
+
+
 @pytest.mark.parametrize("alpha", [math.pi / 4, math.pi])
 def test_a_fall_on_the_pivot_floor_holds_its_segment_on_the_floor_and_closes_its_books(alpha):
     """Floor "pivot", N = 16 to the end at the defaults: in every frame the bottom airborne

@@ -33,7 +33,7 @@ from .rows import (
     row_rates,
     segment_force,
 )
-from .state import active_points, base_at_origin, point_z
+from .state import active_points, base_at_origin, point_vz, point_z
 
 
 @njit(cache=True)
@@ -210,6 +210,8 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
     for q in range(3):
         account[q] += sc.acc[2 + q]
     books.floor_flow[2] += h * landed_count(sc.start.anchored)
+    if top_event(model.floor):  # (logged first: its instant is within the step, the others' at its end)
+        _top_reached(t, h, mo, sc, books, log)
     pa = active_points(sc.start.anchored)  # (the step's points: past them nothing changed)
     for k in range(min(locked.shape[0], max(pa - 2, 0))):
         rebounded = sc.hrebound[k] > 0.0  # (restitution: it took its impulse and left its limit)
@@ -242,8 +244,6 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
             zf = zs + h * (sc.start.vc[0, 2] + sc.start.ve[0, 2]) - 0.5 * h * h
             s = zs / (zs - zf) if zf < 0.0 < zs else 1.0
             fall_ended(books, t + min(max(s, 0.0), 1.0) * h, False, True)
-    if top_event(model.floor):
-        _top_reached(t, h, mo, sc, books, log)
     books.n_steps[0] += 1
     books.n_evals[0] += np.int64(sc.acc[5])
     if base_at_origin(mo):
@@ -256,14 +256,17 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
 @njit(cache=True)
 def _top_reached(t, h, mo, sc, books, log):
     """A floor model whose top end's height is an event of its own (``top_event``): the
-    fall ends where z_0 crosses 0 within the step, z_0(t + s h) = z_s + s (z_f - z_s), or
-    at the step's end if it anchored the top end (a step cut at its touch, ending a hair
-    above the floor); logged as the event "top"."""
+    fall ends where z_0 crosses 0 within the step, z_0(t + s h) = z_s + s (z_f - z_s); if
+    the step anchored the top end instead (it lay flat on the floor, held a hair above
+    it), where its height from the step's start under gravity alone,
+    z_s + s h v_s - (s h)^2 / 2, reaches 0 (as the floor ``all`` times a top end's touch),
+    else at the step's end.  Logged as the event "top"."""
     zs, zf = point_z(sc.start, 0), point_z(mo, 0)
     if zs > 0.0 >= zf:
         s = zs / (zs - zf)
     elif mo.anchored[0] != 0 and sc.start.anchored[0] == 0:
-        s = 1.0
+        zb = zs + h * point_vz(sc.start, 0) - 0.5 * h * h
+        s = min(max(zs / (zs - zb), 0.0), 1.0) if zb < 0.0 < zs else 1.0
     else:
         return
     if fall_ended(books, t + s * h, True, False):

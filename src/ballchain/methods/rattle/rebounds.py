@@ -18,8 +18,8 @@ from .rows import (
     K_BEND,
     is_floor,
 )
-from .stage1 import _factor_symmetric
-from .state import MAX_NEW, point_vz, point_z
+from .stage1 import _factor_symmetric, floor_gap
+from .state import MAX_NEW, point_vz
 
 REBOUND_TOL = 0.02  # a step with rebounds may raise U + T by this fraction of the energy they carry (the
 #   approach rate is estimated within the step, ``impact_rates``: its error does not shrink with a
@@ -96,7 +96,7 @@ def impact_rates(h, model, mo, ws, sc):
                 g0 += st.e[j - 1, q] * st.e[j, q]
                 v0 += st.ve[j - 1, q] * st.e[j, q] + st.e[j - 1, q] * st.ve[j, q]
         else:
-            g0, v0 = point_z(st, j), point_vz(st, j)
+            g0, v0 = floor_gap(model, st, j), point_vz(st, j)
         a = 2.0 * (vbar - v0) / h
         rad = v0 * v0 - 2.0 * a * max(g0, 0.0)
         v = -math.sqrt(rad) if (rad > 0.0 and v0 <= 0.0 and g0 + h * vbar <= 0.0) else 0.0

@@ -9,6 +9,7 @@ from ...contacts.coulomb import closes, grips, released, slides
 from ...contacts.newton import floor_rebound
 from ...core.rules import (
     LOG_STICK,
+    Z_TOL,
     hold_at,
     is_landed,
     limit_in_force,
@@ -114,7 +115,7 @@ def _cascade(t, model, mo, sc, na):
     """The points that land with the step's touches (``floors.dispatch.floor_cascade``: on
     the floor "pivot", the segments above the one that landed that lie flat or point below
     the horizontal), anchored where they are, after the na listed; returns the new count."""
-    k = floor_cascade(model.floor, mo.e, mo.anchored, position_tol(mo.e.shape[0]), sc.new_anchor[na:])
+    k = floor_cascade(model.floor, mo.e, mo.anchored, Z_TOL, sc.new_anchor[na:])  # (the other methods' tolerance)
     for r in range(k):
         j = sc.new_anchor[na + r]
         hold_at(mo, j, sc.pts)
