@@ -266,7 +266,7 @@ def test_the_rattle_page_quotes_each_start_at_n16384_from_its_table():
     import pandas as pd
 
     page = (ROOT / "docs" / "rattle.md").read_text()
-    item = " ".join(page.split("**5c. At N = 16384**")[1].split("## Cost")[0].split())
+    item = " ".join(page.split("**5c. At N = 16384**")[1].split("**6. ")[0].split())
     df = pd.read_parquet(ROOT / "docs" / "data" / "rattle16384.parquet")
     assert (df.status == "landed").all()
     assert f"{len(df)} of 16 starts" in item
