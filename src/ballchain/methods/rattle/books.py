@@ -240,10 +240,8 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
                 share * sc.acc[1], sc.pts, j,
             )  # fmt: skip
         if not top_event(model.floor) and _top_touched(na, anchored, sc):  # the top end landed: when, within the step
-            zs = sc.start.c[0, 2] + sc.start.e[0, 2]
-            zf = zs + h * (sc.start.vc[0, 2] + sc.start.ve[0, 2]) - 0.5 * h * h
-            s = zs / (zs - zf) if zf < 0.0 < zs else 1.0
-            fall_ended(books, t + min(max(s, 0.0), 1.0) * h, False, True)
+            s = ballistic_touch(point_z(sc.start, 0), point_vz(sc.start, 0), h)
+            fall_ended(books, t + s * h, False, True)
     books.n_steps[0] += 1
     books.n_evals[0] += np.int64(sc.acc[5])
     if base_at_origin(mo):
@@ -253,20 +251,29 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
             books.lowest[0] = min(books.lowest[0], point_z(mo, j))
 
 
+@njit(cache=True, inline="always")
+def ballistic_touch(zs, vz, h):
+    """Where within a step (0 <= s <= 1) the top end, at height zs (b) and rising at vz at
+    the step's start, reaches the floor under gravity alone: the chord from zs to
+    z_b = zs + h vz - h^2 / 2 crosses 0 at s = zs / (zs - z_b) (1 if z_b does not go below
+    0: the touch is taken at the step's end)."""
+    zb = zs + h * vz - 0.5 * h * h
+    s = zs / (zs - zb) if zb < 0.0 < zs else 1.0
+    return min(max(s, 0.0), 1.0)
+
+
 @njit(cache=True)
 def _top_reached(t, h, mo, sc, books, log):
     """A floor model whose top end's height is an event of its own (``top_event``): the
     fall ends where z_0 crosses 0 within the step, z_0(t + s h) = z_s + s (z_f - z_s); if
     the step anchored the top end instead (it lay flat on the floor, held a hair above
-    it), where its height from the step's start under gravity alone,
-    z_s + s h v_s - (s h)^2 / 2, reaches 0 (as the floor ``all`` times a top end's touch),
-    else at the step's end.  Logged as the event "top"."""
+    it), at ``ballistic_touch`` (as the floor ``all`` times a top end's touch), else at
+    the step's end.  Logged as the event "top"."""
     zs, zf = point_z(sc.start, 0), point_z(mo, 0)
     if zs > 0.0 >= zf:
         s = zs / (zs - zf)
     elif mo.anchored[0] != 0 and sc.start.anchored[0] == 0:
-        zb = zs + h * point_vz(sc.start, 0) - 0.5 * h * h
-        s = min(max(zs / (zs - zb), 0.0), 1.0) if zb < 0.0 < zs else 1.0
+        s = ballistic_touch(zs, point_vz(sc.start, 0), h)
     else:
         return
     if fall_ended(books, t + s * h, True, False):
