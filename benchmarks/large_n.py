@@ -62,6 +62,12 @@ def _median(g: pd.DataFrame, col: str) -> float:
     return float(np.median(x)) if x.size else math.nan
 
 
+def _start_keys(g: pd.DataFrame) -> pd.Series:
+    """Each run's start: "seed:spawn key" (the spawn key alone where a table has no seed)."""
+    keys = g["spawn_key"].astype(str)
+    return g["seed"].astype(str) + ":" + keys if "seed" in g else keys
+
+
 STEPPERS = ("timestep", "rattle")  # the methods with a step (dt), paired against the exact one
 
 
@@ -89,9 +95,9 @@ def _groups(df: pd.DataFrame) -> list[dict]:
                 "gamma_measured": _median(g, "gamma_measured"),
                 "gamma_inferred": _median(g, "gamma_inferred"),
                 "ratios": x,
-                "by_start": dict(
+                "by_start": dict(  # (a start is its seed and spawn key: tables of two seeds pair start by start)
                     zip(
-                        g["spawn_key"].astype(str),
+                        _start_keys(g),
                         zip(x, g["energy_lost_locking"] / g["energy_initial"], strict=True),
                         strict=True,
                     )

@@ -8,6 +8,7 @@ import pytest
 
 from ballchain.methods.rattle.blocks import factor_blocks, new_factors, solve_blocks
 from ballchain.methods.rattle.rows import K_BEND, booked_rates, layout, row_forces, row_gradients, row_rates
+from ballchain.methods.rattle.stage1 import TURN_SPLIT, copy_factors, newton_split
 
 RMAX = 8
 
@@ -177,12 +178,56 @@ def test_factors_done_again_from_a_changed_point_on(symmetric):
     if not symmetric:
         J1[9, 0] = J0[9, 0] + 0.05 * rng.standard_normal(12)
     assert factor_blocks(anchored, J1, J0, kind, nrow, none, F, symmetric, 6) == 0
+    _assert_factors_solve(anchored, nrow, J1, J0, F, rng)
+
+
+def _assert_factors_solve(anchored, nrow, J1, J0, F, rng):
+    """The factors F solve J1 W J0^T x = b as numpy solves it."""
+    n = anchored.shape[0] - 1
     A, idx = _dense(anchored, nrow, J1, J0)
     b = rng.standard_normal(len(idx))
     x = np.zeros((n + 1, RMAX))
     solve_blocks(nrow, F, _packed(idx, b, n), x)
     truth = np.linalg.solve(A, b)
     assert np.max(np.abs(_flat(idx, x) - truth)) < 1e-9 * np.max(np.abs(truth))
+
+
+@pytest.mark.parametrize("k", [0, 5, 9, 12])
+def test_newton_factors_kept_above_a_point_solve_the_mixed_matrix(k):
+    """Stage 1's first Newton factors in a step: those of J0 W J0^T copied for the points
+    before k, J1 W J0^T factored from k on.  They solve the matrix whose rows before point
+    k are J0 W J0^T's and from it on J1 W J0^T's, as dense algebra does."""
+    anchored, nrow, J0, kind, rng = _chain(21)
+    J1 = J0 + 0.05 * rng.standard_normal(J0.shape) * (J0 != 0)
+    n = anchored.shape[0] - 1
+    none = np.zeros((n + 1, RMAX), np.uint8)
+    sym, newt = new_factors(n + 1, RMAX), new_factors(n + 1, RMAX)
+    assert factor_blocks(anchored, J0, J0, kind, nrow, none, sym, True, 0) == 0
+    newt.D[:] = np.nan  # (nothing of an earlier matrix left to lean on)
+    newt.L[:] = np.nan
+    newt.X[:] = np.nan
+    copy_factors(sym, newt, nrow, k)
+    assert factor_blocks(anchored, J1, J0, kind, nrow, sym.drop, newt, False, k) == 0
+    mixed = J1.copy()
+    mixed[:k] = J0[:k]
+    _assert_factors_solve(anchored, nrow, mixed, J0, newt, rng)
+
+
+def test_the_split_is_the_first_segment_that_turned_past_its_share_of_the_most():
+    """``newton_split``: the first point whose segment below turned by more than
+    TURN_SPLIT of the largest turn |e - e0|, at most ``upto``; the number of points if
+    none did (no segment turned)."""
+    e0 = np.tile([0.0, 0.0, -1.0], (10, 1))
+    turn = np.full(10, 1e-3)
+    turn[6], turn[8] = 0.5, 1.0  # the largest turn 1.0 (segment 8); segment 6 past TURN_SPLIT of it
+    turn[3] = 0.9 * TURN_SPLIT  # ... segment 3 just short of it
+    e = e0.copy()
+    e[:, 0] = turn
+    assert newton_split(e, e0, 11, 11) == 6
+    assert newton_split(e, e0, 11, 4) == 4
+    e[3, 0] = 1.1 * TURN_SPLIT
+    assert newton_split(e, e0, 11, 11) == 3
+    assert newton_split(e0, e0, 11, 11) == 10  # (nothing turned: J W J^T serves every point but the bottom end)
 
 
 @pytest.mark.parametrize("seed", [11, 12])
