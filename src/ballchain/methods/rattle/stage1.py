@@ -199,6 +199,32 @@ def _factor_newton(mo, ws, j0):
 
 
 @njit(cache=True)
+def _refactor_newton(mo, ws, sc, j0, have_sym):
+    """Stage 1's Newton matrix A factored at this q+ from point j0 on; if it is singular
+    and J W J^T's factors are not at hand, those (its redundant rows dropped) and A again
+    from the top (sc.acc[5] counts each).  Returns (whether ws.newt holds A's factors,
+    whether ws.sym holds J W J^T's)."""
+    sc.acc[5] += 1.0
+    exact = _factor_newton(mo, ws, j0)
+    if not exact and not have_sym:
+        _factor_symmetric(mo.anchored, ws, sc.acc, 0)
+        sc.acc[5] += 1.0
+        exact = _factor_newton(mo, ws, 0)
+        have_sym = True
+    return exact, have_sym
+
+
+@njit(cache=True)
+def _kept_above_turning(mo, ws, sc, sym_upto):
+    """The step's first factors of A: J W J^T's (ws.sym, made for the current rows at the
+    step's start before point sym_upto) copied to ws.newt above the part of the chain
+    that turned (``newton_split``).  Returns the point A is to be factored from."""
+    k = newton_split(mo.e, sc.start.e, ws.nrow.shape[0], sym_upto)
+    copy_factors(ws.sym, ws.newt, ws.nrow, k)
+    return k
+
+
+@njit(cache=True)
 def newton_split(e, e0, npts, upto):
     """The first point (at most ``upto``) at which a segment has turned in the step,
     |e - e0|, by more than TURN_SPLIT of the most any has: A = J(q+) W J(q)^T differs from
@@ -305,20 +331,12 @@ def stage1(h, model, mo, ws, sc, budget):
                 solve_blocks(ws.nrow, ws.sym, ws.rhs, sc.rate)  # the chord on J W J^T
             else:
                 if not exact or res > NEWTON_RATE * last:  # (re)factor A at this q+
-                    sc.acc[5] += 1.0
-                    if not exact and not newt_valid and sym_upto > 0:  # A's first factors this step: J W J^T's kept
-                        restart = newton_split(mo.e, sc.start.e, ws.nrow.shape[0], sym_upto)  # above the turning part
-                        copy_factors(ws.sym, ws.newt, ws.nrow, restart)
-                    exact = _factor_newton(mo, ws, restart if not exact else 0)
+                    if not exact and not newt_valid and sym_upto > 0:  # A's first factors this step
+                        restart = _kept_above_turning(mo, ws, sc, sym_upto)
+                    exact, have_sym = _refactor_newton(mo, ws, sc, restart if not exact else 0, have_sym)
                     restart = 0
                     newt_from = ws.nrow.shape[0]
                     singular = not exact
-                    if singular and not have_sym:  # J W J^T, its redundant rows dropped, and A again
-                        _factor_symmetric(mo.anchored, ws, sc.acc, 0)
-                        have_sym = True
-                        sc.acc[5] += 1.0
-                        exact = _factor_newton(mo, ws, 0)
-                        singular = not exact
                     newt_valid = exact
                 if exact:
                     solve_blocks(ws.nrow, ws.newt, ws.rhs, sc.rate)
