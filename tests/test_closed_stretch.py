@@ -31,11 +31,14 @@ def chord(e):
 
 
 @pytest.mark.parametrize(
-    "k,alpha", [(2, math.pi / 4), (3, math.pi / 4), (4, math.pi / 4), (3, math.pi / 3), (6, math.pi / 6)]
+    "k,alpha",
+    [(2, math.pi / 4), (3, math.pi / 4), (4, math.pi / 4), (3, math.pi / 3), (6, math.pi / 6)]
+    + [(5, math.pi / 4), (7, math.pi / 4), (4, math.pi / 3), (5, math.pi / 3), (3, math.pi / 2)],  # pi < k alpha < 2 pi
 )
 def test_the_arc_and_the_zigzag_bound_the_chord_of_a_stretch_locked_at_its_limits(k, alpha):
-    """No twists: the planar arc, at chord 2 sin(k alpha/2)/sin(alpha/2); twists of pi: the
-    zigzag (2 k cos(alpha/2) for even k); any other twists (k alpha <= pi) lie between them."""
+    """No twists: the planar arc, at chord 2 |sin(k alpha/2)|/sin(alpha/2); twists of pi: the
+    zigzag (2 k cos(alpha/2) for even k); any other twists lie between them, the arc the
+    least while k alpha <= 2 pi (a stretch whose arc turns back on itself included)."""
     arc, zigzag = stretch_chord_extremes(k, alpha)
     e = bent_axes(k, alpha, [0.0] * (k - 1))
     assert np.allclose([e[i] @ e[i + 1] for i in range(k - 1)], math.cos(alpha))
@@ -73,6 +76,18 @@ def test_a_locked_stretch_curled_to_its_arc_between_anchors_is_named():
     note = closed_stretch_note(e, anchored, locked, points, alpha)
     assert "4 segments 1-4 between anchored points 1 and 5, its 3 hinges locked" in note
     assert f"within {gap:.2g} of the chord of its tightest curl" in note
+
+
+def test_a_locked_stretch_whose_arc_turns_back_is_named_at_its_tightest_curl():
+    """Five segments at alpha = pi/4 (k alpha = 5 pi/4): their tightest curl is a U, the last
+    axis opposite the first (a fall at N = 128 ended in one, 3.3e-5 from its chord)."""
+    alpha = math.pi / 4
+    e, anchored, locked, points = _chain(bent_axes(5, alpha, [0.004, -0.003, 0.002, 0.003]))
+    arc, _ = stretch_chord_extremes(5, alpha)
+    assert arc == pytest.approx(2.0 + 2.0 * math.sqrt(2.0), rel=1e-12)  # the U: 2 (1 + 2 cos(pi/4)) + 0
+    note = closed_stretch_note(e, anchored, locked, points, alpha)
+    assert "5 segments 1-5 between anchored points 1 and 6, its 4 hinges locked" in note
+    assert "tightest curl" in note
 
 
 def test_a_locked_stretch_at_its_zigzag_between_anchors_is_named():

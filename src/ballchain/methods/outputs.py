@@ -246,20 +246,21 @@ CLOSED_STRETCH_GAP = 1e-2  # a locked stretch between two anchors this near (rel
 
 def stretch_chord_extremes(k: int, alpha: float) -> tuple[float, float]:
     """The least and greatest distance (b) between the ends of k segments (length 2b) whose
-    k - 1 hinges all bend by alpha: the planar arc, 2 sin(k alpha/2) / sin(alpha/2) (the
-    least while k alpha <= pi), and the planar zigzag, its axes alternating between two:
+    k - 1 hinges all bend by alpha: the planar arc, 2 |sin(k alpha/2)| / sin(alpha/2) (the
+    least while k alpha <= 2 pi, where it closes), and the planar zigzag, its axes
+    alternating between two:
     2 sqrt(m1^2 + m2^2 + 2 m1 m2 cos alpha), m1 = ceil(k/2), m2 = floor(k/2) (2 k cos(alpha/2)
     for even k)."""
     m1, m2 = (k + 1) // 2, k // 2
     zigzag = 2.0 * math.sqrt(m1 * m1 + m2 * m2 + 2.0 * m1 * m2 * math.cos(alpha))
-    return 2.0 * math.sin(k * alpha / 2.0) / math.sin(alpha / 2.0), zigzag
+    return 2.0 * abs(math.sin(k * alpha / 2.0)) / math.sin(alpha / 2.0), zigzag
 
 
 def closed_stretch_note(e, anchored, locked, anchor_pos, alpha: float) -> str:
     """'; the stretch of k segments ... is within x of its tightest curl ...' for the first
     stretch of k >= 2 segments between two anchored points a and a + k, the points between
     them free and its k - 1 hinges locked, whose anchors' distance D lies within
-    CLOSED_STRETCH_GAP (relative) of the chord of the planar arc (k alpha <= pi) or of the
+    CLOSED_STRETCH_GAP (relative) of the chord of the planar arc (k alpha <= 2 pi) or of the
     planar zigzag at the limits (``stretch_chord_extremes``): there the anchors leave its
     free twists almost no room, a near-singular configuration of its constraints; else ''."""
     held = np.flatnonzero(np.asarray(anchored) != 0)
@@ -270,7 +271,7 @@ def closed_stretch_note(e, anchored, locked, anchor_pos, alpha: float) -> str:
         d = float(np.linalg.norm(np.asarray(anchor_pos[b]) - np.asarray(anchor_pos[a])))
         arc, zigzag = stretch_chord_extremes(k, alpha)
         shapes = (
-            (arc, "tightest curl (a planar arc)", k * alpha <= math.pi),
+            (arc, "tightest curl (a planar arc)", k * alpha <= 2.0 * math.pi),
             (zigzag, "straightest reach (a planar zigzag)", True),
         )
         for chord, shape, extreme in shapes:
