@@ -162,7 +162,7 @@ def test_defaults_by_n_come_from_the_owner_or_the_method():
     assert methods.default_step("event", 4096) == (0.01, 0.5)
     o = SolverOptions(method="rattle", theta=0.75).for_segments(64)
     assert (o.dt, o.theta, o.step_energy_tol) == (0.05, 0.75, None)
-    assert "--method rattle: default 0.05" in methods.option_help("dt")
+    assert "--method rattle: default 0.05 (0.1 or 0.2 for ensembles at N >= 1024" in methods.option_help("dt")
 
 
 @pytest.mark.parametrize(

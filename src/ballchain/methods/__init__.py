@@ -129,14 +129,16 @@ def method_default(method: str, name: str, segments: int):
 
 def option_help(name: str) -> str:
     """The ``--help`` text of the option ``name``: its own, and the defaults of the other
-    methods that use it (their package's ``DEFAULTS`` and ``USES``)."""
+    methods that use it (their package's ``DEFAULTS`` and ``USES``, with a word on the
+    choice from its ``DEFAULT_NOTES``)."""
     text = all_options()[name].help
     for method in METHODS:
         pkg = method_package(method)
         if name in getattr(pkg, "USES", ()) and name in getattr(pkg, "DEFAULTS", {}):
             value = pkg.DEFAULTS[name]
             text += f" --method {method}: default {value:g}" if not callable(value) else f" --method {method}: by N"
-            text += "."
+            note = getattr(pkg, "DEFAULT_NOTES", {}).get(name)
+            text += f" ({note})." if note else "."
     return text
 
 
