@@ -4,10 +4,12 @@ the energy bound.
     python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --etol default,0
     python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --attempts
     python benchmarks/rattle_steps.py --segments 256,512 --starts 0,1 --landings
+    python benchmarks/rattle_steps.py --segments 1024,4096 --starts 0 --dt 0.2 --etol default,1e-6,0
 
 For each N, random start (seed 2026, spawn key k, alpha = pi/4, floor ``all``) and bound
 (``default``: the method's ``--step-energy-tol``; ``0``: no bound, the steps shortened only
-by the turn limit and by stages that fail): the steps a fall takes per segment, the share
+by the turn limit, the landing cuts and by stages that fail), at the ceiling ``--dt``
+(t_ff/N; default: the method's): the steps a fall takes per segment, the share
 of its steps at the longest size (``--dt`` t_ff/N) and the share of its time they cover,
 and the mean step over the longest in each tenth of t_ff.  The step sizes are the
 differences of the result's trace times (one per accepted step).  Machine and versions
@@ -16,6 +18,7 @@ first.
 ``--attempts``: instead, the fall's attempts of a step by kind (accepted without an impact,
 accepted with one, refused and taken again shorter), each kind's number per segment, its
 block factorisations (whole or partial, counted alike) and stage 1's Newton evaluations,
+the share of each kind that the turn limit shortened (its test, made before each attempt),
 and for the smooth steps how many took 1, 2, 3 or 4 factorisations.  A diagnostic of the
 method's internals: the compiled loop is made to return after every attempt
 (``driver.RETURN_EVERY``), and its counters (``Scratch.acc``) are read at each return.
@@ -42,9 +45,14 @@ from ballchain.engine import simulate  # noqa: E402
 from ballchain.model import ChainParams, InitialCondition, SolverOptions  # noqa: E402
 
 
-def steps_of(n: int, key: int, etol: float | None) -> dict:
+def _options(dt: float | None, **kw) -> SolverOptions:
+    """The method's options, its ceiling ``dt`` (t_ff/N; None: its default)."""
+    return SolverOptions(method="rattle", **kw) if dt is None else SolverOptions(method="rattle", dt=dt, **kw)
+
+
+def steps_of(n: int, key: int, etol: float | None, dt: float | None = None) -> dict:
     """One fall's step sizes, summarised."""
-    options = SolverOptions(method="rattle", step_energy_tol=etol)
+    options = _options(dt, step_energy_tol=etol)
     r = simulate(
         ChainParams(segments=n, alpha=np.pi / 4), InitialCondition(kind="random", seed=2026, spawn_key=(key,)), options
     )
@@ -84,24 +92,40 @@ def fall_by_attempts(n: int, key: int, options: SolverOptions, attempt):
         driver.run_steps, driver.RETURN_EVERY = loop, every
 
 
-def attempts_of(n: int, key: int) -> dict:
-    """One fall at the defaults, its attempts of a step by kind (``--attempts``)."""
+def _turn_limited(h, mo, fb) -> bool:
+    """Will the next attempt be shortened by the turn limit (``stepper.step``: the step
+    h / 2^level turns the fastest segment not landed by more than TURN_MAX)?"""
+    from ballchain.methods.rattle.state import active_points
+    from ballchain.methods.rattle.stepper import TURN_MAX
+
+    ve = mo.ve[: active_points(mo.anchored) - 1]
+    wmax = float(np.sqrt((ve**2).sum(axis=1).max())) if len(ve) else 0.0
+    return h / 2.0 ** fb[19] * wmax > TURN_MAX
+
+
+def attempts_of(n: int, key: int, dt: float | None = None) -> dict:
+    """One fall at the defaults (but the ceiling ``dt``), its attempts of a step by kind
+    (``--attempts``), and which of them the turn limit shortened."""
     rec = []
 
     def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
         s0 = int(books.n_steps[0])
+        turn = _turn_limited(h, mo, fb)
         code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
-        rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0))
+        rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0, turn))
         return code, t
 
-    r = fall_by_attempts(n, key, SolverOptions(method="rattle"), one_attempt)
+    r = fall_by_attempts(n, key, _options(dt), one_attempt)
     a = np.array(rec, dtype=float)
-    ok, fac, evals, impact = a[:, 0] > 0, a[:, 1], a[:, 2], a[:, 3] > 0
+    ok, fac, evals, impact, turn = a[:, 0] > 0, a[:, 1], a[:, 2], a[:, 3] > 0, a[:, 4] > 0
     kinds = {"smooth": ok & ~impact, "impact": ok & impact, "refused": ~ok}
     return dict(
         status=r.status,
         per_step=fac.sum() / ok.sum(),
-        kinds={k: (m.sum() / n, fac[m].mean(), fac[m].sum() / fac.sum(), evals[m].mean()) for k, m in kinds.items()},
+        kinds={
+            k: (m.sum() / n, fac[m].mean(), fac[m].sum() / fac.sum(), evals[m].mean(), turn[m].mean())
+            for k, m in kinds.items()
+        },
         smooth_split=[float((fac[kinds["smooth"]] == f).mean()) for f in (1, 2, 3, 4)],
     )
 
@@ -174,7 +198,7 @@ def print_landings(segments, starts) -> None:
                 )
 
 
-def print_attempts(segments, starts) -> None:
+def print_attempts(segments, starts, dt) -> None:
     _header(
         "N",
         "start",
@@ -184,16 +208,17 @@ def print_attempts(segments, starts) -> None:
         "factorisations each",
         "share of all",
         "Newton evaluations each",
+        "shortened by the turn limit",
         "smooth: 1, 2, 3, 4 factorisations",
     )
     for n in segments:
         for key in starts:
-            s = attempts_of(n, key)
-            for kind, (per_n, each, share, ev) in s["kinds"].items():
+            s = attempts_of(n, key, dt)
+            for kind, (per_n, each, share, ev, turn) in s["kinds"].items():
                 split = ", ".join(f"{v:.2f}" for v in s["smooth_split"]) if kind == "smooth" else ""
                 print(
                     f"| {n} | {key} | {s['per_step']:.2f} | {kind} | {per_n:.1f} | {each:.2f} | {share:.2f} | {ev:.2f} | "
-                    f"{split} |"
+                    f"{turn:.2f} | {split} |"
                 )
 
 
@@ -204,13 +229,14 @@ def main() -> None:
     ap.add_argument("--etol", default="default,0", help="bounds: default (the method's) and/or numbers (E0)")
     ap.add_argument("--attempts", action="store_true", help="the attempts of a step by kind, at the defaults")
     ap.add_argument("--landings", action="store_true", help="the landings with each --landing-step")
+    ap.add_argument("--dt", type=float, default=None, help="the ceiling (t_ff/N; default: the method's)")
     a = ap.parse_args()
     print(machine_info())
     if a.landings:
         print_landings([int(s) for s in a.segments.split(",")], [int(s) for s in a.starts.split(",")])
         return
     if a.attempts:
-        print_attempts([int(s) for s in a.segments.split(",")], [int(s) for s in a.starts.split(",")])
+        print_attempts([int(s) for s in a.segments.split(",")], [int(s) for s in a.starts.split(",")], a.dt)
         return
     print(
         "\n| N | start | bound | status | t_fall/t_ff | steps / N | steps at the longest | their time | imbalance / E0 | "
@@ -221,7 +247,7 @@ def main() -> None:
     for n in (int(s) for s in a.segments.split(",")):
         for key in (int(s) for s in a.starts.split(",")):
             for e in a.etol.split(","):
-                s = steps_of(n, key, None if e == "default" else float(e))
+                s = steps_of(n, key, None if e == "default" else float(e), a.dt)
                 tenths = " | ".join(f"{v:.2f}" for v in s["by_tenth"])
                 print(
                     f"| {n} | {key} | {e} | {s['status']} | {s['ratio']:.4f} | {s['steps_per_n']:.1f} | "
