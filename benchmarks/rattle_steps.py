@@ -96,11 +96,9 @@ def _turn_limited(h, mo, fb) -> bool:
     """Will the next attempt be shortened by the turn limit (``stepper.step``: the step
     h / 2^level turns the fastest segment not landed by more than TURN_MAX)?"""
     from ballchain.methods.rattle.state import active_points
-    from ballchain.methods.rattle.stepper import TURN_MAX
+    from ballchain.methods.rattle.stepper import TURN_MAX, _fastest_turn
 
-    ve = mo.ve[: active_points(mo.anchored) - 1]
-    wmax = float(np.sqrt((ve**2).sum(axis=1).max())) if len(ve) else 0.0
-    return h / 2.0 ** fb[19] * wmax > TURN_MAX
+    return h / 2.0 ** fb[19] * _fastest_turn(mo.ve[: active_points(mo.anchored) - 1]) > TURN_MAX
 
 
 def attempts_of(n: int, key: int, dt: float | None = None) -> dict:
