@@ -183,11 +183,15 @@ def test_the_methods_compared_page_is_what_its_command_prints():
 
 def _page_commands(page: Path) -> str:
     """The output of every ``python benchmarks/...`` and ``ballchain stats`` command of a
-    page's code blocks (figures they would write left out)."""
+    page's code blocks (figures they would write left out): the indented blocks, and the
+    lines of fenced (```) blocks that start with such a command, with their backslash
+    continuations (a results page keeps a command that names engines there)."""
     text = page.read_text()
     blocks = re.findall(
         r"^ {4}((?:python benchmarks/\S+\.py|ballchain stats) .*?)(?=\n(?! {8}\S)|\n\n)", text, re.M | re.S
     )
+    for fenced in re.findall(r"^```[^\n]*\n(.*?)^```", text, re.M | re.S):
+        blocks += re.findall(r"^((?:python benchmarks/\S+\.py|ballchain stats) (?:[^\n]*\\\n)*[^\n]*)", fenced, re.M)
     out = []
     for block in blocks:
         args = shlex.split(block.split("#")[0].replace("\\\n", " "))
@@ -239,6 +243,7 @@ def test_the_paper_case_page_quotes_what_its_commands_and_data_give():
     "name",
     [
         "rattle.md",
+        "notes/rattle-record.md",
         "notes/rattle-engines.md",
         "restitution.md",
         "restitution-floor.md",
@@ -261,11 +266,11 @@ def test_the_rattle_page_quotes_what_its_command_prints(name):
 
 
 def test_the_rattle_page_quotes_each_start_at_n16384_from_its_table():
-    """Item 5c of the RATTLE page (N = 16384, a sweep under way) quotes each landed start's
+    """Item 5c of the RATTLE record (N = 16384, a sweep under way) quotes each landed start's
     t_fall/t_ff, E_lock/E0 and the books' imbalance: recomputed from the committed table."""
     import pandas as pd
 
-    page = (ROOT / "docs" / "rattle.md").read_text()
+    page = (ROOT / "docs" / "notes" / "rattle-record.md").read_text()
     item = " ".join(page.split("**5c. At N = 16384**")[1].split("**6. ")[0].split())
     df = pd.read_parquet(ROOT / "docs" / "data" / "rattle16384.parquet")
     assert (df.status == "landed").all()
