@@ -4,7 +4,8 @@ where the motion is smooth, a fall with no limits, a fall with limits, and the s
     python benchmarks/rattle_status.py           # tables 1-3 and 5
     python benchmarks/rattle_status.py --cost    # table 4
 
-Prints Markdown tables (the numbers of ``docs/rattle.md``):
+Prints Markdown tables (the numbers of ``docs/rattle.md``; tables 1-3 and 5 are items 1-3
+and 6 of ``docs/notes/rattle-record.md``, table 4 its "Cost"):
 
 1. the axes of an 8-segment chain with no limits (alpha = pi, helix eps 0.2) at 0.25 t_ff,
    before its first landing, against the exact method at rtol 1e-12, for dt = 0.4 .. 0.025
