@@ -19,7 +19,8 @@ first.
 accepted with one, refused and taken again shorter), each kind's number per segment, its
 block factorisations (whole or partial, counted alike) and stage 1's Newton evaluations,
 the share of each kind that the turn limit shortened (its test, made before each attempt),
-and for the smooth steps how many took 1, 2, 3 or 4 factorisations.  A diagnostic of the
+stage 1's active-set rounds (and how many of them ended early, a limit or the floor found
+passed by far more than the iterate's residual: ``stage1``), and for the smooth steps how many took 1, 2, 3 or 4 factorisations.  A diagnostic of the
 method's internals: the compiled loop is made to return after every attempt
 (``driver.RETURN_EVERY``), and its counters (``Scratch.acc``) are read at each return.
 
@@ -110,18 +111,27 @@ def attempts_of(n: int, key: int, dt: float | None = None) -> dict:
         s0 = int(books.n_steps[0])
         turn = _turn_limited(h, mo, fb)
         code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
-        rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0, turn))
+        rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0, turn, sc.acc[11], sc.acc[12]))
         return code, t
 
     r = fall_by_attempts(n, key, _options(dt), one_attempt)
     a = np.array(rec, dtype=float)
-    ok, fac, evals, impact, turn = a[:, 0] > 0, a[:, 1], a[:, 2], a[:, 3] > 0, a[:, 4] > 0
+    ok, impact, turn = a[:, 0] > 0, a[:, 3] > 0, a[:, 4] > 0
+    fac, evals, rounds, early = a[:, 1], a[:, 2], a[:, 5], a[:, 6]
     kinds = {"smooth": ok & ~impact, "impact": ok & impact, "refused": ~ok}
     return dict(
         status=r.status,
         per_step=fac.sum() / ok.sum(),
         kinds={
-            k: (m.sum() / n, fac[m].mean(), fac[m].sum() / fac.sum(), evals[m].mean(), turn[m].mean())
+            k: (
+                m.sum() / n,
+                fac[m].mean(),
+                fac[m].sum() / fac.sum(),
+                evals[m].mean(),
+                turn[m].mean(),
+                rounds[m].mean(),
+                early[m].mean(),
+            )
             for k, m in kinds.items()
         },
         smooth_split=[float((fac[kinds["smooth"]] == f).mean()) for f in (1, 2, 3, 4)],
@@ -207,16 +217,17 @@ def print_attempts(segments, starts, dt) -> None:
         "share of all",
         "Newton evaluations each",
         "shortened by the turn limit",
+        "stage 1's rounds each, ended early",
         "smooth: 1, 2, 3, 4 factorisations",
     )
     for n in segments:
         for key in starts:
             s = attempts_of(n, key, dt)
-            for kind, (per_n, each, share, ev, turn) in s["kinds"].items():
+            for kind, (per_n, each, share, ev, turn, rnds, early) in s["kinds"].items():
                 split = ", ".join(f"{v:.2f}" for v in s["smooth_split"]) if kind == "smooth" else ""
                 print(
                     f"| {n} | {key} | {s['per_step']:.2f} | {kind} | {per_n:.1f} | {each:.2f} | {share:.2f} | {ev:.2f} | "
-                    f"{turn:.2f} | {split} |"
+                    f"{turn:.2f} | {rnds:.2f}, {early:.2f} | {split} |"
                 )
 
 

@@ -288,6 +288,7 @@ def stage1(h, model, mo, ws, sc, budget):
     newt_from = 0  # ... whose rows are those of the current layout at the points before this one
     sym_upto = 0  # ws.sym holds the factors of J W J^T at the step's start for the current rows before this point
     for rnd in range(ROUNDS_MAX):
+        sc.acc[11] += 1.0
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
         have_sym, j0 = _factor(
@@ -347,6 +348,7 @@ def stage1(h, model, mo, ws, sc, budget):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] += sc.rate[j, r]
         if switched:  # a new round with the rows switched on, from these impulses
+            sc.acc[12] += 1.0
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
             continue
         if not met:

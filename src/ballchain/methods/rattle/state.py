@@ -51,10 +51,12 @@ Scratch = namedtuple(
         "kind_w", "nrow_w", "x_w",  # the last accepted step's stage 2 impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
-        "acc",  # (11,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
+        "acc",  # (13,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
         #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
         #   step's start minus at its end, less [10], [9] 1 if the step had an impact, [10]
-        #   what the sliding points' friction force removed (``friction.friction_work``)
+        #   what the sliding points' friction force removed (``friction.friction_work``),
+        #   [11] stage 1's active-set rounds, [12] those of them ended early by a limit or
+        #   the floor found passed (``stage1``: counted for ``benchmarks/rattle_steps.py``)
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
@@ -86,7 +88,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(11), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p, np.int64), v3(p), np.zeros(13), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
         np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8), v3(p), np.zeros((p, 2)), np.zeros((p, 4)),
     )  # fmt: skip
 
