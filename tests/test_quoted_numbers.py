@@ -24,9 +24,12 @@ pytestmark = pytest.mark.slow  # (about 20 s: the command's bootstrap intervals 
 
 
 def _page_command(page: Path = PAGE) -> list[str]:
-    """The page's ``python benchmarks/large_n.py ...`` command, as arguments."""
+    """The page's ``python benchmarks/large_n.py ...`` command, as arguments: in an indented
+    block, or in a fenced (```) one (a command that names engines stands there)."""
     text = page.read_text()
-    m = re.search(r"^ {4}python benchmarks/large_n\.py (.*?)(?=\n\n)", text, re.S | re.M)
+    m = re.search(r"^ {4}python benchmarks/large_n\.py (.*?)(?=\n\n)", text, re.S | re.M) or re.search(
+        r"^```[^\n]*\npython benchmarks/large_n\.py (.*?)(?=\n```)", text, re.S | re.M
+    )
     assert m, "the page gives no large_n.py command"
     args = shlex.split(m.group(1).replace("\\\n", " "))
     if "--plot" in args:
