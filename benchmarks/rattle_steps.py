@@ -20,8 +20,8 @@ accepted with one, refused and taken again shorter), each kind's number per segm
 block factorisations (whole or partial, counted alike) and stage 1's Newton evaluations,
 the share of each kind that the turn limit shortened (its test, made before each attempt),
 stage 1's active-set rounds (and how many of them ended early, a limit or the floor found
-passed by far more than the iterate's residual: ``stage1``), and for the smooth steps how many took 1, 2, 3 or 4 factorisations.  A diagnostic of the
-method's internals: the compiled loop is made to return after every attempt
+passed by far more than the iterate's residual: ``stage1``), and for the smooth steps how
+many took 1, 2, 3 or 4 factorisations.  A diagnostic of the method's internals: the compiled loop is made to return after every attempt
 (``driver.RETURN_EVERY``), and its counters (``Scratch.acc``) are read at each return.
 
 ``--landings``: instead, one fall with each ``--landing-step`` (whole, cut): the points
