@@ -23,15 +23,23 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 pytestmark = pytest.mark.slow  # (about 20 s: the command's bootstrap intervals and fits)
 
 
+def _block_commands(text: str, head: str) -> list[str]:
+    """The commands of a page's code blocks that start with ``head`` (a regex): each
+    indented block's (its continuation lines indented further), and each line of a fenced
+    (```) block's with its backslash continuations (a command that names engines stands
+    there)."""
+    found = re.findall(rf"^ {{4}}({head} .*?)(?=\n(?! {{8}}\S)|\n\n)", text, re.M | re.S)
+    for fenced in re.findall(r"^```[^\n]*\n(.*?)^```", text, re.M | re.S):
+        found += re.findall(rf"^({head} (?:[^\n]*\\\n)*[^\n]*)", fenced, re.M)
+    return found
+
+
 def _page_command(page: Path = PAGE) -> list[str]:
     """The page's ``python benchmarks/large_n.py ...`` command, as arguments: in an indented
     block, or in a fenced (```) one (a command that names engines stands there)."""
-    text = page.read_text()
-    m = re.search(r"^ {4}python benchmarks/large_n\.py (.*?)(?=\n\n)", text, re.S | re.M) or re.search(
-        r"^```[^\n]*\npython benchmarks/large_n\.py (.*?)(?=\n```)", text, re.S | re.M
-    )
-    assert m, "the page gives no large_n.py command"
-    args = shlex.split(m.group(1).replace("\\\n", " "))
+    commands = _block_commands(page.read_text(), r"python benchmarks/large_n\.py")
+    assert commands, "the page gives no large_n.py command"
+    args = shlex.split(commands[0].replace("\\\n", " "))[2:]
     if "--plot" in args:
         plot = args.index("--plot")
         del args[plot : plot + 2]  # the figure is not redrawn here
@@ -189,12 +197,7 @@ def _page_commands(page: Path) -> str:
     page's code blocks (figures they would write left out): the indented blocks, and the
     lines of fenced (```) blocks that start with such a command, with their backslash
     continuations (a results page keeps a command that names engines there)."""
-    text = page.read_text()
-    blocks = re.findall(
-        r"^ {4}((?:python benchmarks/\S+\.py|ballchain stats) .*?)(?=\n(?! {8}\S)|\n\n)", text, re.M | re.S
-    )
-    for fenced in re.findall(r"^```[^\n]*\n(.*?)^```", text, re.M | re.S):
-        blocks += re.findall(r"^((?:python benchmarks/\S+\.py|ballchain stats) (?:[^\n]*\\\n)*[^\n]*)", fenced, re.M)
+    blocks = _block_commands(page.read_text(), r"(?:python benchmarks/\S+\.py|ballchain stats)")
     out = []
     for block in blocks:
         args = shlex.split(block.split("#")[0].replace("\\\n", " "))
