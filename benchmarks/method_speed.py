@@ -16,8 +16,9 @@ t_ff (frames do not change a fall), every method at its defaults.  The methods t
 on each start (their order rotating from start to start), so that the machine's drift
 hits all alike.  Falls are chaotic: a start's fall differs between the methods, and so does
 its work, so the table gives medians over the starts: wall seconds per fall, steps per
-fall (the time-steppers), ns per segment and step, and the ratios of the walls (medians of
-the per-start ratios).  Machine and versions are printed first.
+fall (the time-steppers), ns per segment and step, the books' largest |imbalance| / E0
+over the starts, and the ratios of the walls (medians of the per-start ratios).  Machine
+and versions are printed first.
 """
 
 from __future__ import annotations
@@ -62,6 +63,11 @@ def _fall(n: int, key: int, spec: str, floor: str = "all"):
     )
 
 
+def _books(r) -> float:
+    """|imbalance| / E0 of a fall's energy books (initial - potential - kinetic - losses)."""
+    return abs(r.energy["imbalance"]) / r.energy["initial"]
+
+
 def _ratio(runs: dict, other: str, m: str) -> str:
     """The median over the starts of the method ``other``'s wall over ``m``'s."""
     if other not in runs or other == m:
@@ -83,9 +89,9 @@ def main() -> None:
         load_kernels(_setting(m)[0])
         _fall(8, 0, m, a.floor)  # compiled (or loaded) before any fall is timed
     print(
-        "\n| N | method | starts | wall per fall (s) | steps per fall | ns / segment / step | status | event wall / its | timestep wall / its |"
+        "\n| N | method | starts | wall per fall (s) | steps per fall | ns / segment / step | books, largest \\|imbalance\\| / E0 | status | event wall / its | timestep wall / its |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for n in (int(x) for x in a.segments.split(",")):
         runs = {m: [] for m in methods}
         for key in range(a.starts):
@@ -99,10 +105,11 @@ def main() -> None:
             steps = statistics.median(r.n_steps for r in rs) if m != "event" else None
             per = statistics.median(r.wall_seconds / r.n_steps / n * 1e9 for r in rs) if steps else None
             status = ", ".join(sorted({r.status for r in rs}))
+            books = max(_books(r) for r in rs)
 
             print(
                 f"| {n} | {m} | {len(rs)} | {wall:.2f} | {'' if steps is None else f'{steps:.0f}'} "
-                f"| {'' if per is None else f'{per:.0f}'} | {status} | {_ratio(runs, 'event', m)} | {_ratio(runs, 'timestep', m)} |",
+                f"| {'' if per is None else f'{per:.0f}'} | {books:.1e} | {status} | {_ratio(runs, 'event', m)} | {_ratio(runs, 'timestep', m)} |",
                 flush=True,
             )
 
