@@ -6,7 +6,7 @@ classes and ``bc.Result``.  They are imported on first use, so ``import ballchai
 light (no numba, dask, matplotlib or plotly until needed).
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"  # the one place: hatch reads it for the wheel; `ballchain --version` prints it
 
 _LAZY = {
     "simulate": ("ballchain.api", "simulate"),

@@ -2,8 +2,10 @@
 
 Layout (format ``ballchain-result``, version 3)::
 
-    /                 attrs: format, format_version, package_version, version (of the
-                      run), units, created (UTC, ISO 8601), status, message, seed,
+    /                 attrs: format, format_version, package_version (the ballchain
+                      version that wrote the file), version (that ran it), engine (the
+                      fingerprint of the engine's sources that ran it), units,
+                      created (UTC, ISO 8601), status, message, seed,
                       params_json, ic_json, options_json, energy_json, extra_json
     /params           attrs: one per ChainParams field (for h5dump readers)
     /ic               attrs: one per InitialCondition field (absent if ic is None)

@@ -139,7 +139,7 @@ class Result:
     params: ChainParams
     ic: InitialCondition | None
     options: SolverOptions
-    version: str
+    version: str  # the ballchain version that ran it (ballchain.__version__)
     status: str
     message: str
     z0: float
