@@ -150,6 +150,7 @@ def test_file_is_self_describing(tmp_path):
         assert int(f.attrs["format_version"]) == 3
         assert f.attrs["units"] == "SI"
         assert "created" in f.attrs and "package_version" in f.attrs
+        assert set(f.attrs) == set(files.ROOT_ATTRS)  # the root's attributes are those documented
         assert int(f.attrs["seed"]) == 7
         assert f["params"].attrs["segments"] == 300
         assert f["params"].attrs["floor"] == "all"

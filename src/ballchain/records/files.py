@@ -2,10 +2,10 @@
 
 Layout (format ``ballchain-result``, version 3)::
 
-    /                 attrs: format, format_version, package_version (the ballchain
-                      version that wrote the file), version (that ran it), engine (the
-                      fingerprint of the engine's sources that ran it), units,
-                      created (UTC, ISO 8601), status, message, seed,
+    /                 attrs (ROOT_ATTRS): format, format_version, package_version (the
+                      ballchain version that wrote the file), version (that ran it),
+                      engine (the fingerprint of the engine's sources that ran it),
+                      units, created (UTC, ISO 8601), status, message, seed,
                       params_json, ic_json, options_json, energy_json, extra_json
     /params           attrs: one per ChainParams field (for h5dump readers)
     /ic               attrs: one per InitialCondition field (absent if ic is None)
@@ -54,6 +54,25 @@ from .result import EVENT_KINDS, EVENT_MEANINGS, Result, unit_of
 FORMAT_NAME = "ballchain-result"
 FORMAT_VERSION = 3  # 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
 # 3: the bottom end's position and velocity (a frictionless floor); version 1 and 2 files load (zeros)
+
+# the root attributes, each with what it holds (the site's page of the layout lists them from here)
+ROOT_ATTRS = {
+    "format": f"the format's name, {FORMAT_NAME}",
+    "format_version": "the layout's version (a newer one than the reader knows is refused)",
+    "package_version": "the ballchain version that wrote the file (what ballchain --version printed)",
+    "version": "the ballchain version that ran the fall (Result.version)",
+    "engine": "the fingerprint of the engine's sources that ran the fall (Result.engine; runs of one engine rerun exactly)",
+    "units": "the units of every dataset: nondimensional or SI",
+    "created": "when the file was written (UTC, ISO 8601)",
+    "status": "how the run ended: landed, until, max_time, error or interrupted",
+    "message": "why the run stopped early ('' if it did not)",
+    "seed": "the start's SeedSequence entropy (absent for an explicit state)",
+    "params_json": "ChainParams as JSON (what load_result reads back, exactly)",
+    "ic_json": "InitialCondition as JSON (null for an explicit state)",
+    "options_json": "SolverOptions as JSON",
+    "energy_json": "the final energy budget as JSON",
+    "extra_json": "what else the run recorded, as JSON (a dataset of that name when it exceeds 32 KiB)",
+}
 
 CONVENTIONS = (
     "Segments i = 0..N-1 are numbered from the top end of the chain, points j = 0..N "

@@ -51,7 +51,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     **{name: (opt.column_type, opt.column) for name, opt in all_options().items() if opt.column is not None},
     "until": ("float64", "stop time in t_ff (NaN: until landed)"),
     "frames_per_tff": ("float64", "output frames per t_ff"),
-    "version": ("string", "ballchain version that ran it (ballchain.__version__, semantic versioning)"),
+    "version": ("string", "ballchain version that ran it (what ballchain --version printed; semantic versioning)"),
     "engine": ("string", "fingerprint of the engine's sources that ran it (rows of one engine rerun exactly)"),
     "status": ("string", "landed, until, max_time, error, interrupted"),
     "message": ("string", "why a run stopped early ('' if it did not)"),
