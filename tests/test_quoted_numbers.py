@@ -287,25 +287,3 @@ def test_the_rattle_page_quotes_each_start_at_n16384_from_its_table():
     assert f"{abs(df.energy_imbalance / df.energy_initial).max():.1e}" in item
     assert f"their mean {df.ratio.mean():.4f}" in item
     assert "no point below the floor by more than 1e-8 b" in item and df.max_depth.max() <= 1e-8
-
-
-def test_the_docs_which_method_table_quotes_the_readmes_costs():
-    """The site's "Which method when" table gives each method's walls as the README's does
-    (the README's row may say more): a cost changed in one and not the other fails here."""
-
-    def rows(path: Path) -> dict[str, str]:
-        text = path.read_text().split("## Which method when")[1].split("\n## ")[0]
-        out = {}
-        for line in text.splitlines():
-            m = re.match(r"\| `(\w+)`", line)
-            if m:
-                out[m.group(1)] = line
-        return out
-
-    readme, site = rows(ROOT / "README.md"), rows(ROOT / "docs" / "index.md")
-    assert set(site) == set(readme) == {"event", "timestep", "rattle"}
-    for method, line in site.items():
-        walls = re.findall(r"(?:N = )?\d+: (?:about )?[\d.]+ (?:s|min|h)\b", line)
-        assert len(walls) >= 3, line
-        for wall in walls:
-            assert wall in readme[method], (method, wall)

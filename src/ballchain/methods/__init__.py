@@ -75,6 +75,18 @@ def check_contacts(params, method: str) -> None:
             )
 
 
+def honours(method: str, name: str) -> str:
+    """What ``--method method`` takes of the contact law's parameter ``name`` (its package's
+    ``CONTACTS`` and ``CONTACT_BOUNDS``, as ``check_contacts`` enforces them): ``"any"``
+    value, ``"up to B"`` (refused beyond the bound B) or ``"refused"`` (away from its
+    default).  The cells of the "Which method when" table of the README and the site's index."""
+    pkg = method_package(method)
+    if name not in getattr(pkg, "CONTACTS", ()):
+        return "refused"
+    bound = getattr(pkg, "CONTACT_BOUNDS", {}).get(name)
+    return f"up to {bound[0]:g}" if bound is not None else "any"
+
+
 def method_options(name: str) -> tuple:
     """The options the method ``name`` owns (its package's ``OPTIONS``: ``options.MethodOption``)."""
     return tuple(getattr(method_package(name), "OPTIONS", ()))
