@@ -116,7 +116,7 @@ class ChainAnimation:
         self.canvas = FigureCanvasAgg(fig)
         self.fig = fig
         gs = fig.add_gridspec(
-            1, 3, width_ratios=(1.5, 1.0, 1.0), left=0.02, right=0.98, bottom=0.12, top=0.9, wspace=0.3
+            1, 3, width_ratios=(1.5, 1.0, 1.0), left=0.02, right=0.98, bottom=0.12, top=0.87, wspace=0.3
         )
 
         # 3D view: floor plane first, then the chain, the pile and the locks over it
