@@ -136,7 +136,8 @@ def gamma_figure(r: Result) -> Figure:
         ylabel="gamma = removed / carried momentum",
         title=run_title(r) + f"\n{fg.landed} landings before t_fall",
     )
-    ax.legend(fontsize=7)
+    if ax.get_legend_handles_labels()[0]:  # a run cut before any landing has none
+        ax.legend(fontsize=7)
     return fig
 
 
