@@ -70,3 +70,30 @@ def test_plot_command_writes_every_figure(run, tmp_path):
             assert p.stat().st_size > 1000, p
     bad = CliRunner().invoke(app, ["plot", str(f), "--formats", "bmp"])
     assert bad.exit_code == 2 and "--formats" in bad.output
+
+
+def test_every_figure_names_the_event_method_and_no_law_by_default(run):
+    """A run with the defaults: its figures name the event method, no step and no law."""
+    from ballchain.contacts.registry import all_params
+
+    for name, make in FIGURES.items():
+        title = make(run).axes[0].get_title()
+        assert "method event" in title and "dt" not in title, (name, title)
+        assert not any(p.flag in title for p in all_params().values()), (name, title)
+
+
+def test_a_rattle_run_with_a_law_says_so_in_every_figure_and_the_animation():
+    """A RATTLE run with Newton's restitution at the bend limit: every figure's title names
+    the method, its step and the law's flag and value (and nothing of the other laws)."""
+    from ballchain.plots import ChainAnimation, run_title
+
+    r = simulate(
+        ChainParams(segments=4, restitution_lock=0.5), InitialCondition(eps=0.05),
+        SolverOptions(method="rattle", dt=0.05, until=0.3),
+    )  # fmt: skip
+    want = "method rattle (dt 0.05 t_ff/N) | --restitution-lock 0.5"
+    assert run_title(r).splitlines()[1] == want
+    for name, make in FIGURES.items():
+        title = make(r).axes[0].get_title()
+        assert want in title and "--friction" not in title and "--restitution-floor" not in title, (name, title)
+    assert want in ChainAnimation(r).title.get_text()

@@ -1,6 +1,7 @@
 """ballchain view: one self-contained HTML file, rendered in a real browser (Debian's
 chromium, headless) to a screenshot in which the chain must be drawn: the chain's colour
-is on the picture, and absent from the same page with the chain's traces emptied."""
+is on the picture, and absent from the same page with the chain's traces emptied; and the
+3D box is wide enough to read (its walls span 18 % of the page or more)."""
 
 import os
 import shutil
@@ -14,7 +15,7 @@ from typer.testing import CliRunner
 from ballchain.cli import app
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
-from ballchain.plots.view import COLORS, POINT_BUDGET, default_frames, segment_states, view_figure
+from ballchain.plots.view import COLORS, MIN_WIDTH, POINT_BUDGET, TICKS, default_frames, segment_states, view_figure
 from ballchain.records.files import save_result
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -50,6 +51,15 @@ def chain_pixels(img) -> int:
     return int(np.sum(np.all(np.abs(left - rgb) <= 40, axis=-1)))
 
 
+def box_width(img) -> int:
+    """Columns of the 3D box's walls (plotly's scene background, #E5ECF6) in the 3D panel
+    (the left 62 % of the page): the width the box is drawn at, in pixels."""
+    left = img[:, : int(0.62 * img.shape[1])]
+    wall = np.all(np.abs(left - np.array([229, 236, 246])) <= 3, axis=-1)
+    cols = np.flatnonzero(wall.sum(axis=0) >= 5)
+    return int(cols.max() - cols.min()) if cols.size else 0
+
+
 def test_the_view_is_drawn_in_a_browser(run, tmp_path):
     r, path = run
     html = tmp_path / "fall.html"
@@ -57,7 +67,9 @@ def test_the_view_is_drawn_in_a_browser(run, tmp_path):
     assert res.exit_code == 0, res.output
     text = html.read_text()
     assert 'src="http' not in text and "plotly" in text  # offline: the library is embedded
-    drawn = chain_pixels(screenshot(html, tmp_path / "view.png", tmp_path))
+    img = screenshot(html, tmp_path / "view.png", tmp_path)
+    drawn = chain_pixels(img)
+    assert box_width(img) >= 0.18 * img.shape[1], box_width(img)  # not a sliver (was 154 px of 1400)
     fig = view_figure(r)
     for k in range(3):  # the chain's traces emptied: the negative control
         fig.data[k].update(x=[], y=[], z=[])
@@ -103,7 +115,12 @@ def test_the_scene_is_in_true_proportions_unless_stretched_and_says_so(run, stre
     assert scene.aspectmode == "manual"
     assert ratio.x / ratio.z == pytest.approx(stretch * spans[0] / spans[2], rel=1e-12)
     assert ratio.y / ratio.z == pytest.approx(stretch * spans[1] / spans[2], rel=1e-12)
+    # a tall, thin chain: the box is drawn at least MIN_WIDTH as wide as tall (its horizontal
+    # ranges grow, the proportions stay), with few ticks across, so that they do not overlap
+    assert min(ratio.x, ratio.y) >= MIN_WIDTH * ratio.z * (1 - 1e-12)
+    assert scene.xaxis.nticks == scene.yaxis.nticks == TICKS
     assert ("true proportions" in fig.layout.title.text) == (stretch == 1.0)
+    assert "| method event" in fig.layout.title.text  # what made it (plots.titles.run_title)
     assert ("drawn 4x" in fig.layout.title.text) == (stretch == 4.0)
     assert scene.zaxis.range[0] < 0.0  # the floor and what lies on it inside the box
     (buttons,), (slider,) = fig.layout.updatemenus, fig.layout.sliders

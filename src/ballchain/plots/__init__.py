@@ -17,6 +17,7 @@ from .run import (
     pile_figure,
     plot_run,
 )
+from .titles import run_title
 
 __all__ = [
     "AnimationError",
@@ -32,4 +33,5 @@ __all__ = [
     "lock_map_figure",
     "pile_figure",
     "plot_run",
+    "run_title",
 ]

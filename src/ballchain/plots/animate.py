@@ -26,6 +26,7 @@ from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
 from ..records.result import Result
+from .titles import run_title
 
 SUFFIXES = (".mp4", ".gif")
 SIZE_PX = (1024, 576)  # multiples of 16: what H.264 encoders want, no rescaling
@@ -115,7 +116,7 @@ class ChainAnimation:
         self.canvas = FigureCanvasAgg(fig)
         self.fig = fig
         gs = fig.add_gridspec(
-            1, 3, width_ratios=(1.5, 1.0, 1.0), left=0.02, right=0.98, bottom=0.12, top=0.9, wspace=0.3
+            1, 3, width_ratios=(1.5, 1.0, 1.0), left=0.02, right=0.98, bottom=0.12, top=0.87, wspace=0.3
         )
 
         # 3D view: floor plane first, then the chain, the pile and the locks over it
@@ -177,8 +178,7 @@ class ChainAnimation:
             frameon=False,
         )
 
-        p = r.params
-        self._head = f"N = {p.segments}, alpha = {np.degrees(p.alpha):.4g} deg, floor {p.floor}"
+        self._head = run_title(r, sep=" | ")  # the chain, the method, the contact laws
         self.title = fig.suptitle("", fontsize=11)
         self.frame = None
         self._background = None
@@ -214,7 +214,7 @@ class ChainAnimation:
 
         t = float(np.asarray(self.r.frame_t)[frame]) / self.r.t_ff
         self.title.set_text(
-            f"{self._head}    t = {t:.3f} t_ff    landed {landed.size}/{pts.shape[0] - 1}, locked {locked.size}"
+            f"{self._head}\nt = {t:.3f} t_ff    landed {landed.size}/{pts.shape[0] - 1}, locked {locked.size}"
         )
         self.frame = frame
 

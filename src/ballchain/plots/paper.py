@@ -18,6 +18,7 @@ from .. import theory
 from ..records.measures import floor_gamma  # noqa: E402
 from ..records.result import Result  # noqa: E402
 from .run import lock_map_figure  # noqa: E402
+from .titles import run_title  # noqa: E402
 
 STROBE = 0.13  # the paper's Fig. 2: a side view every 0.13 t_ff
 SPLIT = 0.55  # the paper's Fig. 4: segments landed before / after 0.55 t_ff
@@ -47,6 +48,7 @@ def fig2_strobe(r: Result) -> Figure:
     a2.plot(s, 1 - s**2, "k--", lw=1, label="free particle")
     a2.set(xlabel="t / t_ff", ylabel="z_top / z0", title=f"N = {r.params.segments}")
     a2.legend()
+    fig.suptitle(run_title(r, sep=" | "), fontsize=10)
     return fig
 
 
@@ -71,7 +73,7 @@ def fig4_pile(r: Result, split: float = SPLIT) -> Figure:
     ax.autoscale()
     ax.set_aspect("equal")
     ax.legend(loc="upper right", fontsize=8)
-    ax.set(xlabel="x / b", ylabel="y / b", title="pile, top view")
+    ax.set(xlabel="x / b", ylabel="y / b", title=run_title(r) + "\npile, top view")
     return fig
 
 

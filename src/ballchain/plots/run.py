@@ -19,11 +19,7 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from ..records.result import EVENT_CODES, Result  # noqa: E402
-
-
-def _title(r: Result) -> str:
-    p = r.params
-    return f"N = {p.segments}, alpha = {np.degrees(p.alpha):.4g} deg, floor {p.floor}"
+from .titles import run_title  # noqa: E402
 
 
 def fall_figure(r: Result) -> Figure:
@@ -35,7 +31,7 @@ def fall_figure(r: Result) -> Figure:
     ax.plot(s, 1.0 - s**2, "k--", label="free fall", lw=1)
     if np.isfinite(r.t_fall):
         ax.axvline(r.t_fall / r.t_ff, color="C3", lw=0.8, label=f"t_fall = {r.t_fall / r.t_ff:.4g} t_ff")
-    ax.set(xlabel="t / t_ff", ylabel="z_top / z0", title=_title(r))
+    ax.set(xlabel="t / t_ff", ylabel="z_top / z0", title=run_title(r))
     ax.set_ylim(bottom=min(0.0, float(np.min(np.asarray(r.z_top) / r.z0))))
     ax.legend()
     return fig
@@ -53,7 +49,7 @@ def energy_figure(r: Result) -> Figure:
         ("frame_lost_landing", "lost to landing"),
     ):
         ax.plot(tau, np.asarray(getattr(r, name)) / e0, label=label)
-    ax.set(xlabel="t / t_ff", ylabel="energy / initial energy", title=_title(r))
+    ax.set(xlabel="t / t_ff", ylabel="energy / initial energy", title=run_title(r))
     ax.legend()
     return fig
 
@@ -67,7 +63,7 @@ def floor_figure(r: Result) -> Figure:
     tau = np.asarray(r.frame_t) / r.t_ff
     a1.plot(tau, np.asarray(r.frame_scale_force) / (p.segments * weight), label="scale reading (impulses excluded)")
     a1.axhline(1.0, color="k", lw=0.6, ls=":")
-    a1.set(ylabel="floor force / M g", title=_title(r))
+    a1.set(ylabel="floor force / M g", title=run_title(r))
     a1.legend()
     a2.plot(tau, np.asarray(r.frame_pile_pull)[:, 2] / weight, color="C1", label="pile's pull, z")
     a2.axhline(0.0, color="k", lw=0.6, ls=":")
@@ -91,7 +87,7 @@ def pile_figure(r: Result) -> Figure:
         fig.colorbar(lc, ax=ax, label="landed at t / t_ff")
         ax.autoscale()
     ax.set_aspect("equal")
-    ax.set(xlabel="x / b", ylabel="y / b", title=f"pile, {landed.size} segments landed")
+    ax.set(xlabel="x / b", ylabel="y / b", title=run_title(r) + f"\npile, {landed.size} segments landed")
     return fig
 
 
@@ -103,7 +99,7 @@ def lock_map_figure(r: Result) -> Figure:
         np.asarray(r.event_t)[lock] / r.t_ff, np.asarray(r.event_pos)[lock, 2] / r.z0, s=2, c="C3", label="hinge locks"
     )
     ax.plot(np.asarray(r.t) / r.t_ff, np.asarray(r.z_top) / r.z0, "k", lw=1, label="z_top")
-    ax.set(xlabel="t / t_ff", ylabel="height / z0", title=_title(r))
+    ax.set(xlabel="t / t_ff", ylabel="height / z0", title=run_title(r))
     ax.legend(markerscale=4)
     return fig
 
@@ -138,9 +134,10 @@ def gamma_figure(r: Result) -> Figure:
     ax.set(
         xlabel="t / t_ff",
         ylabel="gamma = removed / carried momentum",
-        title=_title(r) + f"\n{fg.landed} landings before t_fall",
+        title=run_title(r) + f"\n{fg.landed} landings before t_fall",
     )
-    ax.legend(fontsize=7)
+    if ax.get_legend_handles_labels()[0]:  # a run cut before any landing has none
+        ax.legend(fontsize=7)
     return fig
 
 

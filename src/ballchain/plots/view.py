@@ -16,8 +16,14 @@ import numpy as np
 
 from ..records.result import Result
 from .animate import frame_indices
+from .titles import run_title
 
 POINT_BUDGET = 1_000_000  # chain points in a file at most, by default
+# The 3D box's horizontal sides, as drawn, are at least this fraction of its height: a tall,
+# thin chain in true proportions gets a box wide enough to read its ticks (the horizontal
+# ranges grow, the proportions stay true)
+MIN_WIDTH = 0.6
+TICKS = 5  # at most about this many ticks on each horizontal axis of the box (nticks)
 COLORS = {"free": "#1f5fbf", "locked": "#d62728", "landed": "#7f7f7f"}
 STATES = ("free", "locked", "landed")
 
@@ -125,11 +131,13 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
     tau = np.asarray(result.frame_t)[idx] / t_ff
     for tr in _chain_traces(pts_all[0], segment_states(result, int(idx[0])), go):
         fig.add_trace(tr, row=1, col=1)
-    h = 0.6 * span
+    z0 = result.z0 / unit
+    zmax = float(max(hi[2], z0)) * 1.02
+    zmin = min(float(lo[2]), 0.0) - 0.5
+    h = max(0.6 * span, 0.5 * MIN_WIDTH * (zmax - zmin) / stretch)  # half the box's horizontal side
     fig.add_trace(go.Mesh3d(x=[cx - h, cx + h, cx + h, cx - h], y=[cy - h, cy - h, cy + h, cy + h], z=[0, 0, 0, 0],
                             i=[0, 0], j=[1, 2], k=[2, 3], color="#c8b48c", opacity=0.35, name="floor",
                             hoverinfo="skip", showlegend=False), row=1, col=1)  # fmt: skip
-    z0 = result.z0 / unit
     tt = np.asarray(result.t) / t_ff
     fig.add_trace(go.Scatter(x=tt, y=np.asarray(result.z_top) / unit, mode="lines", name="z_top",
                              line=dict(color="#2ca02c")), row=1, col=2)  # fmt: skip
@@ -153,18 +161,15 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
     steps = [dict(method="animate", label=f"{tau[k]:.3f}",
                   args=[[str(k)], dict(mode="immediate", frame=dict(duration=0, redraw=True), transition=dict(duration=0))])
              for k in range(len(idx))]  # fmt: skip
-    zmax = float(max(hi[2], z0)) * 1.02
-    zmin = min(float(lo[2]), 0.0) - 0.5
     # the box's sides in proportion to the lengths they span (times ``stretch`` across)
     sides = np.array([2 * h * stretch, 2 * h * stretch, zmax - zmin])
     sides = sides / sides.max()
     shape = "true proportions" if stretch == 1 else f"horizontal lengths drawn {stretch:.3g}x the vertical"
     fig.update_layout(
-        title=f"ballchain: N = {result.params.segments}, alpha = {np.degrees(result.params.alpha):.4g} deg, "
-        f"floor {result.params.floor} (lengths in b, time in t_ff; the chain in {shape})",
+        title=f"ballchain: {run_title(result, sep=' | ')}<br><sup>lengths in b, time in t_ff; the chain in {shape}</sup>",
         scene=dict(
-            xaxis=dict(range=[cx - h, cx + h], title="x"),
-            yaxis=dict(range=[cy - h, cy + h], title="y"),
+            xaxis=dict(range=[cx - h, cx + h], title="x", nticks=TICKS),
+            yaxis=dict(range=[cy - h, cy + h], title="y", nticks=TICKS),
             zaxis=dict(range=[zmin, zmax], title="z"),
             aspectmode="manual",
             aspectratio=dict(x=sides[0], y=sides[1], z=sides[2]),
@@ -174,7 +179,7 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
         yaxis=dict(title="z_top / b", range=[min(0.0, float(np.nanmin(pts_all[:, 0, 2]))) - 0.5, zmax]),
         **_player(steps),
         legend=dict(x=0.0, y=1.0),
-        margin=dict(l=10, r=10, t=60, b=40),
+        margin=dict(l=10, r=10, t=90, b=40),
     )
     return fig
 
