@@ -636,3 +636,50 @@ def test_a_table_read_while_a_sweep_replaces_it_is_one_version(tmp_path):
         stop.set()
         writer.join()
     assert set(seen) <= set(sizes)
+
+
+def test_each_contact_law_is_an_axis_of_the_grid(tmp_path):
+    """``--friction 0,inf --restitution-lock 0,0.5`` runs the four laws of the product on
+    the same starts: each row is the run its law gives alone (a one-law sweep of the same
+    start), the table has one column per law, and ``stats`` keeps the four points apart."""
+    out = tmp_path / "laws.parquet"
+    args = ["sweep", "-N", "4", "--alpha", "0.8", "--runs", "2", "--method", "rattle", "--workers", "1", "-q"]
+    res = CliRunner().invoke(app, [*args, "--friction", "0,inf", "--restitution-lock", "0,0.5", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    rows = read_table(out)
+    laws = sorted((r["friction"], r["restitution_lock"], r["run_index"]) for r in rows)
+    assert laws == sorted((mu, e, k) for mu in (0.0, math.inf) for e in (0.0, 0.5) for k in (0, 1))
+    assert len({r["run_id"] for r in rows}) == 8
+    for mu, e in ((0.0, 0.5), (math.inf, 0.0)):  # two of the four, each swept alone
+        alone = tmp_path / f"alone{mu}{e}.parquet"
+        run_sweep(
+            SweepSpec(segments=(4,), alphas=(0.8,), runs=2, method="rattle", friction=mu, restitution_lock=e),
+            alone,
+            workers=1,
+            progress=False,
+        )
+        for a in read_table(alone):
+            (b,) = [r for r in rows if r["run_id"] == a["run_id"]]
+            assert b["friction"] == mu and b["restitution_lock"] == e
+            assert b["ratio"] == pytest.approx(a["ratio"], rel=1e-9)
+            assert b["energy_lost_locking"] == pytest.approx(a["energy_lost_locking"], rel=1e-9, abs=1e-12)
+    res = CliRunner().invoke(app, ["stats", str(out), "--json"])
+    points = json.loads(res.stdout)["points"]
+    assert sorted((str(p["friction"]), p["restitution_lock"]) for p in points) == [
+        ("0.0", 0.0),
+        ("0.0", 0.5),
+        ("None", 0.0),
+        ("None", 0.5),
+    ]
+
+
+def test_a_law_of_the_grid_that_cannot_run_is_named_before_anything_runs(tmp_path):
+    """A combination the model refuses stops the sweep before it starts, in one line naming
+    the grid's point; a bad value of an axis is named as the single option's would be."""
+    out = tmp_path / "t.parquet"
+    base = ["sweep", "-N", "4", "--alpha", "0.8", "--method", "rattle", "--out", str(out)]
+    res = CliRunner().invoke(app, [*base, "--friction", "0,0.3", "--restitution-floor", "0,0.5"])
+    assert res.exit_code == 2 and not out.exists()
+    assert "sweep point --restitution-floor 0.5, --friction 0:" in res.stderr
+    res = CliRunner().invoke(app, [*base, "--friction", "0,-1"])
+    assert res.exit_code == 2 and "negative friction" in res.stderr and not out.exists()

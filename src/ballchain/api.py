@@ -166,7 +166,8 @@ def sweep(*, out=None, workers: int | None = 1, progress: bool = False, **grid: 
     """A grid of falls (every N x alpha x floor x start family, ``runs`` starts each) on a
     local Dask cluster, as ``ballchain sweep`` runs it; returns the table as a pandas
     DataFrame (one row per run; columns as ``ballchain sweep`` writes them).  ``grid``:
-    the keywords below (``segments``, ``alpha``, ``floor``, ``ic``: one value or a list).
+    the keywords below (``segments``, ``alpha``, ``floor``, ``ic`` and each contact law's
+    parameter, ``friction=[0, 0.3, inf]``: one value or a list, an axis of the grid).
     ``out``: the Parquet file to keep (and resume); default a temporary one.  ``workers``
     > 1 starts worker processes: in a script, call it under ``if __name__ == "__main__":``."""
     import pandas as pd

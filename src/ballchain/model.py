@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .contacts.registry import all_params as contact_params  # (one registry of contact laws)
-from .contacts.registry import law_of, law_param_help
+from .contacts.registry import check_laws, law_of, law_param_help
 from .errors import ParameterError  # noqa: F401  (re-exported: the model's validation raises it)
 from .floors.registry import FLOOR_MODELS, WATCHES_EVERY_POINT  # noqa: E402  (one registry of floor models)
 from .methods import METHOD_NAMES, all_options, method_default, option_help, option_owner  # noqa: E402  (one registry of methods)
@@ -110,21 +110,7 @@ class _Chain:
             object.__setattr__(self, name, _finite_positive(name, getattr(self, name)))
         for name, p in contact_params().items():  # the contact laws' (contacts.registry)
             object.__setattr__(self, name, p.validated(getattr(self, name)))
-        if self.restitution_floor != 0.0 and self.floor not in WATCHES_EVERY_POINT:
-            raise ParameterError(
-                f"restitution_floor {self.restitution_floor:g} needs floor all (a point that rebounds must "
-                f"be watched again; floor {self.floor} watches only the bottom airborne segment)"
-            )
-        if self.friction != math.inf and self.floor not in WATCHES_EVERY_POINT:
-            raise ParameterError(
-                f"friction {self.friction:g} needs floor all (a point that slides must be watched; floor "
-                f"{self.floor} watches only the bottom airborne segment)"
-            )
-        if self.friction != math.inf and self.restitution_floor != 0.0:
-            raise ParameterError(
-                f"friction {self.friction:g} with restitution_floor {self.restitution_floor:g}: a sliding "
-                "point that bounces is not built yet (set one of them to its default)"
-            )
+        check_laws(self, WATCHES_EVERY_POINT)  # the rules between the laws and the floor (contacts.registry)
 
     @classmethod
     def from_chain(cls, segments: int, length_m: float, mass_kg: float, gravity_m_s2: float = 9.81, **kw):

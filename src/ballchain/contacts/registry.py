@@ -92,6 +92,38 @@ LAWS = {
 }
 
 
+# The rules between the laws and the floor model, stated once as data (``check_laws`` applies
+# them; ``ChainParams`` calls it): a parameter away from its default that needs a floor model
+# watching every point, with the physical reason ...
+NEEDS_EVERY_POINT_WATCHED = {
+    "restitution_floor": "a point that rebounds must be watched again",
+    "friction": "a point that slides must be watched",
+}
+# ... and pairs of parameters that cannot both leave their defaults, with the reason
+EXCLUDES = ((("friction", "restitution_floor"), "a sliding point that bounces is not built yet"),)
+
+
+def check_laws(params, every_point_floors) -> None:
+    """Refuse, in one line with its reason, a combination of the laws' parameters (and the
+    floor model) that the rules above exclude (``params``: a ``ChainParams``;
+    ``every_point_floors``: the floor models that watch every point)."""
+    from ..errors import ParameterError
+
+    prms = all_params()
+    moved = {name for name, p in prms.items() if getattr(params, name) != p.default}
+    for name in sorted(moved & set(NEEDS_EVERY_POINT_WATCHED), key=list(prms).index):
+        if params.floor not in every_point_floors:
+            raise ParameterError(
+                f"{name} {getattr(params, name):g} needs floor {' or '.join(every_point_floors)} "
+                f"({NEEDS_EVERY_POINT_WATCHED[name]}; floor {params.floor} watches only the bottom airborne segment)"
+            )
+    for (a, b), why in EXCLUDES:
+        if a in moved and b in moved:
+            raise ParameterError(
+                f"{a} {getattr(params, a):g} with {b} {getattr(params, b):g}: {why} (set one of them to its default)"
+            )
+
+
 def all_params() -> dict:
     """Every contact law's parameters by name, in the registry's order."""
     out: dict = {}

@@ -1,7 +1,8 @@
 """What a sweep runs: lists and ranges of parameters -> one task per run.
 
-A sweep is the product  N x alpha x floor x initial-condition family  with ``runs``
-initial conditions per point.  Run ``k`` of every point starts from the ``k``-th child
+A sweep is the product  N x alpha x floor x contact law x initial-condition family  with
+``runs`` initial conditions per point (each contact law's parameter, ``contacts.registry``,
+is an axis: ``--friction 0,0.3,inf --restitution-floor 0,0.5`` runs six laws).  Run ``k`` of every point starts from the ``k``-th child
 stream of ``numpy.random.SeedSequence(seed).spawn``: the same starting shape for every
 N, alpha and floor (common random numbers, so that points are compared on the same
 starts), and each run rebuilt on its own from ``(seed, spawn_key)`` with
@@ -13,9 +14,10 @@ Everything is validated here, before anything runs: a bad specification is one
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, make_dataclass
 
 from ..contacts.registry import all_params as contact_params
 from ..contacts.registry import law_of, law_param_help
@@ -113,6 +115,27 @@ def parse_choices(text: str, allowed: tuple[str, ...], what: str) -> list[str]:
     return out
 
 
+def law_values(name: str, values) -> tuple:
+    """The values of a contact law's parameter ``name`` as a sweep's axis: one value, a
+    sequence, or the command line's text ``0,0.3,inf``; each checked as the law states it
+    (``contacts.registry``), duplicates dropped, in the order given."""
+    prm = contact_params()[name]
+    if isinstance(values, str):
+        values = _items(values, prm.flag or name)
+    elif not isinstance(values, (list, tuple)):
+        values = (values,)
+    if len(values) == 0:
+        raise ParameterError(f"{prm.flag or name}: needs at least one value")
+    out: list = []
+    for v in values:
+        v = prm.validated(v)
+        if v is None:
+            v = prm.default
+        if v not in out:
+            out.append(v)
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class Task:
     """One run of a sweep: its identity and its validated inputs (picklable)."""
@@ -186,18 +209,33 @@ class _SweepGrid:
             ),
         )
         InitialCondition(eps=self.eps)  # validates eps
-        check_contacts(ChainParams(segments=1, **self.contact_values()), self.method)
+        for name in contact_params():
+            object.__setattr__(self, name, law_values(name, getattr(self, name)))
+        for laws in self.law_grid():  # every law of the grid: one the model and the method take
+            try:
+                for fl in self.floors:
+                    check_contacts(ChainParams(segments=1, floor=fl, **laws), self.method)
+            except ParameterError as exc:
+                shown = ", ".join(
+                    f"{contact_params()[k].flag} {v:g}"
+                    for k, v in laws.items()
+                    if len(getattr(self, k)) > 1 or v != contact_params()[k].default
+                )
+                raise ParameterError(f"sweep point {shown}: {exc}") from None
         n = self.size
         if n > MAX_RUNS:
             raise ParameterError(f"sweep has {n} runs (more than {MAX_RUNS}); narrow it")
 
-    def contact_values(self) -> dict:
-        """The contact laws' parameters of every run (``contacts.registry``)."""
-        return {name: getattr(self, name) for name in contact_params()}
+    def law_grid(self) -> list[dict]:
+        """The contact laws of the grid: every combination of the laws' parameters' values
+        (``contacts.registry``, in its order), one dict of parameter values each."""
+        names = list(contact_params())
+        return [dict(zip(names, values)) for values in itertools.product(*(getattr(self, n) for n in names))]
 
     @property
     def size(self) -> int:
-        return len(self.segments) * len(self.alphas) * len(self.floors) * len(self.ics) * self.runs
+        laws = math.prod(len(getattr(self, name)) for name in contact_params())
+        return len(self.segments) * len(self.alphas) * len(self.floors) * laws * len(self.ics) * self.runs
 
     def tasks(self) -> list[Task]:
         """Every run, validated (parameters and the initial state inside the cone)."""
@@ -207,15 +245,15 @@ class _SweepGrid:
         checked: set = set()
         for n in self.segments:
             for a in self.alphas:
-                for fl in self.floors:
-                    params = ChainParams(segments=n, alpha=a, floor=fl, **self.contact_values())
+                for fl, laws in itertools.product(self.floors, self.law_grid()):
+                    params = ChainParams(segments=n, alpha=a, floor=fl, **laws)
                     for kind in self.ics:
                         for k in range(self.runs):
                             ic = InitialCondition(
                                 kind=kind, eps=self.eps, seed=self.seed, spawn_key=(k,) if kind == "random" else ()
                             )
                             key = (n, a, kind, k)
-                            if key not in checked:  # the floor does not change the start
+                            if key not in checked:  # the floor and the laws do not change the start
                                 try:
                                     initial_directions(ic, n, params.alpha)
                                 except ParameterError as exc:
@@ -234,8 +272,27 @@ class _SweepGrid:
         return out
 
 
-# the contact laws' parameters (one value for every run), then the methods' options
-_SweepContacts = options_dataclass(_SweepGrid, "_SweepContacts", __name__, (contact_params(), law_of, law_param_help))
+def _law_axes(base: type) -> type:
+    """``base`` with one field per contact law's parameter (``contacts.registry``): the tuple
+    of its values, an axis of the grid (default: the law's default alone; one value or a
+    sequence is taken, ``law_values``)."""
+    cls = make_dataclass(
+        "_SweepContacts",
+        [(name, tuple, field(default=(prm.default,))) for name, prm in contact_params().items()],
+        bases=(base,),
+        frozen=True,
+        kw_only=True,
+        namespace={"__module__": __name__},
+    )
+    cls.__doc__ = (base.__doc__ or "") + "".join(
+        f"\n    {name}: (``{law_of(name)}``) the values of the grid's axis (one or more): {law_param_help(name)}"
+        for name in contact_params()
+    )
+    return cls
+
+
+# the contact laws' parameters (each an axis of the grid), then the methods' options
+_SweepContacts = _law_axes(_SweepGrid)
 SweepSpec = options_dataclass(
     _SweepContacts, "SweepSpec", __name__, (all_options(), option_owner, option_help), sweep_options()
 )
