@@ -75,7 +75,7 @@ def test_a_partly_elastic_limit_closes_its_books_and_stays_inside_its_limits(e):
     assert g[free_pair].min() > -1e-7
 
 
-@pytest.mark.parametrize("law, method", [("restitution_floor", "timestep")])
+@pytest.mark.parametrize("law, method", [("friction", "timestep"), ("friction", "event")])
 def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method, law):
     flag = "--" + law.replace("_", "-")
     with pytest.raises(ParameterError, match=f"not honoured by --method {method}"):
@@ -157,18 +157,26 @@ def test_a_rod_bounces_on_its_top_end_until_the_accumulation_rule_anchors_it():
     the rate it came with and loses (1 - e^2) of the kinetic energy, each flight lasts
     what the quadrature of the pivoting rod says, and the series ends where the
     accumulation rule (v^2 < 2 hold_apex |a_z|, v < hold_rate; a_z = -3/2 at the flat
-    rod's top end) says: then the top end is anchored and the books hold all of E0."""
+    rod's top end) says: then the top end is anchored, logged as a ``pin`` (Newton's law
+    would have bounced it once more: the fallback rule's row, never a plain ``landing``),
+    whose loss is all the kinetic energy the series had left, cos(theta0) e^(2K) after K
+    bounces, and the books hold all of E0."""
     theta0, e = 0.4, 0.5
     r = _rod(theta0, e)
     assert r.status == "landed", r.message
     top = r.event_index == 0
     bounce = top & (r.event_kind == EVENT_CODES["bounce"])
     landing = top & (r.event_kind == EVENT_CODES["landing"])
+    pin = top & (r.event_kind == EVENT_CODES["pin"])
     omega = np.sqrt(1.5 * np.cos(theta0))
     o = SolverOptions()
     v = 2.0 * omega * e ** np.arange(1, 60)  # the top end's speed leaving the k-th bounce
     held = (v < o.hold_rate) | (v**2 < 2.0 * o.hold_apex * 1.5)
-    assert bounce.sum() == np.argmax(held) and landing.sum() == 1
+    k = bounce.sum()
+    assert k == np.argmax(held) and pin.sum() == 1 and landing.sum() == 0
+    assert r.event_t[pin][0] > r.event_t[bounce].max()  # the series' last row
+    assert r.event_energy[pin][0] == pytest.approx(np.cos(theta0) * e ** (2 * k), rel=1e-6)
+    assert r.event_counts()["pin"] == 1 and r.summary()["events"]["pin"] == 1
     t = r.event_t[bounce]
     assert r.t_fall == t[0]  # the fall ends at the top end's first touch
     flights = np.array([_flight(omega * e**k) for k in range(1, 7)])
@@ -196,7 +204,7 @@ def test_the_floor_has_its_own_accumulation_threshold(opts, floor_rate):
     omega = np.sqrt(1.5 * np.cos(theta0))
     v = 2.0 * omega * e ** np.arange(1, 60)
     held = (v < floor_rate) | (v**2 < 2.0 * SolverOptions().hold_apex * 1.5)
-    assert bounce.sum() == np.argmax(held) and (top & (r.event_kind == EVENT_CODES["landing"])).sum() == 1
+    assert bounce.sum() == np.argmax(held) and (top & (r.event_kind == EVENT_CODES["pin"])).sum() == 1
     assert r.energy["lost_landing"] == pytest.approx(r.energy["initial"], rel=1e-9)
 
 
@@ -240,7 +248,7 @@ def test_restitution_at_the_floor_closes_the_books_and_keeps_every_point_above_i
     en, e0 = r.energy, r.energy["initial"]
     assert abs(en["imbalance"]) < 1e-8 * e0
     assert r.max_depth <= 1e-9
-    top = (r.event_index == 0) & (bounces | (r.event_kind == EVENT_CODES["landing"]))
+    top = (r.event_index == 0) & (bounces | np.isin(r.event_kind, [EVENT_CODES["landing"], EVENT_CODES["pin"]]))
     if e_floor < 1:
         assert r.t_fall == r.event_t[top][0]
     if e_lock == 1.0:
@@ -271,3 +279,23 @@ def test_a_point_kicked_down_at_the_floor_lands_at_once_and_every_series_of_boun
     assert np.bincount(r.event_index[bounces]).max() < 200
     assert r.max_depth <= 1e-10
     assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]
+
+
+def test_at_an_elastic_limit_only_the_fallback_rules_rows_lose_energy():
+    """e = 1 at the limits: Newton's law loses nothing at any impact, whatever the number of
+    rows it acts on ((1 - e)/(1 + e) P.GP = 0), so every bit of E_lock a fall books must sit
+    in rows of the fallback rules (``hold``: a hinge the law would rebound, kept at its
+    limit); the lock and impulse rows lose nothing, and the hold rows add up to E_lock."""
+    r = simulate(
+        ChainParams(segments=8, alpha=math.pi / 2, restitution_lock=1.0),
+        InitialCondition(kind="random", seed=3),
+        SolverOptions(max_time=2.0),
+    )
+    e0 = r.energy["initial"]
+    kind, lost = r.event_kind, r.event_energy
+    law = np.isin(kind, [EVENT_CODES["lock"], EVENT_CODES["impulse"]])
+    held = kind == EVENT_CODES["hold"]
+    assert law.sum() > 0
+    assert np.abs(lost[law]).sum() < 1e-10 * e0
+    assert lost[held].sum() == pytest.approx(r.energy["lost_locking"], rel=1e-9, abs=1e-12 * e0)
+    assert r.summary()["events"]["hold"] == held.sum()

@@ -62,3 +62,16 @@ def floor_rebound(vz_before, e):
     leaves the floor with: -e vz_before (Newton's law on the floor's normal row; the
     rough floor stops its horizontal motion in the impact); 0 for a touch or e = 0."""
     return -e * vz_before if (e > 0.0 and vz_before < 0.0) else 0.0
+
+
+FLIGHT_STEPS = 4.0  # a time-stepping method makes a bounce only if its flight lasts this many steps
+
+
+@njit(cache=True, inline="always")
+def bounce_resolved(v, h, hold_rate):
+    """Is a bounce off the floor at upward velocity v (sqrt(g b)) one a time-stepping method
+    with steps h (sqrt(b/g)) resolves: faster than ``hold_rate`` and on a flight 2 v / g of
+    FLIGHT_STEPS steps or more (v > FLIGHT_STEPS g h / 2)?  A shorter flight is not resolved
+    by the steps: the series of bounces ends there, at the step's scale, and the point is
+    anchored (a ``pin`` row), as the accumulation rule ends it in the event method."""
+    return v > max(hold_rate, 0.5 * FLIGHT_STEPS * h)

@@ -20,6 +20,7 @@ EVENT_KINDS = {
     10: "slip",
     11: "stick",
     12: "lift",
+    13: "pin",
 }
 EVENT_MEANINGS = {
     "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
@@ -28,7 +29,10 @@ EVENT_MEANINGS = {
     "top": "floor pivot only: the top end reaches z = 0 (t_fall); no change of state",
     "impulse": "a hinge locked before the instant takes an impulse (Lambda, 0, 0) and stays locked",
     "release": "a hinge at its limit (locked, or locking at this instant) leaves it at an impact",
-    "hold": "a hinge held at its limit by the accumulation rule; impulse (Lambda, 0, 0) of either sign",
+    "hold": "a hinge held at its limit by a fallback rule instead of the law's outcome: the accumulation rule "
+    "(a hinge returning too slowly to resolve), or, with restitution at the limit, a hinge that Newton's law would "
+    "rebound kept at it (an impact the law would make create energy, taken inelastic; a rebound too short to "
+    "resolve); impulse (Lambda, 0, 0) of either sign",
     "anchor": "a point anchored before the instant takes an impulse of the floor at an impact",
     "bounce": "a point reaches the floor and leaves it again (restitution at the floor); impulse: the floor's "
     "on the chain at that point",
@@ -38,9 +42,16 @@ EVENT_MEANINGS = {
     "step); no impulse given",
     "lift": "finite friction: a point held by the floor is let go, the floor having pulled it; impulse: that "
     "force (x, y, z) over the step",
+    "pin": "restitution at the floor: a point that lands and that Newton's law would bounce is anchored instead by a "
+    "fallback rule (its bounce would be too small to resolve: the accumulation limit of a series of bounces; or "
+    "the impact's other contacts turned it back down); impulse and energy as a landing's",
 }
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = (EVENT_CODES[k] for k in ("lock", "unlock", "landing", "top"))
 LOG_IMPULSE, LOG_RELEASE, LOG_HOLD, LOG_ANCHOR = (EVENT_CODES[k] for k in ("impulse", "release", "hold", "anchor"))
 LOG_BOUNCE = EVENT_CODES["bounce"]
 LOG_SLIP, LOG_STICK, LOG_LIFT = (EVENT_CODES[k] for k in ("slip", "stick", "lift"))
+LOG_PIN = EVENT_CODES["pin"]
+# the rows of a fallback rule, one that changes a law's outcome (``hold``: a hinge held at its
+# limit instead of rebounding or leaving it; ``pin``: a point anchored instead of bouncing)
+FALLBACK_KINDS = ("hold", "pin")

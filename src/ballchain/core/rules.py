@@ -37,6 +37,7 @@ from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a 
     LOG_LANDING,
     LOG_LIFT,
     LOG_LOCK,
+    LOG_PIN,
     LOG_RELEASE,
     LOG_SLIP,
     LOG_STICK,

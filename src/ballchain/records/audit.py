@@ -86,7 +86,7 @@ def anchor_miss(result: Result) -> tuple[float, float]:
     not landed), over whole frames at once.  Both
     methods keep these on their anchors to their projection's tolerance (1e-12 b to
     1e-13 N b); (0, NaN) without frames or anchors.  A point is checked in the frames from
-    the last time the floor took hold of it (its last ``landing`` or ``stick`` row in the
+    the last time the floor took hold of it (its last ``landing``, ``pin`` or ``stick`` row in the
     log; point N from t = 0 if it has none) on, against ``anchor_pos``, its last anchor:
     with finite friction a point can slip and be held again elsewhere, between two frames;
     at friction inf, once anchored it stays."""
@@ -97,7 +97,7 @@ def anchor_miss(result: Result) -> tuple[float, float]:
     anchor = np.asarray(result.anchor_pos, dtype=float)
     since = np.full(anchored.shape[1], -math.inf)
     kind, index, te = (np.asarray(getattr(result, f)) for f in ("event_kind", "event_index", "event_t"))
-    took = (kind == EVENT_CODES["landing"]) | (kind == EVENT_CODES["stick"])
+    took = np.isin(kind, [EVENT_CODES[k] for k in ("landing", "pin", "stick")])
     np.maximum.at(since, index[took].astype(int), te[took].astype(float))
     ft = np.asarray(result.frame_t, dtype=float)
     held = anchored & (ft[:, None] >= since[None, :])

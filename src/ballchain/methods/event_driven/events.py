@@ -47,6 +47,7 @@ from ...core.rules import (
     LOG_IMPULSE,
     LOG_LANDING,
     LOG_LOCK,
+    LOG_PIN,
     LOG_RELEASE,
     LOG_TOP,
     LOG_UNLOCK,
@@ -422,13 +423,18 @@ def _next_round(chain, hs):
 
 
 @njit(cache=True)
-def _log_instant(t, na, chain, hs, ct, pt, log):
+def _log_instant(t, na, model, chain, hs, ct, pt, iw, log):
     """The log: one row per constraint that acted (hinges, new anchors, old anchors that
-    took an impulse)."""
+    took an impulse).  A contact that Newton's law would rebound (``contacts.newton``: it
+    approached faster than RATE_TOL / e before the instant) and that a fallback rule kept
+    at its limit is logged as such: ``hold`` (a hinge: the accumulation rule, or an impact
+    taken inelastic because the law would create energy) or ``pin`` (a landing point)."""
     locked, pts = chain.locked, pt.pts
+    e_lock, e_floor = model.e_lock, model.e_floor
     for k in range(locked.shape[0]):
         was, new = hs.was_locked[k], hs.new_lock[k]
-        if hs.forced[k]:
+        held = e_lock > 0.0 and locked[k] != 0 and rebounds(-e_lock * iw.rates_before[k], e_lock, RATE_TOL)
+        if hs.forced[k] or (held and (hs.imp_sum[k] != 0.0 or new)):
             log_row(log, t, LOG_HOLD, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
         elif hs.imp_sum[k] != 0.0 or new:
             log_row(log, t, LOG_IMPULSE if was else LOG_LOCK, k, hs.imp_sum[k], 0.0, 0.0, hs.lost_h[k], pts, k + 1)
@@ -441,7 +447,12 @@ def _log_instant(t, na, chain, hs, ct, pt, log):
         j = ct.new_anchor[r]
         i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
         lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * (ct.pre_v[r, 2] + ct.bounce[j]))
-        log_row(log, t, LOG_LANDING if chain.anchored[j] != 0 else LOG_BOUNCE, j, i0, i1, i2, lost, pts, j)
+        kind = LOG_LANDING
+        if chain.anchored[j] == 0:
+            kind = LOG_BOUNCE
+        elif rebounds(floor_rebound(ct.pre_v[r, 2], e_floor), e_floor, RATE_TOL):
+            kind = LOG_PIN  # (Newton's law would bounce it: a fallback rule anchored it, ``contacts.newton``)
+        log_row(log, t, kind, j, i0, i1, i2, lost, pts, j)
     for j in range(chain.anchored.shape[0]):  # impulses of the floor on points anchored before this instant
         if chain.anchored[j] != 0 and chain.anchor_t[j] != t:
             i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
@@ -482,6 +493,8 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     na = _anchor_contacts(t, model, chain, ct, pt, any_landing, sc.iw)
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
     T0 = kinetic_energy(e, w, pt.pv, pt.vel)
+    if model.e_lock > 0.0:  # (Newton's law compares with the rates before the instant, whichever round impacts first)
+        hinge_rates(e, w, sc.iw.rates_before)
     settle = True
     # each round holds one more hinge, anchors one more point or makes one bounce
     for rnd in range(chain.locked.shape[0] + 2 * chain.anchored.shape[0] + 1):
@@ -506,7 +519,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
         impact = True
     if kinetic_energy(e, w, pt.pv, pt.vel) > T0 * (1 + 1e-9) + 1e-12:
         return ERR_ENERGY
-    _log_instant(t, na, chain, hs, ct, pt, log)
+    _log_instant(t, na, model, chain, hs, ct, pt, sc.iw, log)
     _finish_instant(t, model, chain, watch, ws, sc, books)
     return EV_OK
 

@@ -11,10 +11,13 @@ from ...core.blocks import _weights
 from ...core.books import log_row, lowest_point
 from ...core.rules import (
     LOG_BOUNCE,
+    LOG_HOLD,
     LOG_LANDING,
     LOG_LOCK,
+    LOG_PIN,
     LOG_TOP,
     LOG_UNLOCK,
+    RATE_TOL,
     fall_ended,
     landed_count,
 )
@@ -33,7 +36,7 @@ from .rows import (
     row_rates,
     segment_force,
 )
-from .state import active_points, base_at_origin, point_vz, point_z
+from .state import HELD, PINNED, active_points, base_at_origin, point_vz, point_z
 
 
 @njit(cache=True)
@@ -198,6 +201,22 @@ def _hinge_impulse(k, kind1, nrow1, x1, rb1, ra1, kind2, nrow2, x2, rb2, ra2):
 
 
 @njit(cache=True)
+def _held_by_fallback(k, e_lock, sc):
+    """With restitution at the limit, did hinge k lock in the step although Newton's law would
+    rebound it (``rules`` ``hold`` row)?  It was closing at the step's start faster than
+    RATE_TOL, or stage 2 found its rebound too slow to resolve (Scratch.fallback's HELD)."""
+    if e_lock <= 0.0:
+        return False
+    if sc.fallback[k + 1] & HELD:
+        return True
+    st = sc.start
+    rate = 0.0  # d/dt (e_k . e_k+1) at the step's start
+    for q in range(3):
+        rate += st.ve[k, q] * st.e[k + 1, q] + st.e[k, q] * st.ve[k + 1, q]
+    return rate < -RATE_TOL
+
+
+@njit(cache=True)
 def commit(t, h, na, model, mo, ws, sc, books, log):
     """The step's books and log: energy lost at hinges and landings, the floor's impulse
     (a step with a landing: the impacts' account, else the flow), the landed segments'
@@ -220,7 +239,8 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
             p, lost = _hinge_impulse(
                 k, sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, ws.kind, ws.nrow, ws.x, sc.val, sc.rate
             )
-            log_row(log, t + h, LOG_LOCK, k, p, 0.0, 0.0, lost, sc.pts, k + 1)
+            held = not rebounded and _held_by_fallback(k, model.e_lock, sc)
+            log_row(log, t + h, LOG_HOLD if held else LOG_LOCK, k, p, 0.0, 0.0, lost, sc.pts, k + 1)
         elif sc.start.locked[k] and not locked[k]:
             log_row(log, t + h, LOG_UNLOCK, k, 0.0, 0.0, 0.0, 0.0, sc.pts, k + 1)
     for j in range(pa):  # (finite friction: the floor's hold let go, or taken again)
@@ -233,7 +253,7 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
         share = 1.0 / na
         for r in range(na):
             j = sc.new_anchor[r]
-            kind = LOG_BOUNCE if sc.rebound[j] > 0.0 else LOG_LANDING
+            kind = LOG_BOUNCE if sc.rebound[j] > 0.0 else (LOG_PIN if sc.fallback[j] & PINNED else LOG_LANDING)
             sc.rebound[j] = 0.0
             log_row(
                 log, t + h, kind, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],

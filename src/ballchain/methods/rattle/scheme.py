@@ -167,7 +167,7 @@ def scratch_view(sc, p):
         sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
         sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
-        sc.hrebound[:k], sc.newrow, sc.inelastic, sc.fimp[:p], sc.fsec[:p], sc.grip_log[:p],
+        sc.hrebound[:k], sc.newrow, sc.inelastic, sc.fimp[:p], sc.fsec[:p], sc.grip_log[:p], sc.fallback[:p],
     )  # fmt: skip
 
 
@@ -178,6 +178,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     if grip:
         friction_directions(mo)
         sc.grip_log[:, 0] = 0.0
+    if restitution(model):
+        sc.fallback[:] = 0  # (this attempt's marks: ``books.commit`` logs them)
     e_start = mechanical_energy(mo.c, mo.vc, mo.ve)
     held = hold_marked(mo, sc) if grip and landings else 0  # (``friction.hold_stuck_stretch``)
     code = stage1(h, model, mo, ws, sc, budget)

@@ -6,7 +6,7 @@ after a landing (``settle``)."""
 from __future__ import annotations
 
 from ...contacts.coulomb import closes, grips, released, slides
-from ...contacts.newton import floor_rebound
+from ...contacts.newton import bounce_resolved, floor_rebound
 from ...core.rules import (
     LOG_STICK,
     Z_TOL,
@@ -14,6 +14,7 @@ from ...core.rules import (
     is_landed,
     limit_in_force,
 )
+from ...core.rules import RATE_TOL as TOUCH_RATE  # (an approach slower than this is a touch, not an impact)
 from ...floors.dispatch import floor_cascade
 from ...jit import njit
 from .blocks import solve_blocks
@@ -29,15 +30,16 @@ from .rows import (
     row_rates,
 )
 from .stage1 import ROUNDS_MAX, _factor, add_impulses, half_kick, position_tol
-from .state import point_positions, point_vz, point_z
+from .state import HELD, PINNED, point_positions, point_vz, point_z
 
 RATE_TOL = 1e-10  # sqrt(g b): a released hinge closing faster than this is put back in stage 2
 HOLD_RATE = 1e-6  # sqrt(g b): a rebound slower than this is not made (held: the event method's default threshold)
 FIXED_POINT_MAX = 40  # finite friction: stage 2 solved again at most this many times for the landings' slips
 #   (secant steps: an affine root takes two); then the points that would slip are held (``friction.jam``)
-FLIGHT_STEPS = 4.0  # ... nor one off the floor whose flight, 2 v / g, would last fewer steps than this: a
-#   point resting on the floor reaches it again at g h a step, and at HOLD_RATE alone bounced every other
-#   step for good (N = 512 at E = 0.3: the step cut to 1/500 of its size and 600 000 bounces a point)
+# ... nor one off the floor whose flight, 2 v / g, would last fewer steps than newton.FLIGHT_STEPS
+#   (``newton.bounce_resolved``): a point resting on the floor reaches it again at g h a step, and at
+#   HOLD_RATE alone bounced every other step for good (N = 512 at E = 0.3: the step cut to 1/500 of its
+#   size and 600 000 bounces a point)
 
 
 @njit(cache=True)
@@ -46,8 +48,8 @@ def land(t, h, model, mo, sc, landings):
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
     their number (listed in sc.new_anchor).  With restitution at the floor a point that
     would leave it faster than HOLD_RATE (``newton.floor_rebound`` of the vertical velocity
-    it reached the floor with, ``impact_rates``), on a flight of FLIGHT_STEPS steps of h
-    or more (v > FLIGHT_STEPS g h / 2), bounces instead: not anchored, listed, its
+    it reached the floor with, ``impact_rates``), on a flight of ``newton.FLIGHT_STEPS`` steps
+    of h or more (``newton.bounce_resolved``), bounces instead: not anchored, listed, its
     velocity's rows in stage 2 (``rows.BOUNCE``: sc.rebound its upward velocity).  A
     shorter flight is not resolved by the steps: the series of bounces ends there, at
     the step's scale, and the point is anchored.  On a
@@ -61,7 +63,6 @@ def land(t, h, model, mo, sc, landings):
     anchors nothing.  Returns (landings, stops)."""
     slide = slides(model.friction)
     grip = grips(model.friction)
-    v_min = max(HOLD_RATE, 0.5 * FLIGHT_STEPS * h)  # (g = 1)
     point_positions(mo.c, mo.e, sc.pts)
     na, ns = 0, 0
     for j in range(mo.e.shape[0] + 1):
@@ -93,12 +94,14 @@ def land(t, h, model, mo, sc, landings):
             continue
         if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
             v = floor_rebound(approach, model.e_floor)  # (0 for e_floor 0)
-            if v > v_min:  # it bounces: not anchored; stage 2 gives it (0, 0, v)
+            if bounce_resolved(v, h, HOLD_RATE):  # it bounces: not anchored; stage 2 gives it (0, 0, v)
                 sc.rebound[j] = v
                 sc.floor_on[j] = BOUNCE
                 sc.new_anchor[na] = j
                 na += 1
                 continue
+            if model.e_floor > 0.0 and (v > TOUCH_RATE or point_vz(sc.start, j) < -TOUCH_RATE):
+                sc.fallback[j] |= PINNED  # (Newton's law would bounce it: the bounce is too short to resolve)
             hold_at(mo, j, sc.pts)
             mo.anchored[j] = 2
             mo.anchor_t[j] = t
@@ -190,6 +193,8 @@ def stage2(h, model, mo, ws, sc):
     for k in range(locked.shape[0] if bounce else 0):  # (sc.hrebound: the approach rates, ``impact_rates``)
         v = -model.e_lock * sc.hrebound[k] if sc.cand[k] != 0 else 0.0
         sc.hrebound[k] = v if v > HOLD_RATE else 0.0
+        if TOUCH_RATE < v <= HOLD_RATE:  # (a rebound too slow to resolve: the accumulation rule holds it)
+            sc.fallback[k + 1] |= HELD
     slide = slides(model.friction) or grip  # (else sc.floor_on is all 0 after ``land``: no floor rows)
     for j in range(sc.fcand.shape[0] if slide else 0):  # the floor's candidates: active in stage 1, or at it
         on = anchored[j] == 0 and (sc.floor_on[j] != 0 or point_z(mo, j) <= tol)

@@ -12,6 +12,7 @@ import numpy as np
 from ...core.rules import bottom_airborne
 from ...jit import njit
 
+PINNED, HELD = 1, 2  # Scratch.fallback's bits: a point anchored, a hinge held, by a fallback rule
 MAX_NEW = 32  # new contacts in one step whose approach rates are estimated together (``impact_rates``)
 
 
@@ -70,6 +71,9 @@ Scratch = namedtuple(
         "fsec",  # (N+1, 2): ... the last secant point of its magnitude (``friction.landing_slips``)
         "grip_log",  # (N+1, 4): finite friction, what the floor's hold on a point did in the step: [0] 0, or the
         #   event's kind (LOG_SLIP, LOG_LIFT, LOG_STICK), [1:4] the force that left the cone, times h
+        "fallback",  # (N+1,) uint8: with restitution, the step's new contacts that Newton's law would rebound
+        #   and a fallback rule held instead: bit 1 point j anchored (logged ``pin``), bit 2 hinge j - 1 held at its
+        #   limit (logged ``hold``)
     ],
 )  # fmt: skip
 
@@ -90,6 +94,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros(p, np.int64), v3(p), np.zeros(13), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
         np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8), v3(p), np.zeros((p, 2)), np.zeros((p, 4)),
+        np.zeros(p, np.uint8),
     )  # fmt: skip
 
 

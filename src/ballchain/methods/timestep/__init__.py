@@ -20,8 +20,9 @@ from ...options import MethodOption, in_range, number_text, one_of, positive
 from ..bounds import AuditBounds
 
 # The contact laws' parameters it honours away from their defaults (contacts.registry):
-# Newton's restitution at the bend limit, in Moreau-Jean's form (stepper._solve).
-CONTACTS = ("restitution_lock",)
+# Newton's restitution at the bend limit and at the floor, in Moreau-Jean's form (stepper._solve,
+# stepper._aim_rebounds: the rate before is the step start's).
+CONTACTS = ("restitution_lock", "restitution_floor")
 CONTACT_BOUNDS = {
     "restitution_lock": (
         0.75,

@@ -55,7 +55,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...contacts.newton import rebounds
+from ...contacts.newton import bounce_resolved, floor_rebound, rebounds
 from ...core.blocks import fits4, forces4, generalized_forces, reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
 from ...core.dynamics import pile_pull
@@ -70,8 +70,10 @@ from ...core.kinematics import (
 )
 from ...core.rows import W_V
 from ...core.rules import (
+    LOG_BOUNCE,
     LOG_LANDING,
     LOG_LOCK,
+    LOG_PIN,
     LOG_RELEASE,
     LOG_TOP,
     LOG_UNLOCK,
@@ -97,6 +99,10 @@ TURN_MAX = 0.1  # rad: no segment turns more than this in a step (a whip gets sh
 DT_LANDING = DT_RULES["landing"]  # the code of dt_rule landing
 MIN_CUT = 1e-3  # a landing predicted within this fraction of dt touches at once (no shorter step)
 ANCHOR_RATE_TOL = 1e-6  # an anchored point faster than this after the impact problem: its rows were not met
+HOLD_RATE = (
+    1e-6  # sqrt(g b): restitution at the floor, a bounce slower than this is not made (``newton.bounce_resolved``)
+)
+LEAVING = 3  # Chain.anchored of a point that bounces off the floor in this step (``_leave_floor``, ``_let_go``)
 KE_RTOL = 1e-9  # an impact problem may raise the kinetic energy by this fraction at most (round-off)
 REBOUND_SLACK = 0.02  # ... and with restitution by this fraction of what its rebounds give back (the kick's share)
 PROJ_ITERS = 25  # Gauss-Newton iterations of the projection at most
@@ -228,6 +234,58 @@ def _touches(t, r0, model, chain, sc, books):
         chain.anchor_t[j] = t
     fall_ended(books, t, False, not top_event(model.floor) and anchored[0] != 0)
     return na
+
+
+@njit(cache=True)
+def _aim_rebounds(r0, na, e_floor, sc):
+    """Restitution at the floor (``contacts.newton.floor_rebound``): each point that lands
+    in this step (sc.new_anchor[r0:r0 + na]) is aimed to leave the floor at -e v_z, v_z its
+    vertical velocity at the step's start (sc.pv, ``_touches``): Newton's law in
+    Moreau-Jean's form; its horizontal velocity stopped (the rough floor)."""
+    iw = sc.iw
+    if r0 == 0:
+        for j in range(iw.rebound.shape[0]):
+            iw.rebound[j] = 0.0
+        iw.n_rebound[0] = 0
+    for r in range(r0, r0 + na):
+        j = sc.new_anchor[r]
+        iw.rebound[j] = floor_rebound(sc.pv[j, 2], e_floor)
+        iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
+
+
+@njit(cache=True)
+def _leave_floor(h, na, chain, sc):
+    """After the step's impact problem, with restitution at the floor: a point that landed
+    in it, was aimed up (``_aim_rebounds``; an impact the law would make create energy was
+    solved without: ``impacts.velocity_impact``) and leaves faster than RATE_TOL on a flight
+    the steps resolve (``contacts.newton.bounce_resolved``) is free again: not anchored."""
+    e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    iw = sc.iw
+    if iw.n_rebound[0] == 0:
+        return
+    _point_velocities(e, w, sc.vmax, sc.pv)
+    for r in range(na):
+        j = sc.new_anchor[r]
+        v = sc.pv[j, 2]
+        pushed = iw.anchor_impulse[j, 2] >= 0.0  # (a floor that would pull it up to its rebound holds it)
+        if iw.rebound[j] > 0.0 and pushed and rebounds(v, 1.0, RATE_TOL) and bounce_resolved(v, h, HOLD_RATE):
+            anchored[j] = LEAVING  # (its velocity kept, its place held through this step's position update)
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
+
+
+@njit(cache=True)
+def _let_go(chain):
+    """At the end of a step: the points that bounced in it (``LEAVING``, held at the floor
+    through its position update and projection, so that the mean of the velocities before
+    and after, theta = 1/2, does not carry them below it) are free."""
+    anchored = chain.anchored
+    for j in range(anchored.shape[0]):
+        if anchored[j] == LEAVING:
+            anchored[j] = 0
+            chain.anchor_t[j] = np.nan
+            for q in range(3):
+                chain.anchor_pos[j, q] = np.nan
 
 
 @njit(cache=True)
@@ -390,8 +448,9 @@ def _solve(model, chain, ws, sc):
             iw.rates_before[k] = min(iw.rates_before[k], 0.0)  # (restitution acts on an approach)
     t1 = t0
     allowed = t0 * (1.0 + KE_RTOL) + 1e-12
+    newton = e_lock > 0.0 or iw.n_rebound[0] > 0  # (restitution at a limit or at the floor: ``_aim_rebounds``)
     for _ in range(2):  # Newton's law, then (if it raised the energy) Moreau's
-        if e_lock > 0.0:
+        if newton:
             it = stepped_impact(e, w, anchored, sc.cand, sc.forced, sc.active, e_lock, ws, iw)
         else:
             it = velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, 0.0, ws, iw)
@@ -407,16 +466,22 @@ def _solve(model, chain, ws, sc):
             for q in range(3):
                 v = 0.0 if landed else sc.vmax[i, q] + W_V * ws.gf[i, q]
                 t1 += 0.5 * v * v + w[i, q] ** 2 / 6.0
-        if e_lock == 0.0:
+        if not newton:
             break
         given_back = 0.0
         for k in range(sc.active.shape[0]):
             if sc.active[k]:
                 given_back += 0.5 * iw.impulse[k] * max(iw.rates_after[k], 0.0)
+        for j in range(iw.rebound.shape[0] if iw.n_rebound[0] > 0 else 0):  # (the floor's rebounds too)
+            given_back += 0.5 * max(iw.anchor_impulse[j, 2], 0.0) * iw.rebound[j]
         if t1 <= allowed + REBOUND_SLACK * given_back:
             allowed += REBOUND_SLACK * given_back
             break
         e_lock = 0.0  # Newton's law raised the energy: the step's impact inelastic
+        newton = False
+        for j in range(iw.rebound.shape[0]):
+            iw.rebound[j] = 0.0
+        iw.n_rebound[0] = 0
         _copy3(sc.w_pre, w)
         for k in range(sc.cand.shape[0]):
             sc.active[k] = sc.cand[k]
@@ -432,7 +497,7 @@ def _solve(model, chain, ws, sc):
 
 
 @njit(cache=True)
-def _book(t, h, na, chain, ws, sc, books, log):
+def _book(t, h, na, e_floor, chain, ws, sc, books, log):
     """The step's impulses into the books: the energy removed at the lock and anchor
     rows, the floor's impulse, the anchors' mean force (for the frames); the locks,
     unlocks and landings logged.  The floor's impulse of a step is the sum over all its
@@ -474,9 +539,16 @@ def _book(t, h, na, chain, ws, sc, books, log):
     if na > 0:  # the landings share the step's floor impulse and its loss at landing equally
         share = 1.0 / na
         lost = share * (sc.removed[0] - iw.split[0])
+        if e_floor > 0.0:  # (the kind of each: its vertical velocity at the step's start, Newton's law)
+            _point_velocities(chain.Y[0], sc.w_pre, sc.v_pre, sc.pv)
         for r in range(na):
             j = sc.new_anchor[r]
-            log_row(log, t, LOG_LANDING, j, px * share, py * share, pz * share, lost, sc.pts, j)
+            kind = LOG_LANDING
+            if anchored[j] == LEAVING:
+                kind = LOG_BOUNCE
+            elif e_floor > 0.0 and rebounds(floor_rebound(sc.pv[j, 2], e_floor), e_floor, RATE_TOL):
+                kind = LOG_PIN  # (Newton's law would bounce it: too short a flight, or the energy fallback)
+            log_row(log, t, kind, j, px * share, py * share, pz * share, lost, sc.pts, j)
 
 
 @njit(cache=True)
@@ -709,6 +781,8 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
         _energies(chain, sc, books, fw.start)
     _copy3(sc.vmax, sc.v_pre)
     na = _touches(t, 0, model, chain, sc, books)
+    if model.e_floor > 0.0:
+        _aim_rebounds(0, na, model.e_floor, sc)
     _copy3(w, sc.w_pre)
     reuse_factors(ws.S, np.bool_(True))  # the axes stay through the step's trials and cuts
     for attempt in range(MAX_CUTS + 1):  # the step, cut again while a point would pass the floor
@@ -729,11 +803,16 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
         elif s * h < MIN_CUT * dt:  # at the floor already: it touches now, the step stays
             _first_to_land(s, sc)
             _copy3(sc.w_pre, w)
-            na += _touches(t, na, model, chain, sc, books)
+            more = _touches(t, na, model, chain, sc, books)
+            if model.e_floor > 0.0:
+                _aim_rebounds(na, more, model.e_floor, sc)
+            na += more
         else:
             h *= s
     reuse_factors(ws.S, np.bool_(False))  # the position update turns them
-    _book(t, h, na, chain, ws, sc, books, log)
+    if model.e_floor > 0.0 and na > 0:
+        _leave_floor(h, na, chain, sc)
+    _book(t, h, na, model.e_floor, chain, ws, sc, books, log)
     books.floor_flow[2] += h * landed_count(anchored)
     books.n_evals[0] += 1
     settle_anchors(chain, model.cone, model.alpha)
@@ -747,6 +826,8 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     rotate_axes(e, sc.w_mid, h, anchored, e)
     books.work_error[0] += _kick_energy(h, anchored, sc.v_pre) + potential_energy(e) - u0
     _project(model, chain, ws, sc, books)
+    if model.e_floor > 0.0:
+        _let_go(chain)
     t_end = t + h
     if inside:
         fw.t0[0], fw.h[0] = t, h
