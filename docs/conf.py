@@ -29,6 +29,7 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "data", "figures/cache", "examples/README.md", "**/.ipynb_checkpoints"]
 myst_heading_anchors = 3
+myst_enable_extensions = ["dollarmath"]  # $...$ and $$...$$: the pages' equations, rendered by MathJax
 suppress_warnings = ["myst.xref_missing", "myst.header", "config.cache"]  # (links to repository files)
 smartquotes = False  # options such as --initial stay two hyphens (not an en dash) in every page
 html_theme = "furo"

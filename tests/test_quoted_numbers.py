@@ -3,7 +3,7 @@ the committed tables (docs/data) by the command the page gives: a number in the 
 that its data no longer give fails here.
 
 The command is read from the page itself (its code block that runs
-``benchmarks/large_n.py``), so the page's command is the one checked."""
+``studies/large_n.py``), so the page's command is the one checked."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import pytest
 
 ROOT = Path(__file__).parents[1]
 PAGE = ROOT / "docs" / "large-n.md"
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "studies"))
 
 pytestmark = pytest.mark.slow  # (about 20 s: the command's bootstrap intervals and fits)
 
@@ -35,15 +35,15 @@ def _block_commands(text: str, head: str) -> list[str]:
 
 
 def _page_command(page: Path = PAGE) -> list[str]:
-    """The page's ``python benchmarks/large_n.py ...`` command, as arguments: in an indented
+    """The page's ``python studies/large_n.py ...`` command, as arguments: in an indented
     block, or in a fenced (```) one (a command that names engines stands there)."""
-    commands = _block_commands(page.read_text(), r"python benchmarks/large_n\.py")
+    commands = _block_commands(page.read_text(), r"python studies/large_n\.py")
     assert commands, "the page gives no large_n.py command"
     args = shlex.split(commands[0].replace("\\\n", " "))[2:]
     if "--plot" in args:
         plot = args.index("--plot")
         del args[plot : plot + 2]  # the figure is not redrawn here
-    return [sys.executable, str(ROOT / "benchmarks" / "large_n.py"), *args]
+    return [sys.executable, str(ROOT / "studies" / "large_n.py"), *args]
 
 
 def _run(args: list[str]) -> str:
@@ -193,11 +193,11 @@ def test_the_methods_compared_page_is_what_its_command_prints():
 
 
 def _page_commands(page: Path) -> str:
-    """The output of every ``python benchmarks/...`` and ``ballchain stats`` command of a
+    """The output of every ``python studies/...``, ``python benchmarks/...`` and ``ballchain stats`` command of a
     page's code blocks (figures they would write left out): the indented blocks, and the
     lines of fenced (```) blocks that start with such a command, with their backslash
     continuations (a results page keeps a command that names engines there)."""
-    blocks = _block_commands(page.read_text(), r"(?:python benchmarks/\S+\.py|ballchain stats)")
+    blocks = _block_commands(page.read_text(), r"(?:python (?:studies|benchmarks)/\S+\.py|ballchain stats)")
     out = []
     for block in blocks:
         args = shlex.split(block.split("#")[0].replace("\\\n", " "))

@@ -29,8 +29,8 @@ DEFAULTS = {"dt": DEFAULT_DT, "theta": 1.0}
 USES = ("dt",)  # which of those it uses
 DEFAULT_NOTES = {  # ... and what its users should know of the choice (in that option's help)
     "dt": "0.1 or 0.2 for ensembles at N >= 1024: fewer steps, the same agreement with the exact method "
-    "(docs/notes/rattle-record.md, items 4h and 5e); not below for E_lock: at N = 512 the ceiling 0.2 puts it "
-    "0.009 E0 low on 317 pairs, the default 0.006 (items 4k, 4l)",
+    "at N = 1024 and 4096; not below for E_lock: at N = 512 the ceiling 0.2 puts it 0.009 E0 low on 317 pairs, "
+    "the default 0.006; the ensembles behind these: docs/rattle.md and docs/notes/rattle-record.md",
 }
 CONTACTS = (  # the contact laws' parameters it honours away from their defaults (contacts.registry)
     "friction",

@@ -57,7 +57,7 @@ Scratch = namedtuple(
         #   step's start minus at its end, less [10], [9] 1 if the step had an impact, [10]
         #   what the sliding points' friction force removed (``friction.friction_work``),
         #   [11] stage 1's active-set rounds, [12] those of them ended early by a limit or
-        #   the floor found passed (``stage1``: counted for ``benchmarks/rattle_steps.py``)
+        #   the floor found passed (``stage1``: counted for ``benchmarks/probes/rattle_steps.py``)
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value

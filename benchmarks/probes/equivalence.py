@@ -1,7 +1,7 @@
 """The same well-conditioned falls with two revisions: do they agree to round-off?
 
-    python benchmarks/equivalence.py --base 889ef58            # this checkout against a base
-    python benchmarks/equivalence.py --base 889ef58 --tol 1e-9
+    python benchmarks/probes/equivalence.py --base 889ef58            # this checkout against a base
+    python benchmarks/probes/equivalence.py --base 889ef58 --tol 1e-9
 
 A refactoring must not move the physics.  Chaotic falls cannot be compared run by run
 (round-off puts them on other branches), so the cases are those that are well conditioned:
@@ -22,6 +22,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # benchmarks/: machine.py, compare_revisions.py
 from compare_revisions import base_worktree  # noqa: E402
 from machine import machine_info  # noqa: E402
 

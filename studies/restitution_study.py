@@ -1,8 +1,8 @@
 """Restitution at the bend limit, or at the floor, against the fall (the numbers of
 docs/restitution.md and docs/restitution-floor.md).
 
-    python benchmarks/restitution_study.py docs/data/restitution-lock.parquet [--plot FILE]
-    python benchmarks/restitution_study.py docs/data/restitution-floor.parquet --law restitution_floor [--plot FILE]
+    python studies/restitution_study.py docs/data/restitution-lock.parquet [--plot FILE]
+    python studies/restitution_study.py docs/data/restitution-floor.parquet --law restitution_floor [--plot FILE]
 
 Per (N, restitution E), over the runs that landed (a run that ended as an error, its
 books or constraints broken, is listed and not counted): the runs and how many landed;
@@ -23,7 +23,7 @@ intervals, and the two-sample KS p of the fall times; then, over every start, ho
 by the time cap in each table (McNemar's test of the starts only one lands) and the medians
 with the falls past the cap counted as longer:
 
-    python benchmarks/restitution_study.py docs/data/rattle-restitution-lock.parquet --against docs/data/restitution-lock.parquet
+    python studies/restitution_study.py docs/data/rattle-restitution-lock.parquet --against docs/data/restitution-lock.parquet
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Measures of the paper's qualitative claims on the saved runs of a sweep.
 
-    python benchmarks/reproduction_study.py TABLE.parquet RUNS_DIR [--measures-out M.parquet]
-    python benchmarks/reproduction_study.py TABLE.parquet --measures M.parquet [--scatter]
+    python studies/reproduction_study.py TABLE.parquet RUNS_DIR [--measures-out M.parquet]
+    python studies/reproduction_study.py TABLE.parquet --measures M.parquet [--scatter]
 
 For every run of the table whose result file is in RUNS_DIR (``ballchain sweep
 --save-runs RUNS_DIR``) and that landed (or, with ``--measures``, from a table of per-run

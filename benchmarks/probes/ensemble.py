@@ -1,6 +1,6 @@
 """A small ensemble of falls, one JSON summary per line (the numbers quoted in issues).
 
-    python benchmarks/ensemble.py --segments 128 --alpha pi/4 --seeds 0-4 --floors all,pivot --jobs 2
+    python benchmarks/probes/ensemble.py --segments 128 --alpha pi/4 --seeds 0-4 --floors all,pivot --jobs 2
 
 Runs the ``random`` initial-condition family (seeded) plus the helix, on ``--jobs``
 processes, and prints per-run lines and per-floor mean +- standard error of t_fall/t_ff.

@@ -1,8 +1,8 @@
 """Where the nonsmooth RATTLE method (``--method rattle``, experimental) stands: its order
 where the motion is smooth, a fall with no limits, a fall with limits, and the spinning top.
 
-    python benchmarks/rattle_status.py           # tables 1-3 and 5
-    python benchmarks/rattle_status.py --cost    # table 4
+    python studies/rattle_status.py           # tables 1-3 and 5
+    python studies/rattle_status.py --cost    # table 4
 
 Prints Markdown tables (the numbers of ``docs/rattle.md``; tables 1-3 and 5 are items 1-3
 and 6 of ``docs/notes/rattle-record.md``, table 4 its "Cost"):
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))  # machine.py, shared with the speed benchmarks
 from machine import machine_info
 
 from ballchain.engine import simulate

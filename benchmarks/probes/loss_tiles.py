@@ -1,7 +1,7 @@
 """The bias of RATTLE's losses at a step, without the chaos: a fall cut into short windows,
 each window stepped again from the same state at several steps, the differences summed.
 
-    python benchmarks/loss_tiles.py --segments 512 --starts 0-3 --dts 0.1:1e-6,0.05,0.025 --ref 0.003125
+    python benchmarks/probes/loss_tiles.py --segments 512 --starts 0-3 --dts 0.1:1e-6,0.05,0.025 --ref 0.003125
 
 Single falls are chaotic: two falls from one start at two steps part after a few locks,
 and ensembles compare their losses only to the chaos's scale (0.01 E0 at 64 starts).  Here
@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # benchmarks/: machine.py, compare_revisions.py
 from lock_distance import _keys  # noqa: E402
 from machine import machine_info  # noqa: E402
 from rattle_steps import fall_by_attempts  # noqa: E402

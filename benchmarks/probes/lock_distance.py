@@ -2,8 +2,8 @@
 the hinges, binned by the hinge's distance (in points) above the pile's top at the lock's
 time, summed over each fall and averaged over the starts.
 
-    python benchmarks/lock_distance.py --segments 1024 --starts 0-7
-    python benchmarks/lock_distance.py --segments 512 --starts 0-5 --methods event,rattle,rattle:dt=0.025
+    python benchmarks/probes/lock_distance.py --segments 1024 --starts 0-7
+    python benchmarks/probes/lock_distance.py --segments 512 --starts 0-5 --methods event,rattle,rattle:dt=0.025
 
 The pile's top at time t is the highest point (lowest index) anchored before t; a lock at
 hinge k (at point k + 1) is top - (k + 1) points above it: 0 is the hinge at the top
@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # benchmarks/: machine.py, compare_revisions.py
 from machine import machine_info  # noqa: E402
 
 from ballchain.core.kinds import EVENT_CODES  # noqa: E402

@@ -1,6 +1,6 @@
 """t_fall/t_ff against N from sweep tables of any method: the table, a fit, a figure.
 
-    python benchmarks/large_n.py TABLE.parquet [TABLE.parquet ...] [--plot FIG.png] [--json]
+    python studies/large_n.py TABLE.parquet [TABLE.parquet ...] [--plot FIG.png] [--json]
 
 Reads every landed run of the tables at one alpha and floor (``--alpha-deg 45``, ``--floor
 all``) and the model's contact laws (the anchor, no restitution; rows with other laws are

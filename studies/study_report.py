@@ -1,6 +1,6 @@
 """Markdown tables of a sweep table's statistics (the numbers of docs/optimal-alpha.md).
 
-    python benchmarks/study_report.py docs/data/optimal-alpha.parquet
+    python studies/study_report.py docs/data/optimal-alpha.parquet
 
 Prints, from ``ballchain.sweeps.stats`` (the same numbers as ``ballchain stats --json``):
 the points (mean, 95% interval, median of t_fall/t_ff and t_landed/t_ff, the fraction

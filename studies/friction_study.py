@@ -1,6 +1,6 @@
 """A frictionless floor against the anchor (the numbers of docs/friction-floor.md).
 
-    python benchmarks/friction_study.py docs/data/friction-floor.parquet [--plot FILE]
+    python studies/friction_study.py docs/data/friction-floor.parquet [--plot FILE]
 
 The table holds falls of the same starts with ``--friction 0`` and ``--friction inf``
 (the anchor, the model's law), by one method.  Per (N, mu), over the runs that landed (a

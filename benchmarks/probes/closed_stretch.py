@@ -1,7 +1,7 @@
 """The one RATTLE fall known to end in error: a locked stretch closed between two anchors,
 curled to within a hair of its tightest, whose twists circle faster than a step can follow.
 
-    python benchmarks/closed_stretch.py --segments 128 --start 5
+    python benchmarks/probes/closed_stretch.py --segments 128 --start 5
 
 The fall is the base fall of ``loss_tiles.py`` (random start of seed 2026, spawn key
 ``--start``, alpha = pi/4, floor all, landing steps whole), its steps cut to end on the
@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # benchmarks/: machine.py, compare_revisions.py
 from loss_tiles import DEFAULT  # noqa: E402
 from machine import machine_info  # noqa: E402
 from rattle_steps import fall_by_attempts  # noqa: E402

@@ -1,10 +1,10 @@
 """Where a RATTLE fall's steps go: how long they are, through the fall, with and without
 the energy bound.
 
-    python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --etol default,0
-    python benchmarks/rattle_steps.py --segments 256,1024 --starts 0 --attempts
-    python benchmarks/rattle_steps.py --segments 256,512 --starts 0,1 --landings
-    python benchmarks/rattle_steps.py --segments 1024,4096 --starts 0 --dt 0.2 --etol default,1e-6,0
+    python benchmarks/probes/rattle_steps.py --segments 256,1024 --starts 0 --etol default,0
+    python benchmarks/probes/rattle_steps.py --segments 256,1024 --starts 0 --attempts
+    python benchmarks/probes/rattle_steps.py --segments 256,512 --starts 0,1 --landings
+    python benchmarks/probes/rattle_steps.py --segments 1024,4096 --starts 0 --dt 0.2 --etol default,1e-6,0
 
 For each N, random start (seed 2026, spawn key k, alpha = pi/4, floor ``all``) and bound
 (``default``: the method's ``--step-energy-tol``; ``0``: no bound, the steps shortened only
@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # benchmarks/: machine.py, compare_revisions.py
 from machine import machine_info  # noqa: E402
 
 from ballchain.engine import simulate  # noqa: E402

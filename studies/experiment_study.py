@@ -1,7 +1,7 @@
 """The model against the experiment: the floor's laws at N = 512 and 1024 (the numbers of
 docs/experiment.md).
 
-    python benchmarks/experiment_study.py docs/data/experiment.parquet [--plot FILE] [--step-check TABLE]
+    python studies/experiment_study.py docs/data/experiment.parquet [--plot FILE] [--step-check TABLE]
 
 The table holds falls of the same starts on several floors, by one method: the anchor
 (``--friction inf``, ``--restitution-floor 0``: the model's law), a frictionless floor

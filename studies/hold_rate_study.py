@@ -1,6 +1,6 @@
 """Convergence study of the accumulation threshold ``SolverOptions.hold_rate``.
 
-    python benchmarks/hold_rate_study.py --output docs/hold_rate_study.md
+    python studies/hold_rate_study.py --output docs/hold_rate_study.md
 
 A hinge released at an instant that accelerates back to its limit and would return
 slower than ``hold_rate``, or after an excursion smaller than ``hold_apex``, is held
@@ -15,7 +15,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
+from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))  # machine.py, shared with the speed benchmarks
 from machine import machine_info  # noqa: E402  (benchmarks/machine.py)
 
 CASES = [  # (N, alpha, until in t_ff, rtol)
@@ -53,7 +56,7 @@ def main(argv=None):
     lines = [
         "# Accumulation threshold: convergence study",
         "",
-        "Command: `python benchmarks/hold_rate_study.py --output docs/hold_rate_study.md`",
+        "Command: `python studies/hold_rate_study.py --output docs/hold_rate_study.md`",
         "",
         machine_info(),
         "",

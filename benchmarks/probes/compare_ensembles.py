@@ -1,9 +1,9 @@
-"""Compare two ensembles of t_fall/t_ff written by benchmarks/ensemble.py (e.g. before
+"""Compare two ensembles of t_fall/t_ff written by benchmarks/probes/ensemble.py (e.g. before
 and after a change): means with 95% confidence intervals, two-sample Kolmogorov-Smirnov
 and Welch tests.
 
-    python benchmarks/ensemble.py --segments 64 --seeds 0-47 --floors all > after.jsonl
-    python benchmarks/compare_ensembles.py before.jsonl after.jsonl
+    python benchmarks/probes/ensemble.py --segments 64 --seeds 0-47 --floors all > after.jsonl
+    python benchmarks/probes/compare_ensembles.py before.jsonl after.jsonl
 """
 
 from __future__ import annotations

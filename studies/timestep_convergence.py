@@ -1,11 +1,11 @@
 """The time-stepping method (``--method timestep``) against the event-driven one and an
 analytic truth: the tables of docs/timestep.md.
 
-    python benchmarks/timestep_convergence.py                       # all tables (about 10 min)
-    python benchmarks/timestep_convergence.py --only rod
-    python benchmarks/timestep_convergence.py --only pi --segments 16
-    python benchmarks/timestep_convergence.py --only ensembles --segments 64,128 --starts 16 --dts 0.04,0.02,0.01
-    python benchmarks/timestep_convergence.py --thetas 0.5,1      # each table for both position updates
+    python studies/timestep_convergence.py                       # all tables (about 10 min)
+    python studies/timestep_convergence.py --only rod
+    python studies/timestep_convergence.py --only pi --segments 16
+    python studies/timestep_convergence.py --only ensembles --segments 64,128 --starts 16 --dts 0.04,0.02,0.01
+    python studies/timestep_convergence.py --thetas 0.5,1      # each table for both position updates
 
 1. ``rod``: a rod (N = 1) falling over from 0.3 rad, t_fall against the quadrature of its
    energy equation, and the energy imbalance, for dt = 0.08 .. 0.005 (first order: each
@@ -45,7 +45,7 @@ import numpy as np
 from scipy import stats
 from scipy.integrate import quad
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))  # machine.py, shared with the speed benchmarks
 from machine import machine_info  # noqa: E402
 
 from ballchain.core.kinds import EVENT_CODES  # noqa: E402

@@ -1,8 +1,8 @@
 """An airborne top end spinning on its anchored point, read as a heavy top; and how each
 method holds one.
 
-    python benchmarks/spinning_top.py RUN.h5
-    python benchmarks/spinning_top.py --state tests/data/top3-state.txt [--max-time 0.2] [--dts 0.004,0.002,0.001,0.0005]
+    python benchmarks/probes/spinning_top.py RUN.h5
+    python benchmarks/probes/spinning_top.py --state tests/data/top3-state.txt [--max-time 0.2] [--dts 0.004,0.002,0.001,0.0005]
 
 A run of the exact method whose last events leave its top end airborne, its hinges locked
 at their limits, hung on one landed point (an anchor: a frictionless ball joint), has a

@@ -2,7 +2,7 @@
 step that booked them (a new anchor and a new lock in the same step, a new lock alone, a
 landing alone, neither), at two steps, on the same starts.
 
-    python benchmarks/lock_steps.py --segments 512 --starts 0-3 --dt 0.05,0.1:1e-6
+    python benchmarks/probes/lock_steps.py --segments 512 --starts 0-3 --dt 0.05,0.1:1e-6
 
 For each start (random, seed 2026, alpha = pi/4, floor all) and step (``dt`` or
 ``dt:step_energy_tol``), the compiled loop is made to return after every attempt of a step
@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # benchmarks/: machine.py, compare_revisions.py
 from lock_distance import _keys  # noqa: E402
 from machine import machine_info  # noqa: E402
 from rattle_steps import fall_by_attempts  # noqa: E402
