@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from ballchain import cli
 from ballchain.cli import app
+from ballchain.errors import ParameterError
 from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
 from ballchain.records.files import load_result, save_result
 from ballchain.records.result import Result
@@ -670,3 +671,80 @@ def test_theory_rod_on_floor_prints_the_closed_forms_and_null_for_a_rod_that_nev
     assert never["slip_angle"] is None and never["slip_time"] is None
     bad = run(*["theory", "rod-on-floor", "--theta0", "0.3", "--mu", "-1"])
     assert bad.exit_code == 2 and "mu must be >= 0" in bad.stderr
+
+
+# ------------------------------------------------------- issue 82: nothing silently ignored
+def test_an_option_of_another_method_is_refused_before_the_run(engine):
+    res = run("simulate", "-N", "8", "--method", "event", "--dt", "0.1", "--quiet")
+    assert_one_line_error(res, 2, "--dt 0.1", "--method timestep and rattle", "not used by --method event")
+    res = run("simulate", "-N", "8", "--method", "rattle", "--theta", "0.5", "--quiet")
+    assert_one_line_error(res, 2, "--theta 0.5", "--method timestep", "not used by --method rattle")
+    assert engine.calls == []
+
+
+def test_from_a_run_of_another_method_takes_only_the_options_both_take(engine, tmp_path):
+    """``--from`` a time-stepper's file (which records dt and theta) rerun with another
+    method: its dt is RATTLE's too, its theta nobody else's; the event method takes neither."""
+    path = tmp_path / "ts.h5"
+    o = SolverOptions(method="timestep", dt=0.02, theta=1.0)
+    save_result(fake_result(ChainParams(segments=8), InitialCondition(), o), path)
+    for method, dt in (("event", None), ("rattle", 0.02), ("timestep", 0.02)):
+        res = run("simulate", "--from", str(path), "--method", method, "--quiet")
+        assert res.exit_code == 0, res.stderr
+        options = engine.calls[-1][2]
+        assert (options.method, options.dt, options.theta) == (method, dt, 1.0 if method == "timestep" else None)
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--ic", "random"], "--ic is not used beside --initial"),
+        (["--eps", "0.1", "--seed", "3"], "--eps, --seed are not used beside --initial"),
+    ],
+)
+def test_a_start_option_beside_an_explicit_state_is_refused(engine, tmp_path, args, words):
+    f = tmp_path / "f.txt"
+    f.write_text("0 0 1\n0 0 1\n0 0 1\n")
+    assert_one_line_error(run("simulate", "--initial", str(f), *args, "--quiet"), 2, words)
+    import ballchain as bc
+
+    with pytest.raises(ParameterError, match="--ic is not used beside initial="):
+        bc.simulate(initial=str(f), ic="random")
+    assert engine.calls == []
+
+
+def test_nan_is_refused_as_not_a_number(engine):
+    for flag in ("--friction", "--restitution-lock", "--restitution-floor", "--theta"):
+        err = assert_one_line_error(run("simulate", flag, "nan", "--quiet"), 2, "must be a number in [", "got nan")
+        assert "negative" not in err and "creates energy" not in err and "unstable" not in err
+
+
+def _bad_files(tmp_path):
+    (tmp_path / "empty.txt").write_text("")
+    (tmp_path / "empty.npy").write_bytes(b"")
+    (tmp_path / "comments.txt").write_text("# no rows\n\n")
+    (tmp_path / "text.npy").write_text("0 0 1\n")
+    np.save(tmp_path / "objects.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    return {
+        "empty.txt": "is empty (no rows)",
+        "empty.npy": "is empty (no rows)",
+        "comments.txt": "holds no rows (only comments or blank lines)",
+        "text.npy": "not a .npy file",
+        "objects.npy": "an array of Python objects, not numbers",
+    }
+
+
+def test_a_bad_initial_file_is_named_with_its_own_cause(engine, tmp_path):
+    for name, words in _bad_files(tmp_path).items():
+        err = assert_one_line_error(run("simulate", "--initial", str(tmp_path / name), "--quiet"), 2, name, words)
+        assert "allow_pickle" not in err and "Warning" not in err and ".py" not in err.replace(".npy", "")
+    assert engine.calls == []
+
+
+def test_an_explicit_state_outside_the_cone_does_not_say_reduce_eps():
+    from ballchain.engine import _initial_state
+
+    e0 = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.1]])
+    with pytest.raises(ParameterError) as exc:
+        _initial_state(ChainParams(segments=2), None, (e0, None))
+    assert "eps" not in str(exc.value) and "explicit initial state" in str(exc.value)

@@ -10,10 +10,21 @@ import time
 import typer
 
 from ..contacts.registry import all_params as contact_params
-from ..methods import option_names
+from ..methods import all_options, method_takes, option_names
 from ..methods.timestep import LONG_STEP, LONG_STEP_FROM, SHORT_STEP
 from ..model import ParameterError
 from ..records.files import load_result
+
+
+def _its_options(o, method: str) -> dict:
+    """The methods' options of a saved run (``o``: its ``SolverOptions``) as ``--from`` reruns
+    them with ``method``: those both its method and ``method`` take (``methods.method_takes``);
+    the others at their defaults (a run records a value of each, given or not)."""
+    opts = all_options()
+    return {
+        name: getattr(o, name) if method_takes(o.method, name) and method_takes(method, name) else opts[name].default
+        for name in option_names("simulate")
+    }
 
 
 def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tuple[dict, tuple | None]:
@@ -24,10 +35,11 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
 
     r = load_result(path)
     p, o = r.params, r.options
+    given = {k for k in values if getattr(ctx.get_parameter_source(k), "name", "") == "COMMANDLINE"}
     base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone,
                 **{name: getattr(p, name) for name in contact_params()},
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
-                method=o.method, **{name: getattr(o, name) for name in option_names("simulate")})  # fmt: skip
+                method=o.method, **_its_options(o, values["method"] if "method" in given else o.method))  # fmt: skip
     if p.is_si:
         base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
     state = None
@@ -38,7 +50,6 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
         if len(r.frame_t) == 0 or r.frame_t[0] != 0.0:
             raise ParameterError(f"--from {path!r}: its run started from an explicit state and has no frame at t = 0")
         state = (np.array(r.frame_e[0]), np.array(r.frame_omega[0]) * p.time_unit)
-    given = {k for k in values if getattr(ctx.get_parameter_source(k), "name", "") == "COMMANDLINE"}
     if state is not None and "segments" in given and values["segments"] != p.segments:
         raise ParameterError(f"--segments {values['segments']} disagrees with the {p.segments} segments of {path!r}")
     base.update({k: values[k] for k in given})

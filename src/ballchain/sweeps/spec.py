@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 from ..contacts.registry import all_params as contact_params
 from ..contacts.registry import law_of, law_param_help
-from ..methods import all_options, check_contacts, option_help, option_owner
+from ..methods import all_options, check_contacts, check_options, option_help, option_owner
 from ..methods.checkpoint import DEFAULT_EVERY
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 from ..options import options_dataclass
@@ -187,6 +187,7 @@ class _SweepGrid:
         )
         InitialCondition(eps=self.eps)  # validates eps
         check_contacts(ChainParams(segments=1, **self.contact_values()), self.method)
+        check_options(self.options, min(self.segments))
         n = self.size
         if n > MAX_RUNS:
             raise ParameterError(f"sweep has {n} runs (more than {MAX_RUNS}); narrow it")
