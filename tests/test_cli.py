@@ -748,3 +748,36 @@ def test_an_explicit_state_outside_the_cone_does_not_say_reduce_eps():
     with pytest.raises(ParameterError) as exc:
         _initial_state(ChainParams(segments=2), None, (e0, None))
     assert "eps" not in str(exc.value) and "explicit initial state" in str(exc.value)
+
+
+def test_an_absurd_run_is_warned_of_before_it_starts(engine):
+    """``--method timestep --dt 1e-9``: one line on stderr with the steps, a rough wall time
+    and what shortens it; the run is not refused.  The default step is not warned of, nor the
+    event method (which sizes its own steps)."""
+    res = run("simulate", "-N", "8", "--method", "timestep", "--dt", "1e-9", "--quiet")
+    assert res.exit_code == 0 and len(engine.calls) == 1, res.stderr
+    (line,) = [ln for ln in res.stderr.splitlines() if "steps" in ln]
+    assert line.startswith("warning: --method timestep --dt 1e-09 at N = 8 takes about 8e+09 steps per t_ff")
+    assert " h each" in line and "a larger --dt (its default there: 0.01)" in line
+    for args in (["--method", "timestep"], ["--method", "rattle", "--dt", "0.2"], []):
+        assert "takes about" not in run("simulate", "-N", "4096", *args, "--quiet").stderr
+    from ballchain.cli.running import cost_warning
+
+    short = cost_warning(8, SolverOptions(method="rattle", dt=1e-9, until=0.1))
+    assert "takes about 8e+08 steps to --until 0.1" in short and "its default there: 0.05" in short
+    assert cost_warning(8, SolverOptions(method="rattle", dt=1e-9, until=1e-3)) is None
+
+
+def test_every_experimental_method_says_so_and_counts_what_it_counts(engine):
+    """Both steppers are experimental (docs/timestep.md, docs/rattle.md): each says so on
+    stderr and on its summary's method line; the event method does not.  The line of events
+    counts the event method's instants and a stepper's steps (never '0 instants')."""
+    for method in ("timestep", "rattle", "event"):
+        res = run("simulate", "-N", "8", "--method", method, "--quiet")
+        assert res.exit_code == 0, res.stderr
+        (line,) = [ln for ln in res.stdout.splitlines() if ln.strip().startswith("method")]
+        (events,) = [ln for ln in res.stdout.splitlines() if ln.strip().startswith("events")]
+        stepper = method != "event"
+        assert ("experimental" in line) == stepper and (f"--method {method} is experimental" in res.stderr) == stepper
+        assert ("(20 steps)" in events) == stepper and ("(2 instants)" in events) == (not stepper), events
+    assert "experimental" in cli.command_options("simulate")["method"][0].split("timestep")[1].split("rattle")[0]

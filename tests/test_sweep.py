@@ -636,3 +636,56 @@ def test_a_table_read_while_a_sweep_replaces_it_is_one_version(tmp_path):
         stop.set()
         writer.join()
     assert set(seen) <= set(sizes)
+
+
+_STARTED: list = []  # (the fake run below: when each run started, and whether a stop request ended it)
+
+
+def _run_until_asked_to_stop(task):
+    """A run of a one-worker sweep (a thread of this process, which signals do not reach)
+    that goes on for 30 s unless asked to stop (``engine.request_stop``)."""
+    from ballchain.engine import stop_requested
+    from ballchain.sweeps.execute import _interrupted_row, error_row
+
+    _STARTED.append([time.monotonic(), False])
+    end = time.monotonic() + 30.0
+    while time.monotonic() < end:
+        if stop_requested() is not None:
+            _STARTED[-1][1] = True
+            return _interrupted_row(task)
+        time.sleep(0.01)
+    return error_row(task, "ran on after the sweep was interrupted")
+
+
+def test_an_interrupted_one_worker_sweep_stops_its_run_under_way(tmp_path, monkeypatch):
+    """Ctrl-C on ``sweep --workers 1`` without checkpoints (issue 82): the run under way is
+    asked to stop and the runs not started never start, so that the sweep returns (and its
+    process exits) after saying it was interrupted, not when its runs are done."""
+    import io
+    import threading
+
+    import ballchain.sweeps.execute as execute
+
+    monkeypatch.setattr(execute, "run_task", _run_until_asked_to_stop)
+    monkeypatch.setattr(execute, "warm_kernels", lambda method="event": False)
+    _STARTED.clear()
+    tasks = SweepSpec(segments=(6,), alphas=(math.pi / 3,), runs=3).tasks()
+
+    def interrupt():
+        end = time.monotonic() + 60.0
+        while not _STARTED and time.monotonic() < end:
+            time.sleep(0.05)
+        time.sleep(0.2)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt, daemon=True).start()
+    log = io.StringIO()
+    t0 = time.monotonic()
+    rep = run_tasks(tasks, tmp_path / "t.parquet", workers=1, progress=False, log=log)
+    assert rep.interrupted and rep.ran == 0 and "sweep interrupted (SIGINT)" in log.getvalue()
+    assert time.monotonic() - t0 < 25.0
+    time.sleep(1.0)  # (a run that would start after the sweep returned)
+    assert len(_STARTED) == 1 and _STARTED[0][1], _STARTED
+    from ballchain.engine import stop_requested
+
+    assert stop_requested() is None  # the request ends with the sweep

@@ -99,6 +99,11 @@ TIMESTEP_WARNING = (
     f"against the event-driven method's, its single falls were not (default step: --dt {SHORT_STEP[0]:g} --theta {SHORT_STEP[1]:g} "
     f"below N = {LONG_STEP_FROM}, --dt {LONG_STEP[0]:g} --theta {LONG_STEP[1]:g} from N = {LONG_STEP_FROM} on); the checks and their numbers: docs/timestep.md"
 )
+RATTLE_WARNING = (
+    "warning: --method rattle is experimental: second order where the motion is smooth; its ensembles of "
+    "t_fall and of the losses were checked against the event-driven method's, not everywhere (where, and "
+    "how far: docs/rattle.md)"
+)
 SHORT_STEP_EARLY_FROM = 2048  # N from which theta = 1/2 was seen to fall early against the exact method
 SHORT_STEP_WARNING = (
     "warning: at N = {n} --theta 0.5 falls early against the exact method, where the default from "
@@ -113,9 +118,51 @@ LANDING_WARNING = (
 )
 
 
+# A run's cost before it starts (``cost_warning``): steps of dt t_ff/N beyond this many (to
+# --until, else in the fall's first t_ff) are absurd (the largest documented runs, N = 16384 at
+# the default step, take about 1e6), and a rough wall time per step (s) of N segments: from the
+# median falls of docs/index.md (a 2-core machine), within a factor of two from N = 128 to 4096.
+ABSURD_STEPS = 1e8
+
+
+def step_seconds(segments: int) -> float:
+    """A rough wall time of one step of N = ``segments`` (s)."""
+    return 5e-6 + 5e-7 * segments
+
+
+def cost_warning(segments: int, options, what: str = "") -> str | None:
+    """One line warning of a run of ``options`` (``SolverOptions``) with N = ``segments`` that
+    takes more than ABSURD_STEPS steps (to --until, else in the fall's first t_ff: a fall takes
+    about that at least), with the count, a rough wall time and how to shorten it; None for
+    another run, and for the event method (which sizes its own steps).  ``what``: the run's name."""
+    from ..methods import method_default, steps_per_tff
+
+    per_tff = steps_per_tff(options, segments)
+    if per_tff is None:
+        return None
+    until = options.until
+    steps = per_tff * (1.0 if until is None else until)
+    if steps <= ABSURD_STEPS:
+        return None
+    hours = steps * step_seconds(segments) / 3600.0
+    span = f"per t_ff of the fall (roughly {hours:.2g} h each, up to the time cap, {options.max_time:g} t_ff)"
+    return (
+        f"warning: {what}--method {options.method} --dt {options.for_segments(segments).dt:g} at N = {segments} "
+        f"takes about {steps:.2g} steps "
+        + (span if until is None else f"to --until {until:g} (roughly {hours:.2g} h)")
+        + f": a larger --dt (its default there: {method_default(options.method, 'dt', segments):g}) or a "
+        "shorter --until ends it sooner"
+    )
+
+
 def _run_engine(params, init, options, show_progress: bool, state=None, checkpoint=None):
     from ..engine import kernels_cached, load_kernels, simulate  # lazy: the engine (numba) is heavy to import
 
+    cost = cost_warning(params.segments, options)
+    if cost is not None:
+        typer.echo(cost, err=True)
+    if options.method == "rattle":
+        typer.echo(RATTLE_WARNING, err=True)
     if options.method == "timestep":
         typer.echo(TIMESTEP_WARNING, err=True)
         if params.segments >= SHORT_STEP_EARLY_FROM and options.theta == SHORT_STEP[1]:

@@ -75,7 +75,7 @@ def simulate(
         _SOLVER.method,
         "--method",
         help="Integration method: event (event-driven, every event located exactly), timestep (Moreau-Jean "
-        "time-stepping, first order in --dt; for large N) or rattle (nonsmooth RATTLE, second order where the "
+        "time-stepping, first order in --dt; for large N; experimental) or rattle (nonsmooth RATTLE, second order where the "
         "motion is smooth; experimental).",
     ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),

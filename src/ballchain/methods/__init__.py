@@ -107,6 +107,16 @@ def check_options(options, segments: int = 1, filled: bool = False) -> None:
         )
 
 
+def steps_per_tff(options, segments: int) -> float | None:
+    """The steps a run of ``options`` with N = ``segments`` takes per t_ff of the fall, for the
+    methods that take ``dt`` (steps of dt t_ff/N: N / dt; RATTLE's dt is a ceiling, its steps
+    may be shorter; ``dt_rule`` landing scales them within ``LANDING_STEP_RANGE``); None for the
+    others (the event method sizes its own steps).  What a warning of an absurd run reads."""
+    if not method_takes(options.method, "dt"):
+        return None
+    return segments / options.for_segments(segments).dt
+
+
 def method_options(name: str) -> tuple:
     """The options the method ``name`` owns (its package's ``OPTIONS``: ``options.MethodOption``)."""
     return tuple(getattr(method_package(name), "OPTIONS", ()))
