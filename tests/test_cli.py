@@ -758,13 +758,14 @@ def test_an_absurd_run_is_warned_of_before_it_starts(engine):
     assert res.exit_code == 0 and len(engine.calls) == 1, res.stderr
     (line,) = [ln for ln in res.stderr.splitlines() if "steps" in ln]
     assert line.startswith("warning: --method timestep --dt 1e-09 at N = 8 takes about 8e+09 steps per t_ff")
-    assert " h each" in line and "a larger --dt (its default there: 0.01)" in line
+    assert " h each, up to --max-time 3 t_ff)" in line and "a larger --dt (its default there: 0.01)" in line
     for args in (["--method", "timestep"], ["--method", "rattle", "--dt", "0.2"], []):
         assert "takes about" not in run("simulate", "-N", "4096", *args, "--quiet").stderr
     from ballchain.cli.running import cost_warning
 
     short = cost_warning(8, SolverOptions(method="rattle", dt=1e-9, until=0.1))
-    assert "takes about 8e+08 steps to --until 0.1" in short and "its default there: 0.05" in short
+    assert "takes about 8e+09 steps per t_ff of the fall (roughly" in short and "up to --until 0.1 t_ff" in short
+    assert "its default there: 0.05" in short
     assert cost_warning(8, SolverOptions(method="rattle", dt=1e-9, until=1e-3)) is None
 
 

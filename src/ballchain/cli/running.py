@@ -131,27 +131,24 @@ def step_seconds(segments: int) -> float:
 
 
 def cost_warning(segments: int, options, what: str = "") -> str | None:
-    """One line warning of a run of ``options`` (``SolverOptions``) with N = ``segments`` that
-    takes more than ABSURD_STEPS steps (to --until, else in the fall's first t_ff: a fall takes
-    about that at least), with the count, a rough wall time and how to shorten it; None for
-    another run, and for the event method (which sizes its own steps).  ``what``: the run's name."""
+    """One line warning of a run of ``options`` (``SolverOptions``) with N = ``segments`` whose
+    first t_ff (a fall takes about that at least; or its --until, if shorter) takes more than
+    ABSURD_STEPS steps, with the steps per t_ff, a rough wall time and how to shorten it; None
+    for another run, and for the event method (which sizes its own steps).  ``what``: the run's
+    name."""
     from ..methods import method_default, steps_per_tff
 
     per_tff = steps_per_tff(options, segments)
-    if per_tff is None:
-        return None
     until = options.until
-    steps = per_tff * (1.0 if until is None else until)
-    if steps <= ABSURD_STEPS:
+    if per_tff is None or per_tff * min(1.0, until or 1.0) <= ABSURD_STEPS:
         return None
-    hours = steps * step_seconds(segments) / 3600.0
-    span = f"per t_ff of the fall (roughly {hours:.2g} h each, up to the time cap, {options.max_time:g} t_ff)"
+    hours = per_tff * step_seconds(segments) / 3600.0
+    end = f"--max-time {options.max_time:g}" if until is None else f"--until {until:g}"
     return (
         f"warning: {what}--method {options.method} --dt {options.for_segments(segments).dt:g} at N = {segments} "
-        f"takes about {steps:.2g} steps "
-        + (span if until is None else f"to --until {until:g} (roughly {hours:.2g} h)")
-        + f": a larger --dt (its default there: {method_default(options.method, 'dt', segments):g}) or a "
-        "shorter --until ends it sooner"
+        f"takes about {per_tff:.2g} steps per t_ff of the fall (roughly {hours:.2g} h each, up to {end} t_ff): "
+        f"a larger --dt (its default there: {method_default(options.method, 'dt', segments):g}) or a shorter "
+        "--until ends it sooner"
     )
 
 
