@@ -225,7 +225,7 @@ def test_the_cli_warns_of_the_short_step_at_large_n():
     assert "falls early" not in res.stderr
     res = runner.invoke(app, [a for a in args if a != "--json"])  # the summary names the step used
     assert res.exit_code == 0, res.stderr
-    assert "time-stepping (Moreau-Jean), dt = 0.02 t_ff/N, theta = 1, steps fixed" in res.stdout
+    assert "time-stepping (Moreau-Jean, experimental), dt = 0.02 t_ff/N, theta = 1, steps fixed" in res.stdout
 
 
 def test_bad_dt_rule_is_refused():
