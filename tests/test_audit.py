@@ -123,3 +123,26 @@ def test_a_hinge_bent_past_its_limit_fails_loudly():
     e = np.array(free.frame_e, dtype=float)
     e[0, 3] = _bend(e[0, 2] / np.linalg.norm(e[0, 2]), 2.0)
     assert audit(dataclasses.replace(free, frame_e=e)) == []
+
+
+def test_a_run_stopped_at_the_time_cap_that_fails_its_books_says_the_books_first():
+    """A top that RATTLE without an energy bound keeps turning to the time cap and whose books
+    then do not close (issue 82): its error is the books, said first; where it had stopped
+    follows (the CLI prints ``the run failed: <message>``)."""
+    from test_cli import fake_result
+
+    cap = "the chain had not landed by t = 3 t_ff (the time cap, --max-time); its top end, 3 segments locked"
+    r = fake_result(
+        ChainParams(segments=8),
+        InitialCondition(),
+        SolverOptions(method="rattle", step_energy_tol=0.0),
+        status="max_time",
+        message=cap,
+    )
+    e = dict(r.energy)
+    e["imbalance"] = -0.2 * e["initial"]
+    bad = audited(dataclasses.replace(r, energy=e))
+    assert bad.status == "error" and bad.message.startswith("the energy books do not close: 0.2 of E0 created")
+    assert bad.message.endswith(f" (it had stopped with status max_time: {cap})")
+    failed = audited(dataclasses.replace(r, energy=e, status="error", message="non-finite state (blow-up)"))
+    assert failed.message.startswith("non-finite state (blow-up); the energy books do not close")

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from ballchain import cli
 from ballchain.cli import app
+from ballchain.errors import ParameterError
 from ballchain.model import ChainParams, InitialCondition, SolverOptions, parse_angle
 from ballchain.records.files import load_result, save_result
 from ballchain.records.result import Result
@@ -670,3 +671,114 @@ def test_theory_rod_on_floor_prints_the_closed_forms_and_null_for_a_rod_that_nev
     assert never["slip_angle"] is None and never["slip_time"] is None
     bad = run(*["theory", "rod-on-floor", "--theta0", "0.3", "--mu", "-1"])
     assert bad.exit_code == 2 and "mu must be >= 0" in bad.stderr
+
+
+# ------------------------------------------------------- issue 82: nothing silently ignored
+def test_an_option_of_another_method_is_refused_before_the_run(engine):
+    res = run("simulate", "-N", "8", "--method", "event", "--dt", "0.1", "--quiet")
+    assert_one_line_error(res, 2, "--dt 0.1", "--method timestep and rattle", "not used by --method event")
+    res = run("simulate", "-N", "8", "--method", "rattle", "--theta", "0.5", "--quiet")
+    assert_one_line_error(res, 2, "--theta 0.5", "--method timestep", "not used by --method rattle")
+    assert engine.calls == []
+
+
+def test_from_a_run_of_another_method_takes_only_the_options_both_take(engine, tmp_path):
+    """``--from`` a time-stepper's file (which records dt and theta) rerun with another
+    method: its dt is RATTLE's too, its theta nobody else's; the event method takes neither."""
+    path = tmp_path / "ts.h5"
+    o = SolverOptions(method="timestep", dt=0.02, theta=1.0)
+    save_result(fake_result(ChainParams(segments=8), InitialCondition(), o), path)
+    for method, dt in (("event", None), ("rattle", 0.02), ("timestep", 0.02)):
+        res = run("simulate", "--from", str(path), "--method", method, "--quiet")
+        assert res.exit_code == 0, res.stderr
+        options = engine.calls[-1][2]
+        assert (options.method, options.dt, options.theta) == (method, dt, 1.0 if method == "timestep" else None)
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--ic", "random"], "--ic is not used beside --initial"),
+        (["--eps", "0.1", "--seed", "3"], "--eps, --seed are not used beside --initial"),
+    ],
+)
+def test_a_start_option_beside_an_explicit_state_is_refused(engine, tmp_path, args, words):
+    f = tmp_path / "f.txt"
+    f.write_text("0 0 1\n0 0 1\n0 0 1\n")
+    assert_one_line_error(run("simulate", "--initial", str(f), *args, "--quiet"), 2, words)
+    import ballchain as bc
+
+    with pytest.raises(ParameterError, match="--ic is not used beside initial="):
+        bc.simulate(initial=str(f), ic="random")
+    assert engine.calls == []
+
+
+def test_nan_is_refused_as_not_a_number(engine):
+    for flag in ("--friction", "--restitution-lock", "--restitution-floor", "--theta"):
+        err = assert_one_line_error(run("simulate", flag, "nan", "--quiet"), 2, "must be a number in [", "got nan")
+        assert "negative" not in err and "creates energy" not in err and "unstable" not in err
+
+
+def _bad_files(tmp_path):
+    (tmp_path / "empty.txt").write_text("")
+    (tmp_path / "empty.npy").write_bytes(b"")
+    (tmp_path / "comments.txt").write_text("# no rows\n\n")
+    (tmp_path / "text.npy").write_text("0 0 1\n")
+    np.save(tmp_path / "objects.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    return {
+        "empty.txt": "is empty (no rows)",
+        "empty.npy": "is empty (no rows)",
+        "comments.txt": "holds no rows (only comments or blank lines)",
+        "text.npy": "not a .npy file",
+        "objects.npy": "an array of Python objects, not numbers",
+    }
+
+
+def test_a_bad_initial_file_is_named_with_its_own_cause(engine, tmp_path):
+    for name, words in _bad_files(tmp_path).items():
+        err = assert_one_line_error(run("simulate", "--initial", str(tmp_path / name), "--quiet"), 2, name, words)
+        assert "allow_pickle" not in err and "Warning" not in err and ".py" not in err.replace(".npy", "")
+    assert engine.calls == []
+
+
+def test_an_explicit_state_outside_the_cone_does_not_say_reduce_eps():
+    from ballchain.engine import _initial_state
+
+    e0 = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.1]])
+    with pytest.raises(ParameterError) as exc:
+        _initial_state(ChainParams(segments=2), None, (e0, None))
+    assert "eps" not in str(exc.value) and "explicit initial state" in str(exc.value)
+
+
+def test_an_absurd_run_is_warned_of_before_it_starts(engine):
+    """``--method timestep --dt 1e-9``: one line on stderr with the steps, a rough wall time
+    and what shortens it; the run is not refused.  The default step is not warned of, nor the
+    event method (which sizes its own steps)."""
+    res = run("simulate", "-N", "8", "--method", "timestep", "--dt", "1e-9", "--quiet")
+    assert res.exit_code == 0 and len(engine.calls) == 1, res.stderr
+    (line,) = [ln for ln in res.stderr.splitlines() if "steps" in ln]
+    assert line.startswith("warning: --method timestep --dt 1e-09 at N = 8 takes about 8e+09 steps per t_ff")
+    assert " h each, up to --max-time 3 t_ff)" in line and "a larger --dt (its default there: 0.01)" in line
+    for args in (["--method", "timestep"], ["--method", "rattle", "--dt", "0.2"], []):
+        assert "takes about" not in run("simulate", "-N", "4096", *args, "--quiet").stderr
+    from ballchain.cli.running import cost_warning
+
+    short = cost_warning(8, SolverOptions(method="rattle", dt=1e-9, until=0.1))
+    assert "takes about 8e+09 steps per t_ff of the fall (roughly" in short and "up to --until 0.1 t_ff" in short
+    assert "its default there: 0.05" in short
+    assert cost_warning(8, SolverOptions(method="rattle", dt=1e-9, until=1e-3)) is None
+
+
+def test_every_experimental_method_says_so_and_counts_what_it_counts(engine):
+    """Both steppers are experimental (docs/timestep.md, docs/rattle.md): each says so on
+    stderr and on its summary's method line; the event method does not.  The line of events
+    counts the event method's instants and a stepper's steps (never '0 instants')."""
+    for method in ("timestep", "rattle", "event"):
+        res = run("simulate", "-N", "8", "--method", method, "--quiet")
+        assert res.exit_code == 0, res.stderr
+        (line,) = [ln for ln in res.stdout.splitlines() if ln.strip().startswith("method")]
+        (events,) = [ln for ln in res.stdout.splitlines() if ln.strip().startswith("events")]
+        stepper = method != "event"
+        assert ("experimental" in line) == stepper and (f"--method {method} is experimental" in res.stderr) == stepper
+        assert ("(20 steps)" in events) == stepper and ("(2 instants)" in events) == (not stepper), events
+    assert "experimental" in cli.command_options("simulate")["method"][0].split("timestep")[1].split("rattle")[0]

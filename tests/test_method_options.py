@@ -207,3 +207,53 @@ def test_importing_ballchain_loads_no_method_kernels():
     light, others = json.loads(res.stdout.strip().splitlines()[-1])
     assert light == []
     assert others == []
+
+
+# An option of one method given to another that neither owns nor uses it (issue 82): refused
+# in one line naming the option, its methods and the method in use, by the one check
+# (``methods.check_options``) that the command line, ``bc.simulate`` and the sweeps call.
+OTHER_METHODS = [
+    ("event", dict(dt=0.1), "--dt 0.1 is an option of --method timestep and rattle, not used by --method event"),
+    ("event", dict(theta=1.0), "--theta 1 is an option of --method timestep, not used by --method event"),
+    ("event", dict(step_energy_tol=0.0), "--step-energy-tol 0 is an option of --method rattle, not used by"),
+    ("event", dict(dt_rule="landing"), "--dt-rule landing is an option of --method timestep, not used by"),
+    ("rattle", dict(theta=0.5), "--theta 0.5 is an option of --method timestep, not used by --method rattle"),
+    ("rattle", dict(dt_rule="landing"), "--dt-rule landing is an option of --method timestep, not used by"),
+    ("timestep", dict(step_energy_tol=1e-6), "--step-energy-tol 1e-06 is an option of --method rattle, not used"),
+    ("timestep", dict(landing_step="whole"), "--landing-step whole is an option of --method rattle, not used by"),
+    ("timestep", dict(rtol=1e-9), "--rtol 1e-09 is an option of --method event, not used by --method timestep"),
+    ("rattle", dict(hold_rate=1e-3), "--hold-rate 0.001 is an option of --method event, not used by --method rattle"),
+]
+
+
+@pytest.mark.parametrize("method, kw, words", OTHER_METHODS, ids=[f"{m}-{list(kw)[0]}" for m, kw, _ in OTHER_METHODS])
+def test_an_option_of_another_method_is_refused_in_one_line(method, kw, words):
+    from ballchain import engine
+    from ballchain.inputs import build_inputs
+    from ballchain.model import ChainParams
+    from ballchain.sweeps import SweepSpec
+
+    calls = {
+        "keywords": lambda: build_inputs({"segments": 8, "method": method, **kw}),  # the CLI, bc.simulate
+        "options": lambda: engine.simulate(ChainParams(segments=8), options=SolverOptions(method=method, **kw)),
+        "sweep": lambda: SweepSpec(segments=(8,), alphas=(1.0,), method=method, **kw),
+    }
+    for where, call in calls.items():
+        with pytest.raises(ParameterError) as exc:
+            call()
+        assert str(exc.value).startswith(words) and "\n" not in str(exc.value), (where, str(exc.value))
+
+
+def test_options_a_method_takes_or_records_are_not_refused():
+    """What a method owns or uses (RATTLE's --dt), what is left at its default, and the
+    options a run records (``for_segments``: every option, given or not) pass; given
+    as keywords, the value another method's run records is refused all the same."""
+    from ballchain.inputs import build_inputs
+
+    build_inputs({"segments": 8, "method": "rattle", "dt": 0.1, "step_energy_tol": 0.0, "landing_step": "whole"})
+    build_inputs({"segments": 8, "method": "event", "rtol": 1e-9, "hold_rate_floor": 0.1, "landing_step": "cut"})
+    for method in methods.METHOD_NAMES:
+        for n in (8, 4096):
+            methods.check_options(SolverOptions(method=method).for_segments(n), n, filled=True)
+    with pytest.raises(ParameterError, match="--dt 0.01 is an option of"):
+        build_inputs({"segments": 8, "method": "event", "dt": 0.01})

@@ -683,3 +683,58 @@ def test_a_law_of_the_grid_that_cannot_run_is_named_before_anything_runs(tmp_pat
     assert "sweep point --restitution-floor 0.5, --friction 0:" in res.stderr
     res = CliRunner().invoke(app, [*base, "--friction", "0,-1"])
     assert res.exit_code == 2 and "negative friction" in res.stderr and not out.exists()
+
+
+_STARTED: list = []  # (the fake run below: when each run started, and whether a stop request ended it)
+
+
+def _run_until_asked_to_stop(task):
+    """A run of a one-worker sweep (a thread of this process, which signals do not reach)
+    that goes on for 30 s unless asked to stop (``engine.request_stop``)."""
+    from ballchain.engine import stop_requested
+    from ballchain.sweeps.execute import _interrupted_row, error_row
+
+    _STARTED.append([time.monotonic(), False])
+    end = time.monotonic() + 30.0
+    while time.monotonic() < end:
+        if stop_requested() is not None:
+            _STARTED[-1][1] = True
+            return _interrupted_row(task)
+        time.sleep(0.01)
+    return error_row(task, "ran on after the sweep was interrupted")
+
+
+def test_an_interrupted_one_worker_sweep_stops_its_run_under_way(tmp_path, monkeypatch):
+    """Ctrl-C on ``sweep --workers 1`` without checkpoints (issue 82): the run under way is
+    asked to stop, and the runs not started return at once (or never start), so that the
+    sweep returns (and its process exits) after saying it was interrupted, not when its
+    runs are done."""
+    import io
+    import threading
+
+    import ballchain.sweeps.execute as execute
+
+    monkeypatch.setattr(execute, "run_task", _run_until_asked_to_stop)
+    monkeypatch.setattr(execute, "warm_kernels", lambda method="event": False)
+    _STARTED.clear()
+    tasks = SweepSpec(segments=(6,), alphas=(math.pi / 3,), runs=3).tasks()
+
+    def interrupt():
+        end = time.monotonic() + 60.0
+        while not _STARTED and time.monotonic() < end:
+            time.sleep(0.05)
+        time.sleep(0.2)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt, daemon=True).start()
+    log = io.StringIO()
+    t0 = time.monotonic()
+    rep = run_tasks(tasks, tmp_path / "t.parquet", workers=1, progress=False, log=log)
+    assert rep.interrupted and rep.ran == 0 and "sweep interrupted (SIGINT)" in log.getvalue()
+    assert time.monotonic() - t0 < 25.0
+    started = len(_STARTED)
+    time.sleep(1.0)  # (a run that would start after the sweep returned)
+    assert len(_STARTED) == started and all(stopped for _, stopped in _STARTED), _STARTED
+    from ballchain.engine import stop_requested
+
+    assert stop_requested() is None  # the request ends with the sweep

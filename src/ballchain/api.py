@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from .contacts.registry import all_params as contact_params
-from .inputs import build_inputs
+from .inputs import build_inputs, check_start
 from .methods import option_names
 from .methods.checkpoint import DEFAULT_EVERY
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
@@ -82,6 +82,8 @@ def simulate(
         raise TypeError(
             f"simulate() got unknown keyword(s) {', '.join(unknown)}; known: {', '.join(SIMULATE_KEYWORDS)}"
         )
+    if keywords.get("initial") is not None:
+        check_start([*keywords, *(["ic"] if ic is not None else [])], "initial=")
     if isinstance(ic, InitialCondition):
         if any(k in keywords for k in ("eps", "turns", "phase", "seed", "spawn_key")):
             raise TypeError("give the start either as ic=InitialCondition(...) or as keywords, not both")

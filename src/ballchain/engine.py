@@ -26,7 +26,7 @@ from .core.kinds import EVENT_KINDS
 from .core.kinematics import kinetic_energy, potential_energy
 from .core.rules import is_landed
 from .initial import check_inside_cone, initial_directions
-from .methods import check_contacts, method_runner
+from .methods import check_contacts, check_options, method_runner
 from .methods.checkpoint import Checkpoint
 from .methods.outputs import FRAME_CHUNK_BYTES, RunOutput, SimulationError, frame_bytes  # noqa: F401  (re-exported)
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
@@ -179,7 +179,7 @@ def _initial_state(params: ChainParams, ic: InitialCondition | None, state) -> t
             raise ParameterError("state: non-finite initial directions or angular velocities")
         e0 /= np.linalg.norm(e0, axis=1)[:, None]
         w0 -= np.einsum("ij,ij->i", w0, e0)[:, None] * e0
-        check_inside_cone(e0, params.alpha)
+        check_inside_cone(e0, params.alpha, "the explicit initial state: bend it less, or raise --alpha")
         return e0, w0
     ic = ic or InitialCondition()
     return initial_directions(ic, n, params.alpha), np.zeros((n, 3))
@@ -272,6 +272,7 @@ def simulate(
     Returns a Result in the run's units."""
     options = (options or SolverOptions()).for_segments(params.segments)
     check_contacts(params, options.method)
+    check_options(options, params.segments, filled=True)
     check_memory(params, options)
     wall0 = _time.perf_counter()
     setup = _setup(params, ic, options, state)

@@ -7,6 +7,7 @@ Directions ``e`` have shape (N, 3), unit vectors pointing up the chain.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -77,7 +78,10 @@ def hinge_angles(e: np.ndarray) -> np.ndarray:
     return np.arccos(c)
 
 
-def check_inside_cone(e: np.ndarray, alpha: float) -> None:
+def check_inside_cone(e: np.ndarray, alpha: float, remedy: str = "reduce eps") -> None:
+    """Raise ParameterError (ending with ``remedy``: what to change; an explicit state's
+    differs from a family's) if a hinge of ``e`` starts outside (or on) the critical
+    angle alpha, or a segment at or below the horizontal."""
     if e.shape[0] < 2:
         return
     ang = hinge_angles(e)
@@ -85,10 +89,10 @@ def check_inside_cone(e: np.ndarray, alpha: float) -> None:
     if ang[worst] >= alpha:
         raise ParameterError(
             f"initial state: hinge {worst + 1} bends {math.degrees(ang[worst]):.3g} deg, "
-            f"not strictly inside alpha = {math.degrees(alpha):.3g} deg (reduce eps)"
+            f"not strictly inside alpha = {math.degrees(alpha):.3g} deg ({remedy})"
         )
     if np.any(e[:, 2] <= 0.0):
-        raise ParameterError("initial state: a segment points at or below the horizontal (reduce eps)")
+        raise ParameterError(f"initial state: a segment points at or below the horizontal ({remedy})")
 
 
 def load_initial_state(path) -> tuple[np.ndarray, np.ndarray | None]:
@@ -103,15 +107,21 @@ def load_initial_state(path) -> tuple[np.ndarray, np.ndarray | None]:
     p = Path(path)
     if not p.is_file():
         raise ParameterError(f"initial: no such file {str(p)!r}")
+    if p.stat().st_size == 0:
+        raise ParameterError(f"initial: {str(p)!r} is empty (no rows)")
     try:
         if p.suffix == ".npy":
-            a = np.load(p, allow_pickle=False)
+            a = _load_npy(p)
         else:
-            a = np.loadtxt(p, comments="#", ndmin=2)
-    except (OSError, ValueError) as exc:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # (numpy's on an empty file: said below)
+                a = np.loadtxt(p, comments="#", ndmin=2)
+    except (OSError, ValueError, EOFError) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ParameterError(f"initial: cannot read {str(p)!r}: {msg}") from None
     a = np.asarray(a, dtype=float)
+    if a.size == 0:
+        raise ParameterError(f"initial: {str(p)!r} holds no rows (only comments or blank lines)")
     if a.ndim != 2 or a.shape[1] not in (3, 6) or a.shape[0] < 1:
         raise ParameterError(
             f"initial: {str(p)!r} must hold an N x 3 (axes) or N x 6 (axes, angular velocities) "
@@ -126,3 +136,20 @@ def load_initial_state(path) -> tuple[np.ndarray, np.ndarray | None]:
     e = a[:, :3] / norms[:, None]
     w = a[:, 3:].copy() if a.shape[1] == 6 else None
     return e, w
+
+
+NPY_MAGIC = b"\x93NUMPY"  # the first bytes of every .npy file
+
+
+def _load_npy(p) -> np.ndarray:
+    """A ``.npy`` array of numbers (ValueError naming what the file is instead: not a .npy
+    file, or an array of Python objects, which is never unpickled)."""
+    with open(p, "rb") as f:
+        if f.read(len(NPY_MAGIC)) != NPY_MAGIC:
+            raise ValueError("not a .npy file (no NumPy header; a text array needs another suffix, e.g. .txt)")
+    try:
+        return np.load(p, allow_pickle=False)
+    except ValueError as exc:
+        if "allow_pickle" in str(exc):
+            raise ValueError("it holds an array of Python objects, not numbers") from None
+        raise

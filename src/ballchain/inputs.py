@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from .contacts.registry import all_params as contact_params
-from .methods import all_options, check_contacts
+from .methods import all_options, check_contacts, check_options
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 
 
@@ -28,6 +28,22 @@ def _parse_spawn_key(text: str) -> tuple[int, ...]:
         raise ParameterError(
             f"spawn-key must be comma-separated integers >= 0 (as a sweep table's spawn_key), got {text!r}"
         ) from None
+
+
+START_OPTIONS = ("ic", "eps", "turns", "phase", "seed", "spawn_key")  # an initial-condition family's
+
+
+def check_start(given, source: str) -> None:
+    """Refuse, in one line, an option of the initial-condition families (``START_OPTIONS``,
+    among the names ``given``) beside an explicit initial state (from ``source``), which
+    they would not change (the command line's ``--initial``, ``bc.simulate``'s ``initial``)."""
+    named = [name for name in START_OPTIONS if name in given]
+    if named:
+        flags = ", ".join("--" + name.replace("_", "-") for name in named)
+        raise ParameterError(
+            f"{flags} {'is' if len(named) == 1 else 'are'} not used beside {source}: the start is its state "
+            f"(leave {'it' if len(named) == 1 else 'them'} out)"
+        )
 
 
 # the defaults of the options are those of the parameter dataclasses (stated once, there)
@@ -79,4 +95,5 @@ def build_inputs(values: dict[str, Any]) -> tuple[ChainParams, InitialCondition,
         **{name: v[name] for name in all_options() if name in v},  # the methods' own (methods.all_options)
     )
     check_contacts(params, options.method)  # (before anything compiles)
+    check_options(options, params.segments)
     return params, init, options

@@ -65,6 +65,8 @@ def in_range(low: float, high: float, why: str = ""):
             v = float(value)
         except (TypeError, ValueError):
             raise ParameterError(f"{name} must be a number in [{low:g}, {high:g}], got {value!r}") from None
+        if math.isnan(v):  # (outside for no reason ``why`` gives)
+            raise ParameterError(f"{name} must be a number in [{low:g}, {high:g}], got {value!r}")
         if not (low <= v <= high):
             raise ParameterError(f"{name} must be in [{low:g}, {high:g}]{f' ({why})' if why else ''}, got {value!r}")
         return v

@@ -10,10 +10,21 @@ import time
 import typer
 
 from ..contacts.registry import all_params as contact_params
-from ..methods import option_names
+from ..methods import all_options, method_takes, option_names
 from ..methods.timestep import LONG_STEP, LONG_STEP_FROM, SHORT_STEP
 from ..model import ParameterError
 from ..records.files import load_result
+
+
+def _its_options(o, method: str) -> dict:
+    """The methods' options of a saved run (``o``: its ``SolverOptions``) as ``--from`` reruns
+    them with ``method``: those both its method and ``method`` take (``methods.method_takes``);
+    the others at their defaults (a run records a value of each, given or not)."""
+    opts = all_options()
+    return {
+        name: getattr(o, name) if method_takes(o.method, name) and method_takes(method, name) else opts[name].default
+        for name in option_names("simulate")
+    }
 
 
 def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tuple[dict, tuple | None]:
@@ -24,10 +35,11 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
 
     r = load_result(path)
     p, o = r.params, r.options
+    given = {k for k in values if getattr(ctx.get_parameter_source(k), "name", "") == "COMMANDLINE"}
     base = dict(segments=p.segments, alpha=p.alpha, floor=p.floor, anchor_cone=p.anchor_cone,
                 **{name: getattr(p, name) for name in contact_params()},
                 until=o.until, frames_per_tff=o.frames_per_tff, max_time=o.max_time, max_events=o.max_events,
-                method=o.method, **{name: getattr(o, name) for name in option_names("simulate")})  # fmt: skip
+                method=o.method, **_its_options(o, values["method"] if "method" in given else o.method))  # fmt: skip
     if p.is_si:
         base.update(length=2.0 * p.half_length * p.segments, mass=p.segment_mass * p.segments, gravity=p.gravity)
     state = None
@@ -38,7 +50,6 @@ def _values_from_file(path: str, values: dict, ctx, use_its_start: bool) -> tupl
         if len(r.frame_t) == 0 or r.frame_t[0] != 0.0:
             raise ParameterError(f"--from {path!r}: its run started from an explicit state and has no frame at t = 0")
         state = (np.array(r.frame_e[0]), np.array(r.frame_omega[0]) * p.time_unit)
-    given = {k for k in values if getattr(ctx.get_parameter_source(k), "name", "") == "COMMANDLINE"}
     if state is not None and "segments" in given and values["segments"] != p.segments:
         raise ParameterError(f"--segments {values['segments']} disagrees with the {p.segments} segments of {path!r}")
     base.update({k: values[k] for k in given})
@@ -88,6 +99,11 @@ TIMESTEP_WARNING = (
     f"against the event-driven method's, its single falls were not (default step: --dt {SHORT_STEP[0]:g} --theta {SHORT_STEP[1]:g} "
     f"below N = {LONG_STEP_FROM}, --dt {LONG_STEP[0]:g} --theta {LONG_STEP[1]:g} from N = {LONG_STEP_FROM} on); the checks and their numbers: docs/timestep.md"
 )
+RATTLE_WARNING = (
+    "warning: --method rattle is experimental: second order where the motion is smooth; its ensembles of "
+    "t_fall and of the losses were checked against the event-driven method's, not everywhere (where, and "
+    "how far: docs/rattle.md)"
+)
 SHORT_STEP_EARLY_FROM = 2048  # N from which theta = 1/2 was seen to fall early against the exact method
 SHORT_STEP_WARNING = (
     "warning: at N = {n} --theta 0.5 falls early against the exact method, where the default from "
@@ -102,9 +118,48 @@ LANDING_WARNING = (
 )
 
 
+# A run's cost before it starts (``cost_warning``): steps of dt t_ff/N beyond this many (to
+# --until, else in the fall's first t_ff) are absurd (the largest documented runs, N = 16384 at
+# the default step, take about 1e6), and a rough wall time per step (s) of N segments: from the
+# median falls of docs/index.md (a 2-core machine), within a factor of two from N = 128 to 4096.
+ABSURD_STEPS = 1e8
+
+
+def step_seconds(segments: int) -> float:
+    """A rough wall time of one step of N = ``segments`` (s)."""
+    return 5e-6 + 5e-7 * segments
+
+
+def cost_warning(segments: int, options, what: str = "") -> str | None:
+    """One line warning of a run of ``options`` (``SolverOptions``) with N = ``segments`` whose
+    first t_ff (a fall takes about that at least; or its --until, if shorter) takes more than
+    ABSURD_STEPS steps, with the steps per t_ff, a rough wall time and how to shorten it; None
+    for another run, and for the event method (which sizes its own steps).  ``what``: the run's
+    name."""
+    from ..methods import method_default, steps_per_tff
+
+    per_tff = steps_per_tff(options, segments)
+    until = options.until
+    if per_tff is None or per_tff * min(1.0, until or 1.0) <= ABSURD_STEPS:
+        return None
+    hours = per_tff * step_seconds(segments) / 3600.0
+    end = f"--max-time {options.max_time:g}" if until is None else f"--until {until:g}"
+    return (
+        f"warning: {what}--method {options.method} --dt {options.for_segments(segments).dt:g} at N = {segments} "
+        f"takes about {per_tff:.2g} steps per t_ff of the fall (roughly {hours:.2g} h each, up to {end} t_ff): "
+        f"a larger --dt (its default there: {method_default(options.method, 'dt', segments):g}) or a shorter "
+        "--until ends it sooner"
+    )
+
+
 def _run_engine(params, init, options, show_progress: bool, state=None, checkpoint=None):
     from ..engine import kernels_cached, load_kernels, simulate  # lazy: the engine (numba) is heavy to import
 
+    cost = cost_warning(params.segments, options)
+    if cost is not None:
+        typer.echo(cost, err=True)
+    if options.method == "rattle":
+        typer.echo(RATTLE_WARNING, err=True)
     if options.method == "timestep":
         typer.echo(TIMESTEP_WARNING, err=True)
         if params.segments >= SHORT_STEP_EARLY_FROM and options.theta == SHORT_STEP[1]:

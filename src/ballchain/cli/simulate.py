@@ -6,7 +6,7 @@ from typing import Any
 
 import typer
 
-from ..inputs import _CHAIN, _SOLVER, _START, build_inputs
+from ..inputs import _CHAIN, _SOLVER, _START, START_OPTIONS, build_inputs, check_start
 from ..methods.checkpoint import DEFAULT_EVERY
 from ..model import ParameterError
 from ..records.files import ResultFileError, check_writable, save_result
@@ -75,7 +75,7 @@ def simulate(
         _SOLVER.method,
         "--method",
         help="Integration method: event (event-driven, every event located exactly), timestep (Moreau-Jean "
-        "time-stepping, first order in --dt; for large N) or rattle (nonsmooth RATTLE, second order where the "
+        "time-stepping, first order in --dt; for large N; experimental) or rattle (nonsmooth RATTLE, second order where the "
         "motion is smooth; experimental).",
     ),
     output: str | None = typer.Option(None, "--output", "-o", help="Save the result to this HDF5 file."),
@@ -144,6 +144,11 @@ def simulate(
                 raise ParameterError(f"--segments {segments} disagrees with the {e0.shape[0]} rows of {initial!r}")
             segments = e0.shape[0]
             state = (e0, w0)
+        if state is not None:
+            check_start(
+                [k for k in START_OPTIONS if getattr(ctx.get_parameter_source(k), "name", "") == "COMMANDLINE"],
+                f"--initial {initial!r}" if initial is not None else f"--from {from_!r}",
+            )
         values["segments"] = _CHAIN.segments if segments is None else segments
         params, init, options = build_inputs(values)
         if output is not None:

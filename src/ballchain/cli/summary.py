@@ -99,7 +99,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         f"  events             lock {ev.get('lock', 0)}, unlock {ev.get('unlock', 0)}, "
         f"landing {ev.get('landing', 0)}"
         + "".join(f", {k} {v}" for k, v in ev.items() if k not in ("lock", "unlock", "landing") and v)
-        + (f" ({s['n_instants']} instants)" if s.get("n_instants") is not None else "")
+        + _counted(s)
         + f"; first lock at t/t_ff = {_fmt(_div(s.get('first_lock_time'), s.get('t_ff')))}",
         f"  energy imbalance   {_fmt(imb, '.3g')} {u_e} (relative to initial energy: {_fmt(rel, '.3g')})",
     ]
@@ -137,6 +137,15 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     if output:
         lines.append(f"  output             {output}")
     return "\n".join(lines)
+
+
+def _counted(s: dict) -> str:
+    """' (K instants)', ' (K steps)': what the run's method counts beside its events (its
+    package's ``SUMMARY_COUNT``: the event method its instants, the steppers their steps)."""
+    from ..methods import METHODS, method_package
+
+    key, word = method_package(s["method"]).SUMMARY_COUNT if s.get("method") in METHODS else (None, "")
+    return f" ({s[key]} {word})" if s.get(key) is not None else ""
 
 
 def _method_text(s: dict) -> str:

@@ -14,6 +14,7 @@ from ..model import ParameterError
 from ..records.files import ResultFileError, check_output_dir, check_writable
 from .app import EXIT_INTERRUPTED, EXIT_USAGE, _error, _print_json, app
 from .params import _with_method_options
+from .running import cost_warning
 from .summary import stats_text
 
 
@@ -104,6 +105,9 @@ def sweep(
         from ..sweeps.execute import check_scheduler, run_sweep
 
         spec.tasks()  # every run validated before anything starts
+        cost = cost_warning(max(spec.segments), spec.options, "each run of ")  # (the longest: the largest N)
+        if cost is not None:
+            typer.echo(cost, err=True)
         if Path(out).suffix.lower() != ".parquet":
             raise ParameterError(f"--out: expected a .parquet file name, got {out!r}")
         check_writable(out, force=True, what="--out")  # (an existing table is resumed, then rewritten)

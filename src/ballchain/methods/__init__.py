@@ -87,6 +87,48 @@ def honours(method: str, name: str) -> str:
     return f"up to {bound[0]:g}" if bound is not None else "any"
 
 
+def method_takes(method: str, name: str) -> bool:
+    """Whether runs of ``method`` read the option ``name``: it owns it, or uses it (its
+    package's ``USES``)."""
+    return option_owner(name) == method or name in getattr(method_package(method), "USES", ())
+
+
+def check_options(options, segments: int = 1, filled: bool = False) -> None:
+    """Refuse, in one line, an option of another method that ``options.method`` neither owns
+    nor uses (``method_takes``) given a value (not None nor its default), so that a
+    method's option given to another is never silently ignored.  The one check of the
+    command line (``inputs.build_inputs``), ``bc.simulate`` (``engine.simulate``) and the
+    sweeps (``sweeps.spec``).  ``filled``: ``options`` are those of a run
+    (``SolverOptions.for_segments``, as a result records them), which also hold the value
+    such runs record when it is not given (``method_default``)."""
+    from ..errors import ParameterError
+
+    method = options.method
+    for name, opt in all_options().items():
+        value = getattr(options, name)
+        if value is None or method_takes(method, name):
+            continue
+        if value == opt.default or (filled and value == method_default(method, name, segments)):
+            continue
+        owner = option_owner(name)
+        takers = [owner] + [m for m in METHODS if m != owner and method_takes(m, name)]
+        shown = f"{value:g}" if isinstance(value, float) else str(value)
+        raise ParameterError(
+            f"{opt.flag or name} {shown} is an option of --method {' and '.join(takers)}, not used by --method "
+            f"{method}: leave it out or change the method"
+        )
+
+
+def steps_per_tff(options, segments: int) -> float | None:
+    """The steps a run of ``options`` with N = ``segments`` takes per t_ff of the fall, for the
+    methods that take ``dt`` (steps of dt t_ff/N: N / dt; RATTLE's dt is a ceiling, its steps
+    may be shorter; ``dt_rule`` landing scales them within ``LANDING_STEP_RANGE``); None for the
+    others (the event method sizes its own steps).  What a warning of an absurd run reads."""
+    if not method_takes(options.method, "dt"):
+        return None
+    return segments / options.for_segments(segments).dt
+
+
 def method_options(name: str) -> tuple:
     """The options the method ``name`` owns (its package's ``OPTIONS``: ``options.MethodOption``)."""
     return tuple(getattr(method_package(name), "OPTIONS", ()))

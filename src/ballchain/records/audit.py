@@ -216,10 +216,15 @@ def near_bounds(result: Result) -> list[str]:
 
 def audited(result: Result) -> Result:
     """``result`` with status ``error`` and the failed books in its message if any does
-    not close (a run that already failed keeps its status and gets them appended)."""
+    not close: they are its cause, and come first; the message of the status it had (a
+    time cap, a top that keeps turning) follows as where it stopped (a run that already
+    failed keeps its own cause first and gets them appended)."""
     failed = audit(result)
     if not failed:
         return result
     books = "; ".join(failed)
-    message = f"{result.message}; {books}" if result.message else books
+    if result.status == "error":
+        message = f"{result.message}; {books}"
+    else:
+        message = books + (f" (it had stopped with status {result.status}: {result.message})" if result.message else "")
     return dataclasses.replace(result, status="error", message=message)

@@ -324,25 +324,31 @@ def _record(fut, task, writer, report) -> None:
 
 
 def _let_runs_save(client, futures, by_key, writer, report, reason: str, log) -> None:
-    """An interrupted sweep with checkpoints: ask the runs under way to stop at their
-    next return from compiled code, as a first Ctrl-C asks one run (``engine.request_stop``
-    in every worker and in this process, whose thread runs the tasks of a one-worker
-    sweep), so that each saves its checkpoint; the tasks not started return at once.
-    Waits STOP_WAIT s at most (a second Ctrl-C: at once).  Runs that ended meanwhile get
-    their rows."""
+    """An interrupted sweep: ask the runs under way to stop at their next return from
+    compiled code, as a first Ctrl-C asks one run (``engine.request_stop``), and the tasks
+    not started to return at once.  Without checkpoints only in this process, whose thread
+    runs the tasks of a one-worker sweep (signals do not reach it: it would run on, and the
+    process with it, after the sweep said it was interrupted; the worker processes of a
+    larger cluster end with it), and the tasks are cancelled.  With checkpoints in every
+    worker too, so that each run saves its checkpoint: waits STOP_WAIT s at most (a second
+    Ctrl-C: at once); runs that ended meanwhile get their rows."""
     from distributed import wait
 
     from ..engine import request_stop
 
     left = [f for f in futures if not f.done()]
+    request_stop(reason)
     if not any(by_key[f.key].checkpoint_path is not None for f in left):
+        try:
+            client.cancel(left)
+        except Exception:  # noqa: BLE001 - a cluster already gone: nothing runs on
+            pass
         return
     print(
         f"\nsweep interrupted ({reason}): the runs under way save their checkpoints (Ctrl-C again: at once)...",
         file=log,
         flush=True,
     )
-    request_stop(reason)
     try:
         client.run(request_stop, reason)
     except Exception:  # noqa: BLE001 - a worker gone: its runs keep their last periodic checkpoint

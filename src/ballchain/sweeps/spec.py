@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, make_dataclass
 
 from ..contacts.registry import all_params as contact_params
 from ..contacts.registry import law_of, law_param_help
-from ..methods import all_options, check_contacts, option_help, option_owner
+from ..methods import all_options, check_contacts, check_options, option_help, option_owner
 from ..methods.checkpoint import DEFAULT_EVERY
 from ..model import FLOOR_MODELS, IC_KINDS, ChainParams, InitialCondition, ParameterError, SolverOptions, parse_angle
 from ..options import options_dataclass
@@ -222,6 +222,7 @@ class _SweepGrid:
                     if len(getattr(self, k)) > 1 or v != contact_params()[k].default
                 )
                 raise ParameterError(f"sweep point {shown}: {exc}") from None
+        check_options(self.options, min(self.segments))
         n = self.size
         if n > MAX_RUNS:
             raise ParameterError(f"sweep has {n} runs (more than {MAX_RUNS}); narrow it")

@@ -19,6 +19,8 @@ from __future__ import annotations
 from ...options import MethodOption, in_range, number_text, one_of, positive
 from ..bounds import AuditBounds
 
+SUMMARY_COUNT = ("n_steps", "steps")  # what the summary's line of events counts (no event instants: steps)
+
 # The contact laws' parameters it honours away from their defaults (contacts.registry):
 # Newton's restitution at the bend limit and at the floor, in Moreau-Jean's form (stepper._solve,
 # stepper._aim_rebounds: the rate before is the step start's).
@@ -126,6 +128,6 @@ OPTIONS = (
 def summary(s: dict) -> str:
     """The method and its accuracy setting, from a run's summary (the command line's line)."""
     return (
-        f"time-stepping (Moreau-Jean), dt = {number_text(s.get('dt'))} t_ff/N, theta = {number_text(s.get('theta'))}, "
+        f"time-stepping (Moreau-Jean, experimental), dt = {number_text(s.get('dt'))} t_ff/N, theta = {number_text(s.get('theta'))}, "
         f"steps {s.get('dt_rule') or 'fixed'}"
     )
