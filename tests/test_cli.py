@@ -589,7 +589,10 @@ def test_the_compile_notice_counts_the_seconds(monkeypatch):
     lines = []
     monkeypatch.setattr(cli.typer, "echo", lambda msg, err=False: lines.append(msg))
     cli._compile_with_notice(lambda: None, show_progress=True)
-    assert lines[0].startswith("compiling the numba kernels") and lines[1].startswith("compiled the kernels in")
+    assert lines[0].startswith("compiling the numba kernels of --method event")
+    assert lines[1].startswith("compiled the kernels of --method event in") and "s of CPU)" in lines[1]
+    cli._compile_with_notice(lambda: None, show_progress=False, method="rattle")
+    assert lines[2].startswith("compiling the numba kernels of --method rattle") and "warmup" in lines[2]
 
 
 @pytest.mark.parametrize("text", ["pi/0", "1.2.3pi/4", "2pi/", "1e999pi"])
@@ -782,3 +785,21 @@ def test_every_experimental_method_says_so_and_counts_what_it_counts(engine):
         assert ("experimental" in line) == stepper and (f"--method {method} is experimental" in res.stderr) == stepper
         assert ("(20 steps)" in events) == stepper and ("(2 instants)" in events) == (not stepper), events
     assert "experimental" in cli.command_options("simulate")["method"][0].split("timestep")[1].split("rattle")[0]
+
+
+def test_warmup_compiles_each_method_in_a_process_of_its_own_and_says_what_it_cost():
+    """``ballchain warmup --method M``: the method's kernels are in numba's cache afterwards
+    (a worker process compiled or loaded them), and it reports, per method, whether it
+    compiled and the wall and CPU seconds; a method that does not exist is one line, exit 2."""
+    from ballchain.engine import kernels_cached
+
+    res = CliRunner().invoke(app, ["warmup", "--method", "event", "--json"])
+    assert res.exit_code == 0, res.output
+    (d,) = json.loads(res.stdout)
+    assert d["method"] == "event" and isinstance(d["compiled"], bool)
+    assert d["wall_seconds"] > 0.0 and d["cpu_seconds"] > 0.0
+    assert kernels_cached("event")
+    res = CliRunner().invoke(app, ["warmup", "--method", "event"])
+    assert res.exit_code == 0 and "event: already compiled, loaded in" in res.stdout
+    res = CliRunner().invoke(app, ["warmup", "--method", "exact"])
+    assert res.exit_code == 2 and len(res.stderr.strip().splitlines()) == 1 and "--method" in res.stderr

@@ -1,5 +1,5 @@
 """Command line interface: ``ballchain simulate``, ``info``, ``plot``, ``paper``, ``animate``,
-``sweep``, ``stats`` and ``theory``.
+``sweep``, ``stats``, ``theory`` and ``warmup``.
 
 Errors in the input (every invalid parameter, an unwritable or existing output file,
 a damaged result file) are reported as one line ``error: <message>`` on stderr with
@@ -13,7 +13,8 @@ The package, a module per part: ``app`` (the application, its one-line errors an
 codes), ``params`` (the registries' options as typer options), ``running`` (the engine
 with its progress and warnings), ``summary`` (what is printed), and the commands:
 ``simulate``, ``files`` (``info``, ``plot``, ``paper``, ``animate``, ``view``,
-``export``), ``sweeps`` (``sweep``, ``stats``), ``theory``.
+``export``), ``sweeps`` (``sweep``, ``stats``), ``theory``, ``warmup`` (the kernels
+compiled ahead).
 """
 
 from __future__ import annotations
@@ -35,7 +36,13 @@ from .running import (  # noqa: F401
 )
 from .summary import human_summary, run_summary, stats_text  # noqa: F401
 
-for _part in ("simulate", "files", "sweeps", "theory"):  # each registers its commands (--help lists them in this order)
+for _part in (
+    "simulate",
+    "files",
+    "sweeps",
+    "theory",
+    "warmup",
+):  # each registers its commands (--help lists them in this order)
     importlib.import_module(f"{__name__}.{_part}")
 
 

@@ -63,7 +63,15 @@ def _progress_console():
     return Console(stderr=True)
 
 
-COMPILE_NOTICE = "compiling the numba kernels (first run only; about a minute, cached afterwards)"
+COMPILE_NOTICE = "compiling the numba kernels"  # (of --method M: first run only, cached afterwards)
+
+
+def compile_notice(method: str) -> str:
+    """What stderr says while the kernels of ``method`` compile (``_compile_with_notice``)."""
+    return (
+        f"{COMPILE_NOTICE} of --method {method} (first run only, cached afterwards; minutes of CPU: "
+        "`ballchain warmup` compiles every method's ahead, in parallel)"
+    )
 
 
 class _Elapsed:
@@ -77,19 +85,25 @@ class _Elapsed:
         return f"{self.text}: {time.perf_counter() - self.t0:.0f} s"
 
 
-def _compile_with_notice(load_kernels, show_progress: bool) -> None:
-    """Compile the kernels (``load_kernels``) saying so on stderr: a line with the elapsed
-    seconds, kept up to date while it works on a terminal; elsewhere (a log, a pipe) the
-    line when it starts and one when it is done."""
+def _compile_with_notice(load_kernels, show_progress: bool, method: str = "event") -> None:
+    """Compile the kernels of ``method`` (``load_kernels``) saying so on stderr, naming the
+    method: a line with the elapsed seconds, kept up to date while it works on a terminal;
+    elsewhere (a log, a pipe) the line when it starts and one when it is done, with the
+    seconds it took (wall and this process's CPU)."""
     console = _progress_console()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
+    notice = compile_notice(method)
     if show_progress and console.is_terminal:
-        with console.status(_Elapsed(COMPILE_NOTICE)):
+        with console.status(_Elapsed(notice)):
             load_kernels()
     else:
-        typer.echo(f"{COMPILE_NOTICE}...", err=True)
+        typer.echo(f"{notice}...", err=True)
         load_kernels()
-    typer.echo(f"compiled the kernels in {time.perf_counter() - t0:.0f} s", err=True)
+    typer.echo(
+        f"compiled the kernels of --method {method} in {time.perf_counter() - t0:.0f} s "
+        f"({time.process_time() - c0:.0f} s of CPU)",
+        err=True,
+    )
 
 
 # The time-stepper's warnings say what is checked and where the numbers are (the pages, which
@@ -171,7 +185,7 @@ def _run_engine(params, init, options, show_progress: bool, state=None, checkpoi
     t0 = time.perf_counter()
     load = functools.partial(load_kernels, options.method)
     if cold:
-        _compile_with_notice(load, show_progress)
+        _compile_with_notice(load, show_progress, options.method)
     else:
         load()  # before the run: its wall time is the integration alone
     setup = time.perf_counter() - t0
