@@ -1,7 +1,10 @@
 """Pages generated from the code at build time: the command-line reference (from the
 typer app itself: every command and option with the help ``--help`` prints), the result
 file's HDF5 layout (from ``ballchain.records.files``) and the sweep table's columns (from
-``ballchain.sweeps.table.COLUMNS``), written as markdown pages the site includes."""
+``ballchain.sweeps.table.COLUMNS``), written as markdown pages the site includes; and tables
+a hand-written page includes (a ``.md.inc`` fragment, not a page of its own, read by the
+page's ``{include}`` directive): which method takes which contact law (from the methods'
+registry, ``ballchain.methods.honours``), on the contact laws' page."""
 
 from __future__ import annotations
 
@@ -54,6 +57,22 @@ def _sweep_columns() -> str:
     for name, (kind, meaning) in COLUMNS.items():
         text = str(meaning).replace("|", "\\|")
         rows.append(f"| `{name}` | {kind} | {text} |")
+    return "\n".join(rows) + "\n"
+
+
+def _method_laws() -> str:
+    """The table of which method takes which contact law: a row per method of the registry, a
+    column per contact law's parameter (its flag), each cell what ``honours`` says ("any", "up
+    to B" or "refused")."""
+    from ballchain.contacts.registry import all_params
+    from ballchain.methods import METHOD_NAMES, honours
+
+    params = list(all_params().values())
+    rows = [
+        "| method | " + " | ".join(f"`{p.flag}`" for p in params) + " |",
+        "|---|" + "---|" * len(params),
+        *(f"| `{m}` | " + " | ".join(honours(m, p.name) for p in params) + " |" for m in METHOD_NAMES),
+    ]
     return "\n".join(rows) + "\n"
 
 
@@ -153,6 +172,7 @@ def _write(app) -> None:
         ("provenance.md", _provenance(Path(app.srcdir))),
         ("hdf5-layout.md", _hdf5_layout()),
         ("sweep-columns.md", _sweep_columns()),
+        ("method-laws.md.inc", _method_laws()),  # (included by contact-laws.md)
     )
     for name, text in pages:
         path = out / name
