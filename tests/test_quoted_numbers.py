@@ -287,3 +287,107 @@ def test_the_rattle_page_quotes_each_start_at_n16384_from_its_table():
     assert f"{abs(df.energy_imbalance / df.energy_initial).max():.1e}" in item
     assert f"their mean {df.ratio.mean():.4f}" in item
     assert "no point below the floor by more than 1e-8 b" in item and df.max_depth.max() <= 1e-8
+
+
+def _study_rows(printed: str) -> dict:
+    """The rows of restitution_study.py --against's two tables, by (N, E): the paired one
+    (8 cells) and the one of the landings by the cap (10 cells)."""
+    rows: dict = {}
+    for line in printed.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells and cells[0].isdigit() and len(cells) in (8, 10):
+            rows.setdefault((int(cells[0]), cells[1]), {})[len(cells)] = cells
+    return rows
+
+
+def test_the_restitution_floor_page_pairs_the_time_stepper_as_its_commands_and_data_give():
+    """Finding 6 of the page on restitution at the floor (the time-stepper against the exact
+    method): each row of its table from the page's two commands that pair the time-stepper's
+    tables with the exact method's (the pairs, the means, the paired differences, KS p, the
+    landings by the cap) and from the committed tables (the runs in error); the finding's
+    counts, medians and imbalances from the same tables. (Its intervals are checked with
+    the page's others, by test_the_rattle_page_quotes_what_its_command_prints.)"""
+    import pandas as pd
+
+    page = (ROOT / "docs" / "restitution-floor.md").read_text()
+    data = ROOT / "docs" / "data"
+    ts = {16: pd.read_parquet(data / "timestep-restitution-floor.parquet")}
+    ts[64] = pd.read_parquet(data / "timestep-restitution-floor-n64.parquet")
+    exact64 = pd.read_parquet(data / "restitution-floor-n64.parquet")
+    commands = [
+        c
+        for c in _block_commands(page, r"python studies/restitution_study\.py")
+        if "timestep-restitution-floor" in shlex.split(c)[2]
+    ]
+    assert len(commands) == 2
+    printed = {}
+    for c in commands:
+        args = shlex.split(c)
+        starts = 64 if args[2].endswith("-n64.parquet") else 16
+        printed[starts] = _study_rows(_run([sys.executable, *args[1:]]))
+    section = page.split("6. **The time-stepper")[1].split("## The command")[0]
+    rows = [ln for ln in section.splitlines() if re.match(r"\| \d+ \| [\d.]+ \| \d+ \|", ln)]
+    assert len(rows) == 11
+    for row in rows:
+        n, e, starts, errors, landed, pairs, mean, ref, diff, ks, elock = (c.strip() for c in row.strip("|").split("|"))
+        paired, cap = (printed[int(starts)][(int(n), e)][k] for k in (8, 10))
+        assert [pairs, mean, ref, diff, ks, elock] == paired[2:], row
+        assert (starts, *landed.split(" / ")) == tuple(cap[2:5]), row
+        df = ts[int(starts)]
+        g = df[(df.segments == int(n)) & (df.restitution_floor == float(e))]
+        assert int(errors) == (g.status == "error").sum(), row
+    finding = " ".join(section.split("| N |")[0].split())
+    e_pos = {k: d[d.restitution_floor > 0] for k, d in ts.items()}
+    assert "39 of the 96 runs" in finding and (e_pos[16].status == "error").sum() == 39 and len(e_pos[16]) == 96
+    assert "40 of the 192" in finding and (e_pos[64].status == "error").sum() == 40 and len(e_pos[64]) == 192
+    assert (
+        "none of its 32 at E = 0" in finding and (ts[16][ts[16].restitution_floor == 0].status == "landed").sum() == 32
+    )
+    # the 16 starts at N = 64 are the first 16 of the 64, the same runs to every digit
+    a = ts[16][(ts[16].segments == 64) & (ts[16].restitution_floor > 0)]
+    same = a.merge(ts[64], on=["restitution_floor", "run_index"])
+    assert len(same) == 48 and (same.status_x == same.status_y).all()
+    assert (same.energy_imbalance_x == same.energy_imbalance_y).all()
+    distinct = pd.concat([e_pos[16][e_pos[16].segments == 128], e_pos[64]])
+    err = distinct[distinct.status == "error"].message
+    for count, what in (
+        (len(err), "distinct runs in error"),
+        (err.str.contains("below the floor").sum(), "had a point more than 0.1 b below the floor"),
+        (err.str.contains("from its anchor").sum(), "an anchored point off its anchor"),
+        (err.str.contains("books do not close").sum(), "the energy books open"),
+        (err.str.contains("raised the kinetic energy").sum(), "an impact that raised the kinetic energy"),
+    ):
+        assert f"{count} {what}" in finding, (count, what)
+    worst = {
+        "below": max(err.str.extract(r"went ([\d.]+) b below")[0].dropna().astype(float)),
+        "anchor": max(err.str.extract(r"anchored point was ([\d.]+) b")[0].dropna().astype(float)),
+        "books": max(err.str.extract(r"([\d.]+) of E0 lost unaccounted")[0].dropna().astype(float)),
+    }
+    assert f"up to {worst['below']:g} b" in finding and f"up to {worst['anchor']:g} b" in finding
+    assert f"(up to {worst['books']:g})" in finding
+    # the medians over all runs at N = 64, 64 starts, each method; the time-stepper's books
+    medians = []
+    for d in (ts[64], exact64):
+        by_e = d.groupby("restitution_floor")
+        medians.append(
+            (
+                [f"{v:.0f}" for v in by_e.apply(lambda g: (g.events_bounce / g.segments).median())],
+                [f"{v:.3f}" for v in by_e.apply(lambda g: (g.energy_lost_landing / g.energy_initial).median())],
+            )
+        )
+    (b_ts, l_ts), (b_ex, l_ex) = medians
+    assert f"medians of {b_ts[0]}, {b_ts[1]} and {b_ts[2]} bounces per segment" in finding
+    assert f"against {b_ex[0]}, {b_ex[1]} and {b_ex[2]})" in finding
+    assert f"E_land/E0 {l_ts[0]}, {l_ts[1]} and {l_ts[2]} against {l_ex[0]}, {l_ex[1]} and {l_ex[2]}," in finding
+    note = " ".join(section.split("The time-stepper's landed counts")[1].split())
+
+    def books(d):
+        d = d[d.status == "landed"]
+        return f"{100 * (d.energy_imbalance / d.energy_initial).median():.1f}%"
+
+    at = [books(ts[64][ts[64].restitution_floor == e]) for e in (0.3, 0.6, 0.9)]
+    zero = [books(ts[16][(ts[16].segments == n) & (ts[16].restitution_floor == 0)]) for n in (64, 128)]
+    assert f"{at[0]}, {at[1]} and {at[2]} at E = 0.3, 0.6, 0.9" in note
+    assert f"{zero[0]} and {zero[1]} at E = 0 (N = 64 and 128)" in note
+    cap = [(d.status == "max_time").sum() for d in (ts[16][ts[16].segments == 64], ts[64])]
+    assert f"({cap[0]} at N = 64, E = 0.9 on 16 starts, {cap[1]} on 64)" in note
