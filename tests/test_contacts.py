@@ -75,7 +75,9 @@ def test_a_partly_elastic_limit_closes_its_books_and_stays_inside_its_limits(e):
     assert g[free_pair].min() > -1e-7
 
 
-@pytest.mark.parametrize("law, method", [("friction", "timestep"), ("friction", "event")])
+@pytest.mark.parametrize(
+    "law, method", [("restitution_floor", "timestep"), ("friction", "timestep"), ("friction", "event")]
+)
 def test_a_method_that_cannot_honour_it_refuses_it_in_one_line(method, law):
     flag = "--" + law.replace("_", "-")
     with pytest.raises(ParameterError, match=f"not honoured by --method {method}"):

@@ -54,7 +54,8 @@ def method_package(name: str):
 
 def check_contacts(params, method: str) -> None:
     """Refuse, in one line, a contact law's parameter away from its default
-    (``contacts.registry``) that ``method`` does not honour (its package's ``CONTACTS``), or
+    (``contacts.registry``) that ``method`` does not honour (its package's ``CONTACTS``; the
+    reason from its ``CONTACT_REFUSALS`` where it states one), or
     beyond the bound to which it was shown to (``CONTACT_BOUNDS``: name -> (bound, why))."""
     from ..contacts.registry import all_params
     from ..errors import ParameterError
@@ -69,9 +70,11 @@ def check_contacts(params, method: str) -> None:
             )
         if value != p.default and name not in getattr(method_package(method), "CONTACTS", ()):
             takers = [m for m in METHODS if name in getattr(method_package(m), "CONTACTS", ())]
+            why = getattr(method_package(method), "CONTACT_REFUSALS", {}).get(name)
             raise ParameterError(
                 f"{p.flag} {value:g} is not honoured by --method {method} yet "
-                f"(only by: {', '.join(takers) or 'none'}); leave it at {p.default:g} or change the method"
+                + (f"({why})" if why else f"(only by: {', '.join(takers) or 'none'})")
+                + f"; leave it at {p.default:g} or change the method"
             )
 
 
