@@ -213,15 +213,10 @@ def rotate_axes(e, w, h, anchored, out):
 
 
 @njit(cache=True)
-def _touches(t, r0, model, chain, sc, books, post=False):
+def _touches(t, r0, model, chain, sc, books):
     """Part 2: anchor where they are the points at the floor: a floor function at most
     TOUCH_TOL, or that of a point the last step was cut to land (marked 2 during the
-    impact), listed from sc.new_anchor[r0]; returns their number.  Their velocities are
-    those at the step's start, or with ``post`` (restitution at the floor, a step cut
-    because a point at the floor is sent down by the step's impulses: ``_landing_cut``)
-    those the step's impact problem gave (sc.pv, filled by the caller).  With restitution
-    at the floor a point is held at the floor's height, not below it (the projection
-    lifts it there): a point that bounces again and again is not ratcheted down."""
+    impact), listed from sc.new_anchor[r0]; returns their number."""
     e, anchored = chain.Y[0], chain.anchored
     floor_values(model.floor, e, anchored, sc.fv)
     ztol = TOUCH_TOL
@@ -230,14 +225,11 @@ def _touches(t, r0, model, chain, sc, books, post=False):
             ztol = max(ztol, sc.fv[j])
         sc.due[j] = 0
     point_positions(e, sc.pts)
-    if not post:
-        _point_velocities(e, chain.Y[1], sc.v_pre, sc.pv)
+    _point_velocities(e, chain.Y[1], sc.v_pre, sc.pv)
     na = floor_contacts(model.floor, e, sc.pts, sc.pv, anchored, True, ztol, sc.new_anchor[r0:])
     for r in range(r0, r0 + na):
         j = sc.new_anchor[r]
         hold_at(chain, j, sc.pts)
-        if model.e_floor > 0.0 and chain.anchor_pos[j, 2] < 0.0:
-            chain.anchor_pos[j, 2] = 0.0
         anchored[j] = 2
         chain.anchor_t[j] = t
     fall_ended(books, t, False, not top_event(model.floor) and anchored[0] != 0)
@@ -323,14 +315,11 @@ def _landing_cut(h, model, chain, sc):
     floor_values(model.floor, e, anchored, sc.fv)
     floor_values(model.floor, sc.e_pred, anchored, sc.fv_pred)
     s = 1.0
-    sinking = model.e_floor > 0.0
     for j in range(sc.fv.shape[0]):
         f, fp = sc.fv[j], sc.fv_pred[j]
         sc.due[j] = 0
         if math.isfinite(f) and f > 0.0 and fp <= 0.0:
             s = min(s, f / (f - fp))
-        elif sinking and _at_floor_sinking(f, fp):
-            s = 0.0  # (it lands now: ``_touches`` with the impact's velocities)
         if math.isfinite(f) and fp < f and fp <= LAND_SLACK * (f - fp):
             sc.due[j] = 1
     return max(s, TOUCH_FRACTION)
@@ -366,22 +355,11 @@ def _copy3(src, dst):
 
 
 @njit(cache=True)
-def _first_to_land(s, sc, sinking):
-    """Mark due the points predicted to reach the floor first (at the fraction s); with
-    ``sinking`` (restitution at the floor) also those at it that the step sends down
-    (``_at_floor_sinking``)."""
+def _first_to_land(s, sc):
+    """Mark due the points predicted to reach the floor first (at the fraction s)."""
     for j in range(sc.fv.shape[0]):
         f, fp = sc.fv[j], sc.fv_pred[j]
-        first = math.isfinite(f) and f > 0.0 and fp <= 0.0 and f / (f - fp) <= s * (1.0 + 1e-9)
-        sc.due[j] = 1 if (first or (sinking and _at_floor_sinking(f, fp))) else 0
-
-
-@njit(cache=True, inline="always")
-def _at_floor_sinking(f, fp):
-    """A free point at the floor (its floor function f at most TOUCH_TOL) that a step would
-    send further down (fp < f): with restitution at the floor, one that has just bounced
-    and that its neighbours' impulses turn down lands now (it has no floor row otherwise)."""
-    return math.isfinite(f) and f <= TOUCH_TOL and fp < f
+        sc.due[j] = 1 if (math.isfinite(f) and f > 0.0 and fp <= 0.0 and f / (f - fp) <= s * (1.0 + 1e-9)) else 0
 
 
 @njit(cache=True)
@@ -823,12 +801,9 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
         if s_turn < s:
             h *= s_turn
         elif s * h < MIN_CUT * dt:  # at the floor already: it touches now, the step stays
-            sinking = model.e_floor > 0.0
-            _first_to_land(s, sc, sinking)
-            if sinking:  # (which points land, and how fast: the velocities the impact problem gave)
-                _point_velocities(e, w, sc.vmax, sc.pv)
+            _first_to_land(s, sc)
             _copy3(sc.w_pre, w)
-            more = _touches(t, na, model, chain, sc, books, sinking)
+            more = _touches(t, na, model, chain, sc, books)
             if model.e_floor > 0.0:
                 _aim_rebounds(na, more, model.e_floor, sc)
             na += more
