@@ -94,6 +94,8 @@ def test_a_restitution_outside_0_1_is_refused(bad):
     res = CliRunner().invoke(app, ["simulate", "-N", "4", "--restitution-lock", bad, "-q"])
     said = "must be a number in [0, 1]" if bad == "nan" else "must be in [0, 1]"  # (nan is no number, not a rebound)
     assert res.exit_code == 2 and f"restitution_lock {said}" in res.stderr
+    why = {"-0.1": "through its limit", "1.5": "creates energy", "nan": "got nan"}[bad]  # (each side its own reason)
+    assert why in res.stderr and len(res.stderr.strip().splitlines()) == 1
 
 
 def test_the_parameter_in_the_json_the_file_the_sweep_table_and_its_key(tmp_path):

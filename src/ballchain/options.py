@@ -57,8 +57,9 @@ def non_negative(name: str, value: Any) -> float:
     return v
 
 
-def in_range(low: float, high: float, why: str = ""):
-    """A check: a number in [low, high] (``why``: what lies outside, for the message)."""
+def in_range(low: float, high: float, why: str | tuple[str, str] = ""):
+    """A check: a number in [low, high] (``why``: what lies outside, for the message; a pair:
+    what lies below, what lies above)."""
 
     def check(name: str, value: Any) -> float:
         try:
@@ -68,7 +69,8 @@ def in_range(low: float, high: float, why: str = ""):
         if math.isnan(v):  # (outside for no reason ``why`` gives)
             raise ParameterError(f"{name} must be a number in [{low:g}, {high:g}], got {value!r}")
         if not (low <= v <= high):
-            raise ParameterError(f"{name} must be in [{low:g}, {high:g}]{f' ({why})' if why else ''}, got {value!r}")
+            said = (why[0] if v < low else why[1]) if isinstance(why, tuple) else why
+            raise ParameterError(f"{name} must be in [{low:g}, {high:g}]{f' ({said})' if said else ''}, got {value!r}")
         return v
 
     return check

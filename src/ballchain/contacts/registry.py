@@ -26,6 +26,12 @@ def _friction(name: str, value) -> float:
     return in_range(0.0, float("inf"), "a negative friction coefficient")(name, value)
 
 
+# what a restitution outside [0, 1] would mean: below, above
+_OUTSIDE_0_1 = (
+    "a negative one would carry the contact on through its limit",
+    "a rebound faster than the approach creates energy",
+)
+
 # law -> (module, what it is, the parameters it states)
 LAWS = {
     "newton": (
@@ -40,7 +46,7 @@ LAWS = {
                 0.0,
                 "Newton's restitution at the bend limit, in [0, 1]: a hinge that reaches its limit rebounds at "
                 "this fraction of the rate it closed with (0: it locks, the model's law; 1: nothing is lost).",
-                in_range(0.0, 1.0, "a rebound faster than the approach creates energy"),
+                in_range(0.0, 1.0, _OUTSIDE_0_1),
                 flag="--restitution-lock",
                 json="Newton's restitution at the bend limit (0: the hinge locks)",
                 column="Newton's restitution at the bend limit (0: the hinge locks; empty in tables written "
@@ -54,7 +60,7 @@ LAWS = {
                 "this fraction of the vertical velocity it landed with, its sliding stopped (0: it is "
                 "anchored, the model's law; a point that would come back slower than the accumulation "
                 "threshold is anchored). Floor all only.",
-                in_range(0.0, 1.0, "a rebound faster than the approach creates energy"),
+                in_range(0.0, 1.0, _OUTSIDE_0_1),
                 flag="--restitution-floor",
                 json="Newton's restitution at the floor (0: a landing point is anchored)",
                 column="Newton's restitution at the floor (0: a landing point is anchored; empty in tables "
