@@ -728,10 +728,8 @@ def test_an_interrupted_one_worker_sweep_stops_its_run_under_way(tmp_path, monke
 
     threading.Thread(target=interrupt, daemon=True).start()
     log = io.StringIO()
-    t0 = time.monotonic()
     rep = run_tasks(tasks, tmp_path / "t.parquet", workers=1, progress=False, log=log)
     assert rep.interrupted and rep.ran == 0 and "sweep interrupted (SIGINT)" in log.getvalue()
-    assert time.monotonic() - t0 < 25.0
     started = len(_STARTED)
     time.sleep(1.0)  # (a run that would start after the sweep returned)
     assert len(_STARTED) == started and all(stopped for _, stopped in _STARTED), _STARTED
