@@ -26,7 +26,7 @@ CASES = {
 }
 FIELDS = (
     "t", "z_top", "frame_t", "frame_e", "frame_omega", "frame_anchored", "frame_locked", "frame_floor_force",
-    "frame_kinetic", "frame_potential", "frame_lost_locking", "frame_lost_landing", "frame_floor_impulse",
+    "frame_kinetic", "frame_potential", "frame_lost_locking", "frame_lost_landing", "frame_lost_damping", "frame_floor_impulse",
     "event_t", "event_kind", "event_index", "event_impulse", "event_energy", "event_pos", "anchor_t", "anchor_pos",
     "floor_impulse", "floor_impulse_total",
 )  # fmt: skip

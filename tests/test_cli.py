@@ -55,6 +55,7 @@ def fake_result(
         frame_potential=np.zeros(frames),
         frame_lost_locking=np.zeros(frames),
         frame_lost_landing=np.zeros(frames),
+        frame_lost_damping=np.zeros(frames),
         frame_pile_pull=np.zeros((frames, 3)),
         frame_scale_force=np.zeros(frames),
         frame_floor_impulse=np.zeros((frames, 3)),

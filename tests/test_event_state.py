@@ -55,7 +55,7 @@ def _errors(h):
     ref_end, _ = _fine(Y, h, anchored, locked, ws)
     Ye = Y.copy()
     fint = np.zeros(4)
-    dopri.event_state(Ye, st.sg, st.hb, h, THETA, anchored, locked, ws, np.int64(0), fint)
+    dopri.event_state(Ye, st.sg, st.hb, h, THETA, anchored, locked, ws, np.int64(0), fint, np.zeros(1))
     Yd = np.empty_like(Y)
     dopri.dense_state(Y, K, h, THETA, Yd)
     return (

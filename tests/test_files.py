@@ -59,6 +59,7 @@ def make_result(
         frame_potential=rng.random(frames),
         frame_lost_locking=np.cumsum(rng.random(frames)),
         frame_lost_landing=np.cumsum(rng.random(frames)),
+        frame_lost_damping=np.cumsum(rng.random(frames)),
         frame_pile_pull=rng.normal(size=(frames, 3)),
         frame_scale_force=rng.normal(size=frames),
         frame_floor_impulse=np.cumsum(rng.normal(size=(frames, 3)), axis=0),
@@ -147,7 +148,7 @@ def test_file_is_self_describing(tmp_path):
     save_result(r, path)
     with h5py.File(path, "r") as f:
         assert f.attrs["format"] == FORMAT_NAME
-        assert int(f.attrs["format_version"]) == 3
+        assert int(f.attrs["format_version"]) == 4
         assert f.attrs["units"] == "SI"
         assert "created" in f.attrs and "package_version" in f.attrs
         assert set(f.attrs) == set(files.ROOT_ATTRS)  # the root's attributes are those documented
@@ -211,6 +212,20 @@ def test_version_2_file_loads_with_the_bottom_end_at_the_origin(tmp_path):
     assert back.frame_base.shape == back.frame_base_velocity.shape == (7, 3)
     assert np.all(back.frame_base == 0.0) and np.all(back.frame_base_velocity == 0.0)
     np.testing.assert_array_equal(back.points(), r.points())
+
+
+def test_version_3_file_loads_with_nothing_lost_to_damping(tmp_path):
+    """A file written before the hinges' damping lacks its loss per frame: no smooth law
+    acted then, so it loads as zeros."""
+    r = make_result(n=6, frames=7, events=5)
+    path = tmp_path / "v3.h5"
+    save_result(r, path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = np.int64(3)
+        del f["frames/frame_lost_damping"]
+    back = load_result(path)
+    assert back.frame_lost_damping.shape == (7,) and np.all(back.frame_lost_damping == 0.0)
+    np.testing.assert_array_equal(back.frame_lost_landing, r.frame_lost_landing)
 
 
 def test_units_nondimensional():
@@ -370,7 +385,7 @@ def test_file_info(tmp_path):
     p = tmp_path / "run.h5"
     save_result(make_result(), p)
     info = files.file_info(p)
-    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 3
+    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 4
     assert info["units"] == "nondimensional" and info["status"] == "landed"
 
 

@@ -138,6 +138,11 @@ class _Chain:
         return self.segment_mass * self.gravity * self.half_length
 
     @property
+    def damping_unit(self) -> float:
+        """m g b sqrt(b/g): unit of the hinges' damping coefficient (a torque times a time)."""
+        return self.energy_unit * self.time_unit
+
+    @property
     def is_si(self) -> bool:
         return not (self.segment_mass == 1.0 and self.half_length == 1.0 and self.gravity == 1.0)
 

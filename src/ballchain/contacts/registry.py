@@ -26,6 +26,16 @@ def _friction(name: str, value) -> float:
     return in_range(0.0, float("inf"), "a negative friction coefficient")(name, value)
 
 
+def _damping(name: str, value) -> float:
+    """A viscous coefficient: finite and >= 0 (0: free hinges)."""
+    from ..errors import ParameterError
+
+    v = in_range(0.0, float("inf"), "a negative one would feed energy into the bending")(name, value)
+    if v == float("inf"):
+        raise ParameterError(f"{name} must be finite (an infinite one would freeze every hinge), got {value!r}")
+    return v
+
+
 # what a restitution outside [0, 1] would mean: below, above
 _OUTSIDE_0_1 = (
     "a negative one would carry the contact on through its limit",
@@ -92,6 +102,28 @@ LAWS = {
                 json="Coulomb's friction coefficient at the floor (null: inf, a touching point is anchored)",
                 column="Coulomb's friction coefficient at the floor (inf: a touching point is anchored; empty "
                 "in tables written before the column: inf)",
+            ),
+        ),
+    ),
+    "damping": (
+        "damping",
+        "Viscous damping at the hinges, a smooth law: a torque -C times the rate at which each hinge "
+        "bends, on the two segments it joins (rods have no spin: the bend angle is all a hinge can "
+        "change); it removes C thetadot^2 of power at every hinge, booked as lost_damping "
+        "(C = 0: free hinges)",
+        (
+            MethodOption(
+                "hinge_damping",
+                float,
+                0.0,
+                "Viscous damping at every hinge, C >= 0 in units of m g b sqrt(b/g) (N m s with SI units): a "
+                "torque -C times the rate at which the hinge bends acts on the two segments it joins, and the "
+                "power it removes is booked as lost_damping (0: free hinges, the model's law).",
+                _damping,
+                flag="--hinge-damping",
+                json="the hinges' viscous damping coefficient C, m g b sqrt(b/g) (0: free hinges)",
+                column="the hinges' viscous damping coefficient C, m g b sqrt(b/g) (0: free hinges; empty in "
+                "tables written before the column: 0)",
             ),
         ),
     ),

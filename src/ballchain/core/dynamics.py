@@ -23,6 +23,7 @@ import numpy as np
 
 from ..jit import entry, njit
 from .blocks import factor4, factor_general, generalized_forces, solve4, solve_general, torques4
+from .forces import any_smooth_law, smooth_torques, torque_rhs
 from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_LOCK, W_W, build_rows, rows_rhs4
 from .rules import is_landed as _is_landed
 
@@ -33,17 +34,25 @@ def accelerations(e, w, anchored, locked, ws, de, dw):
     """Equations of motion between events: de/dt = w x e, dw/dt = 3 P (torque).
 
     Solves the hinge forces and lock multipliers (``ws.x``) for the current locked set
-    and anchors (``ws``: the ``state.Work`` bundle); returns the number of redundant rows
-    dropped.
+    and anchors (``ws``: the ``state.Work`` bundle), with the smooth laws' torques applied
+    (``forces``: ``ws.tau``, the power they remove in ``ws.power``); returns the number of
+    redundant rows dropped.
     """
     n = e.shape[0]
     J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
+    applied = any_smooth_law(ws.damping[0])
+    if applied:
+        ws.power[0] = smooth_torques(ws.damping[0], e, w, anchored, ws.tau)
     if rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
+        if applied:
+            torque_rhs(e, ws.tau, kind, nrow, rhs)
         ndrop = factor4(e, anchored, kind, nrow, S, G, drop)
         solve4(nrow, S, G, rhs, x)
         torques4(e, kind, nrow, x, gf)
     else:
         build_rows(e, w, anchored, locked, J, kind, nrow, rhs, np.bool_(True))
+        if applied:
+            torque_rhs(e, ws.tau, kind, nrow, rhs)
         ndrop = factor_general(anchored, J, nrow, S, G, drop)
         solve_general(nrow, S, G, drop, rhs, x)
         generalized_forces(anchored, J, nrow, x, gf)
@@ -59,6 +68,10 @@ def accelerations(e, w, anchored, locked, ws, de, dw):
         de[i, 1] = wz * ex - wx * ez
         de[i, 2] = wx * ey - wy * ex
         tx, ty, tz = W_W * gf[i, 3], W_W * gf[i, 4], W_W * gf[i, 5]
+        if applied:
+            tx += W_W * ws.tau[i, 0]
+            ty += W_W * ws.tau[i, 1]
+            tz += W_W * ws.tau[i, 2]
         tp = tx * ex + ty * ey + tz * ez
         dw[i, 0] = tx - tp * ex
         dw[i, 1] = ty - tp * ey

@@ -48,6 +48,7 @@ Model = namedtuple(
         "e_lock",  # Newton's restitution at the bend limit (contacts.newton; 0: the hinge locks)
         "e_floor",  # Newton's restitution at the floor (contacts.newton; 0: a landing point is anchored)
         "friction",  # Coulomb's friction coefficient at the floor (contacts.coulomb; inf: the anchor)
+        "damping",  # the hinges' viscous coefficient C (contacts.damping; 0: free hinges), m g b sqrt(b/g)
     ],
 )
 
@@ -65,11 +66,18 @@ def new_model(
     e_lock=0.0,
     e_floor=0.0,
     friction=math.inf,
+    damping=0.0,
+    laws=None,
 ) -> Model:
     """The constant model of a run (``options``: ``model.SolverOptions``; ``dt_rule``,
     ``v_ff``: the time-stepper's step rule, as its code, and g t_ff; ``e_lock``: the
     restitution at the bend limit, ``ChainParams.restitution_lock``; ``e_floor``: at the floor,
-    ``ChainParams.restitution_floor``; ``friction``: ``ChainParams.friction``)."""
+    ``ChainParams.restitution_floor``; ``friction``: ``ChainParams.friction``; ``damping``: ``ChainParams.hinge_damping`` in units of
+    m g b sqrt(b/g)).  ``laws``: a ``ChainParams`` to take all four from, in the kernels' units
+    (the one place the methods' runs read the contact laws from)."""
+    if laws is not None:
+        e_lock, e_floor, friction = laws.restitution_lock, laws.restitution_floor, laws.friction
+        damping = laws.hinge_damping / laws.damping_unit
     return Model(
         float(alpha),
         math.cos(alpha),
@@ -91,6 +99,7 @@ def new_model(
         float(e_lock),
         float(e_floor),
         float(friction),
+        float(damping),
     )
 
 
@@ -135,12 +144,16 @@ Work = namedtuple(
         "rhs",  # (N+1, MAXR): right-hand sides
         "x",  # (N+1, MAXR): multipliers (forces, lock multipliers, impulses)
         "gf",  # (N, 6): force and torque of the multipliers on each segment
+        "damping",  # (1,): the hinges' viscous coefficient C (Model.damping; the accelerations read it here)
+        "tau",  # (N, 3): the smooth laws' torques on the segments at the last evaluation (core.forces)
+        "power",  # (1,): the power they removed there (m g b / sqrt(b/g))
     ],
 )
 
 
-def new_work(n: int) -> Work:
-    """Preallocated arrays for the O(N) kernels of an N-segment chain."""
+def new_work(n: int, damping: float = 0.0) -> Work:
+    """Preallocated arrays for the O(N) kernels of an N-segment chain (``damping``: the
+    hinges' viscous coefficient, ``Model.damping``)."""
     p = n + 1
     return Work(
         np.zeros((p, MAXR, 12)),
@@ -152,6 +165,9 @@ def new_work(n: int) -> Work:
         np.zeros((p, MAXR)),
         np.zeros((p, MAXR)),
         np.zeros((n, 6)),
+        np.full(1, float(damping)),
+        np.zeros((n, 3)),
+        np.zeros(1),
     )
 
 
@@ -172,6 +188,7 @@ Books = namedtuple(
         #   [0] at event instants, [1] after integrator steps (part of the imbalance, reported)
         "work_error",  # (1,): time-stepping: gravity's kick on T plus the position update's change of U,
         #   summed over the steps (m g b; zero in exact dynamics: part of -imbalance, reported)
+        "lost_damping",  # (1,): energy the smooth laws removed, their power integrated (contacts.damping; m g b)
     ],
 )
 
@@ -190,6 +207,7 @@ def new_books() -> Books:
         np.zeros(1, np.int64),
         np.zeros(1, np.int64),
         np.zeros(2),
+        np.zeros(1),
         np.zeros(1),
     )
 
@@ -214,6 +232,7 @@ Frames = namedtuple(
         "floor_impulse",
         "lost_locking",
         "lost_landing",
+        "lost_damping",  # the smooth laws' loss to the frame's time (Books.lost_damping plus the step's part)
         "base",  # (3,): the position of point N (the bottom end): 0 unless it slides (a frictionless floor)
         "base_velocity",  # (3,): its velocity
     ],
@@ -240,6 +259,7 @@ def new_frames(n: int, dt: float, cap: int) -> Frames:
         np.zeros((cap, 3)),
         np.zeros(cap),
         np.zeros((cap, 3)),
+        np.zeros(cap),
         np.zeros(cap),
         np.zeros(cap),
         np.zeros((cap, 3)),

@@ -38,7 +38,7 @@ def fall_figure(r: Result) -> Figure:
 
 
 def energy_figure(r: Result) -> Figure:
-    """Kinetic, potential, lost to locking, lost to landing, over the initial energy."""
+    """Kinetic, potential, lost to locking, to landing (and to damping, where it acted), over the initial energy."""
     fig, ax = plt.subplots(figsize=(5.5, 4))
     tau = np.asarray(r.frame_t) / r.t_ff
     e0 = r.energy["initial"]
@@ -47,7 +47,10 @@ def energy_figure(r: Result) -> Figure:
         ("frame_potential", "potential"),
         ("frame_lost_locking", "lost to locking"),
         ("frame_lost_landing", "lost to landing"),
+        ("frame_lost_damping", "lost to damping"),
     ):
+        if name == "frame_lost_damping" and not np.any(np.asarray(r.frame_lost_damping)):
+            continue  # (no smooth law acted)
         ax.plot(tau, np.asarray(getattr(r, name)) / e0, label=label)
     ax.set(xlabel="t / t_ff", ylabel="energy / initial energy", title=run_title(r))
     ax.legend()

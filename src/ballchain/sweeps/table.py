@@ -65,6 +65,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "energy_initial": ("float64", "initial energy, m g b"),
     "energy_lost_locking": ("float64", "kinetic energy lost in hinge locking, m g b"),
     "energy_lost_landing": ("float64", "kinetic energy lost in landings, m g b"),
+    "energy_lost_damping": (
+        "float64",
+        "energy removed by the hinges' viscous damping, m g b (empty in tables written before the column: 0)",
+    ),
     "energy_imbalance": ("float64", "initial - potential - kinetic - losses at the end, m g b"),
     "energy_work_error": (
         "float64",
@@ -208,7 +212,7 @@ def result_row(task, result, worker: str = "") -> dict:
             "n_instants": int(result.n_instants),
             **{
                 f"energy_{k}": _num(result.energy.get(k))
-                for k in ("initial", "lost_locking", "lost_landing", "imbalance")
+                for k in ("initial", "lost_locking", "lost_landing", "lost_damping", "imbalance")
             },
             "energy_work_error": _num(result.energy.get("work_error_in_steps")),
             "floor_impulse_x": fi[0],

@@ -18,7 +18,7 @@ from ..bounds import AuditBounds
 
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
 # the contact laws' parameters it honours away from their defaults (contacts.registry)
-CONTACTS = ("restitution_lock", "restitution_floor")
+CONTACTS = ("restitution_lock", "restitution_floor", "hinge_damping")
 
 # what a run's summary line of events counts beside them (the command line's): its event instants
 SUMMARY_COUNT = ("n_instants", "instants")

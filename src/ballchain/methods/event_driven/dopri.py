@@ -116,9 +116,11 @@ def dense_e(Y0, K, b, i, q):
 
 @njit(cache=True)
 def stage_rhs(Y, anchored, locked, ws, dY, F):
-    """dY = f(Y) and F = the anchors' total force on the chain at Y."""
+    """dY = f(Y); F[0:3] = the anchors' total force on the chain at Y, F[3] = the power
+    the smooth laws remove there (``core.forces``: both integrated as extra states)."""
     chain_rhs(Y, anchored, locked, ws, dY)
     anchor_force_total(ws.kind, ws.nrow, ws.x, F)
+    F[3] = ws.power[0]
 
 
 @njit(cache=True)
@@ -151,9 +153,10 @@ def rk_stages(Y, h, sg, anchored, locked, ws):
 
 
 @njit(cache=True)
-def event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint):
+def event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint, lost):
     """Y <- the state at t0 + theta h of the step from Y (stages sg.K, sg.F; sg.Y1 its
-    5th-order end, K[6] = f(Y1)), fint advanced to that time.  The quintic p(s), s in
+    5th-order end, K[6] = f(Y1)), fint (the floor's impulse) and lost (the smooth laws'
+    loss) advanced to that time.  The quintic p(s), s in
     [0, 1], with p(0) = y0, p'(0) = h f0, p(1) = y1, p'(1) = h f(y1) and p'(s_r) = h
     f(y(s_r)) at the nodes s_r = 1/3, 2/3, y(s_r) from the 4th-order continuous
     extension: two evaluations (K2[1:3], F2[1:3]), against five for a new step to
@@ -162,7 +165,8 @@ def event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint):
     With c = M^-T (theta^2 .. theta^5) (``HB_MINV``):
       p(theta) = y0 + theta h f0 + c0 (y1 - y0 - h f0) + c1 h (f1 - f0)
                  + c2 h (f(y(1/3)) - f0) + c3 h (f(y(2/3)) - f0).
-    The floor's impulse, the integral of F (an extra state J' = F), the same way."""
+    The floor's impulse and the smooth laws' loss, the integrals of F (extra states
+    J' = F[0:3], L' = F[3]), the same way."""
     K, K2, F, F2, Y1, Ytmp = sg.K, hb.K2, sg.F, hb.F2, sg.Y1, sg.Ytmp
     n = Y.shape[1]
     for r in range(2):
@@ -189,18 +193,22 @@ def event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint):
                     + c2 * (h * K2[1, a, i, q] - k0)
                     + c3 * (h * K2[2, a, i, q] - k0)
                 )
-    for q in range(3):
+    for q in range(4):
         acc = 0.0
         for s in range(6):
             acc += B[s] * F[s, q]
         k0 = h * F[0, q]
-        fint[q] += (
+        part = (
             theta * k0
             + c0 * (h * acc - k0)
             + c1 * (h * F[6, q] - k0)
             + c2 * (h * F2[1, q] - k0)
             + c3 * (h * F2[2, q] - k0)
         )
+        if q < 3:
+            fint[q] += part
+        else:
+            lost[0] += part
     fint[2] += theta * h * n_landed
 
 
@@ -218,12 +226,23 @@ def floor_impulse_step(h, F, n_landed, out):
 
 
 @njit(cache=True)
+def smooth_loss_step(h, F, lost):
+    """lost += int_0^h F[3] dt, the power the smooth laws remove, by the step's own
+    quadrature (as ``floor_impulse_step``)."""
+    acc = 0.0
+    for s in range(6):
+        acc += B[s] * F[s, 3]
+    lost[0] += h * acc
+
+
+@njit(cache=True)
 def floor_impulse_dense(h, theta, F, n_landed, out):
-    """out = int_0^(theta h) (F + n_landed m g e_z) dt from the continuous extension
-    (the quadrature dense output gives for an extra state dJ/dt = F)."""
+    """out[0:3] = int_0^(theta h) (F + n_landed m g e_z) dt and out[3] the smooth laws'
+    loss over the same time, from the continuous extension (the quadrature dense output
+    gives for an extra state dJ/dt = F)."""
     b = np.empty(7)
     dense_weights(h, theta, b)
-    for q in range(3):
+    for q in range(4):
         acc = 0.0
         for s in range(7):
             acc += b[s] * F[s, q]

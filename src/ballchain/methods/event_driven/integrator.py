@@ -68,6 +68,7 @@ from .dopri import (
     floor_impulse_step,
     nonfinite,
     rk_stages,
+    smooth_loss_step,
     stage_rhs,
     step_error,
 )
@@ -94,7 +95,7 @@ Stages = namedtuple(
     "Stages",
     [
         "K",  # (7, 2, N, 3): the stages of the step (K[0] = f(Y), K[6] = f(Y1))
-        "F",  # (7, 3): the anchors' total force at the stages of K
+        "F",  # (7, 4): the anchors' total force at the stages of K (0:3), the smooth laws' power (3)
         "Y1",  # (2, N, 3): the step's 5th-order end
         "Ytmp",  # (2, N, 3): scratch state (stages, the midpoint, dense output)
         "dYtmp",  # (2, N, 3): scratch derivative
@@ -115,7 +116,7 @@ Scratch = namedtuple(
     [
         "lam",  # lock multipliers (scratch of event_value)
         "pair",  # (2, 3): the two axes of a hinge on the dense output
-        "fpart",  # (3,): the floor's impulse from the step's start to a frame
+        "fpart",  # (4,): the floor's impulse (0:3) and the smooth laws' loss (3) from the step's start to a frame
         "pts",  # (N+1, 3): point positions or velocities
         "vel",  # (N, 3): centre velocities
     ],
@@ -141,10 +142,10 @@ def new_stepper(n: int) -> Stepper:
     nh = max(n - 1, 1)
     m = 3 * n + 4
     found = Found(np.zeros(m, np.int64), np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
-    sg = Stages(np.zeros((7, 2, n, 3)), np.zeros((7, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)))
-    hb = Hermite(np.zeros((7, 2, n, 3)), np.zeros((7, 3)))
+    sg = Stages(np.zeros((7, 2, n, 3)), np.zeros((7, 4)), np.zeros((2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)))
+    hb = Hermite(np.zeros((7, 2, n, 3)), np.zeros((7, 4)))
     det = Detect(np.zeros(nh), np.zeros(n + 1), np.zeros(n + 1), found)
-    scr = Scratch(np.zeros(nh), np.zeros((2, 3)), np.zeros(3), np.zeros((n + 1, 3)), np.zeros((n, 3)))
+    scr = Scratch(np.zeros(nh), np.zeros((2, 3)), np.zeros(4), np.zeros((n + 1, 3)), np.zeros((n, 3)))
     return Stepper(sg, hb, det, scr, np.zeros(1, np.int64))
 
 
@@ -174,7 +175,7 @@ def _record_frame(Yt, dYt, tf, n_landed, chain, ws, scr, frames):
 
 
 @njit(cache=True)
-def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, floor_flow, n_evals, frames):
+def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books, frames):
     """The frames due up to t_end, from the step's dense output; False if the buffers
     filled first (the caller returns ADV_BUFFER and redoes the step once they are
     emptied)."""
@@ -187,8 +188,9 @@ def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, floor_flow, n_evals,
         _record_frame(sg.Ytmp, sg.dYtmp, frames.next[0], n_landed, chain, ws, scr, frames)
         floor_impulse_dense(h, th, sg.F, n_landed, scr.fpart)
         for q in range(3):
-            frames.floor_impulse[frames.count[0], q] = floor_flow[q] + scr.fpart[q]
-        n_evals[0] += 1
+            frames.floor_impulse[frames.count[0], q] = books.floor_flow[q] + scr.fpart[q]
+        frames.lost_damping[frames.count[0]] = books.lost_damping[0] + scr.fpart[3]
+        books.n_evals[0] += 1
         frames.count[0] += 1
         frames.next[0] += frames.dt
     return True
@@ -203,7 +205,7 @@ def _trace_point(trace, t, e):
 
 
 @njit(cache=True)
-def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, floor_flow, n_evals, trace):
+def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, books, trace):
     """End the step at its first event: the state at the event time to the step's order
     (the 4th-order interpolant is good enough to locate the event, not to restart
     from), the floor's impulse to that time, the found events' absolute times (inf: not
@@ -211,10 +213,23 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, floor_f
     Y = chain.Y
     if theta_stop < 1.0:
         if theta_stop > 0.0:
-            event_state(Y, sg, hb, h, theta_stop, chain.anchored, chain.locked, ws, n_landed, floor_flow)
-            n_evals[0] += 2
+            event_state(
+                Y,
+                sg,
+                hb,
+                h,
+                theta_stop,
+                chain.anchored,
+                chain.locked,
+                ws,
+                n_landed,
+                books.floor_flow,
+                books.lost_damping,
+            )
+            books.n_evals[0] += 2
     else:
-        floor_impulse_step(h, sg.F, n_landed, floor_flow)
+        floor_impulse_step(h, sg.F, n_landed, books.floor_flow)
+        smooth_loss_step(h, sg.F, books.lost_damping)
         copy_state(Y, sg.Y1)
     for r in range(found.n[0]):
         found.time[r] = t + found.time[r] * h if found.time[r] <= 1.0 else math.inf
@@ -230,6 +245,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
     reused), departing functions armed, the lowest point and the trace."""
     Y = chain.Y
     floor_impulse_step(h, sg.F, n_landed, books.floor_flow)
+    smooth_loss_step(h, sg.F, books.lost_damping)
     copy_state(Y, sg.Y1)
     before = mechanical_energy(Y[0], Y[1], scr.pts, scr.vel)
     tol = projection_tol(Y.shape[1])
@@ -240,7 +256,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
         books.n_evals[0] += 1
     else:
         copy_state(sg.K[0], sg.K[6])
-        for q in range(3):
+        for q in range(4):
             sg.F[0, q] = sg.F[6, q]
     arm_departed(model, chain, watch, det.lam1, det.fv_end)
     lowest_point(Y[0], books.lowest)
@@ -326,14 +342,12 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
         theta_stop, fire = detect_events(t, h, model, watch, dense, ws, sg, det, books.n_evals)
         books.n_steps[0] += 1
         t_end = t + theta_stop * h
-        if not _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books.floor_flow, books.n_evals, frames):
+        if not _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books, frames):
             books.n_steps[0] -= 1  # buffers full: redo this step once they are emptied
             st.fsal[0] = 1
             return ADV_BUFFER, t, h
         if fire:
-            t_event = _stop_at_event(
-                t, h, theta_stop, n_landed, chain, ws, sg, hb, det.found, books.floor_flow, books.n_evals, trace
-            )
+            t_event = _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, det.found, books, trace)
             return ADV_EVENT, t_event, h
         _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, books, trace)
         t = t_end

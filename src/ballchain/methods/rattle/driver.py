@@ -60,7 +60,7 @@ def run(setup, progress, stop) -> RunOutput:
     p, o, n = setup.params, setup.options, setup.params.segments
     model = new_model(
         p.alpha, FLOOR_CODES[p.floor], p.anchor_cone or grips(p.friction), o, setup.t_stop, 0.0, RETURN_EVERY, 0, setup.t_ff,
-        e_lock=p.restitution_lock, e_floor=p.restitution_floor, friction=p.friction,
+        laws=p,
     )  # fmt: skip
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     c, vc, ve = (np.zeros((n, 3)) for _ in range(3))

@@ -62,8 +62,7 @@ def run(setup, progress, stop) -> RunOutput:
         RETURN_EVERY,
         DT_RULES[o.dt_rule],
         setup.t_ff,
-        e_lock=p.restitution_lock,
-        e_floor=p.restitution_floor,
+        laws=p,
     )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     ws, sc, books = new_work(n), new_scratch(n, setup.w0, setup.e0), new_books()
