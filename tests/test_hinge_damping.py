@@ -85,6 +85,45 @@ def test_two_segments_follow_lagranges_equations_and_book_the_loss(c):
     assert k > 20 and (lost > 1e-3 if c else lost == 0.0)
 
 
+def _stepper_errors(method, dt, c=C_TEST, p1=0.05, p2=0.12):
+    """A stepper's largest errors against Lagrange's solution until the first touch of the
+    floor: the axes, the energy booked as lost to damping, and the books' imbalance there."""
+    r = bc.simulate(
+        segments=2,
+        alpha=math.pi,
+        initial=_axes(p1, p2),
+        hinge_damping=c,
+        until=0.9,
+        frames_per_tff=50,
+        method=method,
+        dt=dt,
+    )
+    ref = _reference(c, p1, p2, r.frame_t[-1])
+    axes = lost = books = 0.0
+    for k, t in enumerate(r.frame_t):
+        if np.any(r.frame_anchored[k, :2]):
+            break
+        y = ref.sol(t)
+        axes = max(axes, np.abs(r.frame_e[k] - _axes(y[0], y[1])).max())
+        lost = max(lost, abs(r.frame_lost_damping[k] - y[4]))
+        books = max(
+            books, abs(r.frame_kinetic[k] + r.frame_potential[k] + r.frame_lost_damping[k] - r.energy["initial"])
+        )
+    assert k > 20
+    return np.array([axes, lost, books])
+
+
+@pytest.mark.parametrize(("method", "order"), [("rattle", 2), ("timestep", 1)])
+def test_the_steppers_converge_to_lagranges_solution_at_their_order(method, order):
+    """RATTLE (second order: the second half kick takes the rates 2 u_half - u) and the
+    time-stepper (first order: an explicit kick) approach the same solution, the energy
+    they book as lost to damping and their books' closure at their orders."""
+    coarse, fine = _stepper_errors(method, 0.02), _stepper_errors(method, 0.01)
+    ratio = coarse / fine
+    assert np.all(ratio > 0.75 * 2**order) and np.all(ratio < 1.4 * 2**order), ratio
+    assert fine[1] < (2e-6 if order == 2 else 1e-3), fine
+
+
 def test_damping_lowers_the_linear_growth_rate_to_its_closed_form():
     """Near the upright state the motion grows at the largest root s of
     det(M s^2 + D s + K) = 0: started on that mode (angles and rates), the run's angles
@@ -125,6 +164,15 @@ def test_the_books_close_on_a_whole_fall_with_damping():
     assert abs(r.energy["imbalance"]) < 1e-8 * e0
     lost = np.asarray(r.frame_lost_damping)
     assert np.all(np.diff(lost) >= -1e-14)  # power is removed, never given back
+
+
+@pytest.mark.parametrize("method", ["rattle", "timestep"])
+def test_a_steppers_books_close_on_a_whole_fall_with_damping(method):
+    r = bc.simulate(segments=8, alpha=math.pi / 2, ic="random", seed=3, hinge_damping=0.05, method=method)
+    e0 = r.energy["initial"]
+    assert r.status == "landed"
+    assert r.energy["lost_damping"] > 1e-3 * e0
+    assert abs(r.energy["imbalance"]) < (1e-4 if method == "rattle" else 2e-2) * e0
 
 
 def test_a_negative_or_infinite_damping_is_refused_with_its_reason():

@@ -38,6 +38,7 @@ CONTACTS = (  # the contact laws' parameters it honours away from their defaults
     "friction",
     "restitution_lock",
     "restitution_floor",
+    "hinge_damping",
 )
 # ... and up to which value (measured against the event method on 16 starts at N = 64 and 128:
 # docs/restitution.md): at E = 1 its locks lost 0.53 E0 where the law loses about 0.01 (steps in

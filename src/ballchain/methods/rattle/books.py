@@ -225,6 +225,7 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
     anchored, locked = mo.anchored, mo.locked
     books.lost_locking[0] += sc.acc[0]
     books.lost_landing[0] += sc.acc[1]
+    books.lost_damping[0] += sc.acc[13]
     account = books.floor_impulse if na > 0 else books.floor_flow
     for q in range(3):
         account[q] += sc.acc[2 + q]

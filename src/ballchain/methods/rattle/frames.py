@@ -25,8 +25,9 @@ from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 # [22] 1 with landing step "cut" (``stepper.landing_cut``), [23] > 0: the step is cut at a
 # touch to this length (``stepper.touch_ahead``, ``stepper.cut_at_touch``), [24] how: 1 to
 # end before the touch, 2 to take the landing just after it, [25] the last accepted step's [24],
-# [26] the halvings a step takes beyond CUTS_MAX and SPLIT_CUTS (``scheme.extra_cuts``: 0 at the default --dt)
-FB_SIZE = 27
+# [26] the halvings a step takes beyond CUTS_MAX and SPLIT_CUTS (``scheme.extra_cuts``: 0 at the default --dt),
+# [27] lost to the hinges' damping so far, [28] at the last step's start
+FB_SIZE = 29
 
 
 @njit(cache=True)
@@ -62,6 +63,7 @@ def record_frame(t, mo, fb, frames):
             frames.base_velocity[k, q] = mo.vc[n - 1, q] - mo.ve[n - 1, q]
     frames.lost_locking[k] = fb[0]
     frames.lost_landing[k] = fb[1]
+    frames.lost_damping[k] = fb[27]
     frames.count[0] = k + 1
     frames.fill[0] = k + 1
     frames.next[0] += frames.dt
@@ -73,6 +75,7 @@ def _books_now(books, fb):
     fb[1] = books.lost_landing[0]
     for q in range(3):
         fb[2 + q] = books.floor_impulse[q] + books.floor_flow[q]
+    fb[27] = books.lost_damping[0]
 
 
 @njit(cache=True)
@@ -96,6 +99,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
         fsc.h_last[0] = 0.0
         for q in range(5):
             fb[q] = fb[11 + q]
+        fb[27] = fb[28]
         code = 0
         for _ in range(m):
             code, _ = rattle_step(t, hf / m, model, fm, fws, fsc, 0.0, False, False, _budget(cuts, cuts_max))
@@ -104,6 +108,7 @@ def _frame_state(t, hf, model, sc, fws, fm, fsc, fb):
             keep_warm_start(hf / m, fws, fsc)
             fb[0] += fsc.acc[0]
             fb[1] += fsc.acc[1]
+            fb[27] += fsc.acc[13]
             for q in range(3):
                 fb[2 + q] += fsc.acc[2 + q]
             # the landed segments' weight, held up by the floor (as ``books.commit`` books it)
@@ -142,6 +147,7 @@ def _books_now_and_forces(h, sc, fb):
     """fb[0:5] back to the books after the last step (fb[11:16] plus its own), fb[5:11] its forces."""
     for q in range(5):
         fb[q] = fb[11 + q]
+    fb[27] = fb[28] + sc.acc[13]
     fb[0] += sc.acc[0]
     fb[1] += sc.acc[1]
     for q in range(3):

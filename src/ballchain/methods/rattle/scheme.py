@@ -49,6 +49,7 @@ from __future__ import annotations
 import math
 
 from ...contacts.coulomb import anchors, grips, slides
+from ...contacts.damping import damped
 from ...jit import njit
 from .blocks import factors_view
 from .books import (
@@ -61,6 +62,7 @@ from .books import (
     lock_loss_after_landing,
 )
 from .codes import ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
+from .damping import first_damping_work
 from .friction import (
     friction_directions,
     friction_work,
@@ -168,6 +170,7 @@ def scratch_view(sc, p):
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
         sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
         sc.hrebound[:k], sc.newrow, sc.inelastic, sc.fimp[:p], sc.fsec[:p], sc.grip_log[:p], sc.fallback[:p],
+        sc.fdamp[:s], sc.vdamp[:s],
     )  # fmt: skip
 
 
@@ -199,6 +202,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
     if grip:
         friction_work(h, model.friction, mo, sc.start, sc.acc)
+    if damped(model.damping):
+        first_damping_work(mo, sc)
     na, touched, ns = 0, 0, 0
     if landings or slides(model.friction) or grip:  # (a frame's step on a floor that lets points slide too)
         na, ns = land(t + h, h, model, mo, sc, landings)
@@ -231,7 +236,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         settle(model, mo)
         ws.valid[0] = 0  # landed segments: the columns of the factors are not the state's
     fric = sc.acc[10]  # (what the sliding points' friction force removed: booked at the floor, not the step's error)
-    lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve) - fric
+    damp = sc.acc[13]  # (what the hinges' damping removed: booked as lost_damping)
+    lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve) - fric - damp
     sc.acc[8] = lost
     if not math.isfinite(lost):  # (a singular stage: taken again halved, as a failed one)
         return ERR_STEP_NAN, na

@@ -6,6 +6,7 @@ after a landing (``settle``)."""
 from __future__ import annotations
 
 from ...contacts.coulomb import closes, grips, released, slides
+from ...contacts.damping import damped
 from ...contacts.newton import bounce_resolved, floor_rebound
 from ...core.rules import (
     LOG_STICK,
@@ -19,6 +20,7 @@ from ...floors.dispatch import floor_cascade
 from ...jit import njit
 from .blocks import solve_blocks
 from .codes import ERR_ACTIVE_SET
+from .damping import second_damping_kick
 from .friction import clear_impact_friction, friction_kick, friction_work, jam, landing_slips, stops
 from .rebounds import leave_limits, rebound_targets, restitution
 from .rows import (
@@ -179,6 +181,8 @@ def stage2(h, model, mo, ws, sc):
     e, anchored, locked = mo.e, mo.anchored, mo.locked
     tol = position_tol(e.shape[0])
     half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
+    if damped(model.damping):
+        second_damping_kick(h, model.damping, mo, sc)
     grip = grips(model.friction)
     if grip:
         friction_kick(h, model.friction, mo, sc.ukc, sc.uke)

@@ -52,12 +52,13 @@ Scratch = namedtuple(
         "kind_w", "nrow_w", "x_w",  # the last accepted step's stage 2 impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
-        "acc",  # (13,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
+        "acc",  # (14,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
         #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
         #   step's start minus at its end, less [10], [9] 1 if the step had an impact, [10]
         #   what the sliding points' friction force removed (``friction.friction_work``),
         #   [11] stage 1's active-set rounds, [12] those of them ended early by a limit or
-        #   the floor found passed (``stage1``: counted for ``benchmarks/probes/rattle_steps.py``)
+        #   the floor found passed (``stage1``: counted for ``benchmarks/probes/rattle_steps.py``), [13] what
+        #   the hinges' damping removed (``damping``)
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
@@ -74,6 +75,8 @@ Scratch = namedtuple(
         "fallback",  # (N+1,) uint8: with restitution, the step's new contacts that Newton's law would rebound
         #   and a fallback rule held instead: bit 1 point j anchored (logged ``pin``), bit 2 hinge j - 1 held at its
         #   limit (logged ``hold``)
+        "fdamp",  # (N, 3): the hinges' damping force on the axes at the last half kick (``damping``)
+        "vdamp",  # (N, 3): the rates it was taken at in stage 2 (2 u_half - u)
     ],
 )  # fmt: skip
 
@@ -92,9 +95,9 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(13), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p, np.int64), v3(p), np.zeros(14), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
         np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8), v3(p), np.zeros((p, 2)), np.zeros((p, 4)),
-        np.zeros(p, np.uint8),
+        np.zeros(p, np.uint8), v3(n), v3(n),
     )  # fmt: skip
 
 

@@ -243,6 +243,7 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
     _books_now(books, fb)
     for q in range(5):
         fb[11 + q] = fb[q]
+    fb[28] = fb[27]
     fb[16], fb[17], fb[18] = t, h, 1.0
     commit(t, h, na, model, mo, ws, sc, books, log)
     kt = trace.count[0]

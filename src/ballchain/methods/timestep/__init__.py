@@ -22,8 +22,9 @@ from ..bounds import AuditBounds
 SUMMARY_COUNT = ("n_steps", "steps")  # what the summary's line of events counts (no event instants: steps)
 
 # The contact laws' parameters it honours away from their defaults (contacts.registry):
-# Newton's restitution at the bend limit, in Moreau-Jean's form (stepper._solve).
-CONTACTS = ("restitution_lock",)
+# Newton's restitution at the bend limit, in Moreau-Jean's form (stepper._solve); the hinges' damping,
+# an explicit kick in the free velocity (stepper._free_velocity).
+CONTACTS = ("restitution_lock", "hinge_damping")
 # ... and why it refuses the others (``check_contacts`` names the reason).  Restitution at the
 # floor is in the kernels (stepper._aim_rebounds, _leave_floor, _let_go: a rod's bounces are
 # Newton's to first order, tests/test_timestep_restitution.py), but a chain's bouncing points

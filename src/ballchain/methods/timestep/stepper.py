@@ -12,7 +12,10 @@ the chain is joined by construction.  One step from t to t + h (``step``), each 
    point at the floor (its floor function at most ``TOUCH_TOL``, or reaching zero within
    ``TOUCH_FRACTION`` of a step) is anchored where it is, for good.
 3. **Free velocity**: V_free = V - h g e_z on every airborne segment, w_free = w (gravity
-   exerts no torque about a rod's centre).
+   exerts no torque about a rod's centre) plus h W tau(e, w), the smooth laws' torques
+   at the step's start (``core.forces``: the hinges' damping), explicit; what their kick
+   removed, -h tau . (w + w+) / 2 (the impulse h tau's work, as the lock rows'), is booked
+   as lost_damping.
 4. **One velocity-level problem** (Moreau; ``impacts.velocity_impact``, the one that
    resolves an event instant, with ``ImpactWork.dv`` = V_free - V(e, w)): the hinge and
    anchor rows as equalities, J (V+, w+) = 0, and over the index set (the hinges whose
@@ -59,6 +62,7 @@ from ...contacts.newton import bounce_resolved, floor_rebound, rebounds
 from ...core.blocks import fits4, forces4, generalized_forces, reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
 from ...core.dynamics import pile_pull
+from ...core.forces import any_smooth_law, smooth_torques
 from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, stepped_impact, velocity_impact
 from ...core.kinematics import (
     drift_removable,
@@ -68,7 +72,7 @@ from ...core.kinematics import (
     projection_tol,
     velocities,
 )
-from ...core.rows import W_V
+from ...core.rows import W_V, W_W
 from ...core.rules import (
     LOG_BOUNCE,
     LOG_LANDING,
@@ -152,8 +156,8 @@ FrameWork = namedtuple(
         "t0",  # (1,): the last step's start
         "h",  # (1,): its size (0: no frame inside it)
         "e0",  # (N, 3): the axes at its start
-        "start",  # (6,): T, the lost energies (locking, landing) and the floor's impulse (3) at its start
-        "end",  # (6,): ... at its end
+        "start",  # (7,): T, the lost energies (locking, landing), the floor's impulse (3), lost to damping, at its start
+        "end",  # (7,): ... at its end
         "chain",  # the frame's state (state.Chain): axes, rates, anchors and locks
         "books",  # the frame's books (state.Books: losses, floor impulse; and its projection's ledger)
         "ws",  # the frame's projection's workspace (state.Work)
@@ -173,7 +177,7 @@ def new_frame_work(n: int) -> FrameWork:
     v3 = lambda m: np.zeros((m, 3))  # noqa: E731
     chain = new_chain(np.zeros((n, 3)), np.zeros((n, 3)), math.pi)
     return FrameWork(
-        np.zeros(1), np.zeros(1), v3(n), np.zeros(6), np.zeros(6), chain, new_books(),
+        np.zeros(1), np.zeros(1), v3(n), np.zeros(7), np.zeros(7), chain, new_books(),
         new_work(n), np.zeros(nh), v3(n + 1), v3(n + 1), v3(n), np.zeros(nh, np.uint8), v3(n),
     )  # fmt: skip
 
@@ -363,10 +367,16 @@ def _first_to_land(s, sc):
 
 
 @njit(cache=True)
-def _free_velocity(h, chain, sc):
+def _free_velocity(h, model, chain, ws, sc):
     """Part 3: the free velocity V_free = V - h g e_z on airborne segments (0 on landed
-    ones) in sc.vmax, and its difference from the velocities of w, iw.dv = V_free - V(e, w)."""
+    ones) in sc.vmax, w_free = w + h W tau (the smooth laws' torques at the step's start,
+    ws.tau, into w), and its difference from the velocities of w, iw.dv = V_free - V(e, w)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
+    if any_smooth_law(model.damping):
+        smooth_torques(model.damping, e, w, anchored, ws.tau)
+        for i in range(e.shape[0]):
+            for q in range(3):
+                w[i, q] += h * W_W * ws.tau[i, q]
     dv = sc.iw.dv
     velocities(e, w, sc.pv, sc.vel)
     for i in range(e.shape[0]):
@@ -380,6 +390,17 @@ def _free_velocity(h, chain, sc):
         dv[i, 2] -= h
         for q in range(3):
             sc.vmax[i, q] = sc.vel[i, q] + dv[i, q]
+
+
+@njit(cache=True)
+def _damping_work(h, w_pre, w, tau):
+    """What the smooth laws' kick removed in the step: -h tau . (w + w+) / 2, its impulse's
+    work with the rates before and after the step (landed segments: tau 0)."""
+    s = 0.0
+    for i in range(w.shape[0]):
+        for q in range(3):
+            s -= 0.5 * h * tau[i, q] * (w_pre[i, q] + w[i, q])
+    return s
 
 
 @njit(cache=True)
@@ -647,6 +668,7 @@ def record_frame(t, kinetic, chain, sc, books, frames):
     frames.potential[k] = potential_energy(e)
     frames.lost_locking[k] = books.lost_locking[0]
     frames.lost_landing[k] = books.lost_landing[0]
+    frames.lost_damping[k] = books.lost_damping[0]
     frames.count[0] = k + 1
     frames.fill[0] = k + 1
     frames.next[0] += frames.dt
@@ -673,6 +695,7 @@ def _energies(chain, sc, books, out):
     out[2] = books.lost_landing[0]
     for q in range(3):
         out[3 + q] = books.floor_flow[q] + books.floor_impulse[q]
+    out[6] = books.lost_damping[0]
 
 
 @njit(cache=True)
@@ -696,6 +719,7 @@ def _state_between(s, model, chain, sc, fw):
     a, b, fb = fw.start, fw.end, fw.books
     fb.lost_locking[0] = (1.0 - s) * a[1] + s * b[1]
     fb.lost_landing[0] = (1.0 - s) * a[2] + s * b[2]
+    fb.lost_damping[0] = (1.0 - s) * a[6] + s * b[6]
     for q in range(3):
         fb.floor_flow[q] = (1.0 - s) * a[3 + q] + s * b[3 + q]
         fb.floor_impulse[q] = 0.0
@@ -788,7 +812,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     for attempt in range(MAX_CUTS + 1):  # the step, cut again while a point would pass the floor
         if attempt > 0:
             _copy3(sc.w_pre, w)
-        _free_velocity(h, chain, sc)
+        _free_velocity(h, model, chain, ws, sc)
         _index_set(h, model, chain, sc)
         code = _solve(model, chain, ws, sc)
         if code < 0:
@@ -813,6 +837,8 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     if model.e_floor > 0.0 and na > 0:
         _leave_floor(h, na, chain, sc)
     _book(t, h, na, model.e_floor, chain, ws, sc, books, log)
+    if any_smooth_law(model.damping):
+        books.lost_damping[0] += _damping_work(h, sc.w_pre, w, ws.tau)
     books.floor_flow[2] += h * landed_count(anchored)
     books.n_evals[0] += 1
     settle_anchors(chain, model.cone, model.alpha)

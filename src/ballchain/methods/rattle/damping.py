@@ -1,0 +1,60 @@
+"""The hinges' viscous damping in RATTLE (``contacts.damping``): its force on the axes in
+each half kick, and what it removed, booked as ``lost_damping``.
+
+The first half kick takes the force at the step's start, f1 = f(q, u); the second at its
+end, f2 = f(q+, u~), with the rates u~ = 2 u_half - u (u+ to O(h^2): the kick stays
+explicit and the step second order).  What a half kick removed is its force's work over
+the step's displacement, -f . (e+ - e) / 2, as for the sliding points' friction
+(``friction.friction_work``); a segment landed between the two kicks takes only the first.
+"""
+
+from __future__ import annotations
+
+from ...contacts.damping import axis_forces
+from ...core.rules import is_landed
+from ...jit import njit
+
+W_AXIS = 3.0  # the axes' inverse mass (W = diag(1, 3): rods, m b^2 / 3)
+
+
+@njit(cache=True)
+def _kick_and_work(h, anchored, e, e0, f, uke):
+    """uke += h/2 W f on the segments not landed; returns -f . (e - e0) / 2 over them."""
+    loss = 0.0
+    for i in range(f.shape[0]):
+        if is_landed(anchored, i):
+            continue
+        for q in range(3):
+            uke[i, q] += 0.5 * h * W_AXIS * f[i, q]
+            loss -= 0.5 * f[i, q] * (e[i, q] - e0[i, q])
+    return loss
+
+
+@njit(cache=True)
+def first_damping_kick(h, c, mo, sc):
+    """Stage 1's half kick of the damping force at the step's start (sc.fdamp keeps it)."""
+    axis_forces(c, mo.e, mo.ve, sc.fdamp)
+    _kick_and_work(h, mo.anchored, mo.e, mo.e, sc.fdamp, sc.uke)
+
+
+@njit(cache=True)
+def first_damping_work(mo, sc):
+    """After stage 1 (mo at q+): what the first half kick removed, into sc.acc[13]."""
+    loss = 0.0
+    for i in range(sc.fdamp.shape[0]):
+        if is_landed(sc.start.anchored, i):
+            continue
+        for q in range(3):
+            loss -= 0.5 * sc.fdamp[i, q] * (mo.e[i, q] - sc.start.e[i, q])
+    sc.acc[13] += loss
+
+
+@njit(cache=True)
+def second_damping_kick(h, c, mo, sc):
+    """Stage 2's half kick at q+ with the rates 2 u_half - u (mo.ve: u_half), and its work into sc.acc[13]."""
+    v = sc.vdamp
+    for i in range(v.shape[0]):
+        for q in range(3):
+            v[i, q] = 2.0 * mo.ve[i, q] - sc.start.ve[i, q]
+    axis_forces(c, mo.e, v, sc.fdamp)
+    sc.acc[13] += _kick_and_work(h, mo.anchored, mo.e, sc.start.e, sc.fdamp, sc.uke)
