@@ -40,9 +40,9 @@ def accelerations(e, w, anchored, locked, ws, de, dw):
     """
     n = e.shape[0]
     J, kind, nrow, S, G, drop, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.S, ws.G, ws.drop, ws.rhs, ws.x, ws.gf
-    applied = any_smooth_law(ws.damping[0])
+    applied = any_smooth_law(ws.laws)
     if applied:
-        ws.power[0] = smooth_torques(ws.damping[0], e, w, anchored, ws.tau)
+        ws.power[0] = smooth_torques(ws.laws, e, w, anchored, ws.tau)
     if rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
         if applied:
             torque_rhs(e, ws.tau, kind, nrow, rhs)

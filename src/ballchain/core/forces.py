@@ -4,35 +4,51 @@ Gravity, -m g e_z on every centre, has no torque about a centre and enters each 
 where it moves the centres (the event method's row right-hand sides, ``rows``; the
 steppers' kicks).  Every other smooth law adds torques on the segments here, with the
 power they remove, and each method applies them in its own coordinates: the event method
-through the rows (``torque_rhs``) and its angular accelerations, the steppers in their
-kicks.  Today's one such law: viscous damping at the hinges (``contacts.damping``).
+through the rows (``torque_rhs``) and its angular accelerations, the time-stepper in its
+free velocity, RATTLE in its half kicks (as forces on the axes).  A new smooth law is a
+module of ``contacts`` and a term in ``smooth_torques`` and ``smooth_axis_forces``.
+Today's one: viscous damping at the hinges (``contacts.damping``).
 """
 
 from __future__ import annotations
 
-from ..contacts.damping import damped, hinge_torques
+from collections import namedtuple
+
+from ..contacts.damping import axis_forces, damped, hinge_torques
 from ..jit import njit
 from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_W
 from .rules import is_landed
 
+# The smooth laws' constants: any bundle with these fields is read (``state.Model`` has them,
+# and the event method's ``Work.laws``, a ``SmoothLaws``, carries them to its accelerations).
+SmoothLaws = namedtuple("SmoothLaws", ["damping"])  # the hinges' viscous coefficient C (m g b sqrt(b/g))
+
 
 @njit(cache=True, inline="always")
-def any_smooth_law(damping):
-    """Some smooth law acts beside gravity (the hinges' damping coefficient C > 0)."""
-    return damped(damping)
+def any_smooth_law(laws):
+    """Some smooth law acts beside gravity (``laws``: a ``SmoothLaws`` or ``state.Model``)."""
+    return damped(laws.damping)
 
 
 @njit(cache=True)
-def smooth_torques(damping, e, w, anchored, tau):
+def smooth_torques(laws, e, w, anchored, tau):
     """tau <- the smooth laws' torques on the segments not landed (landed ones: zero;
-    their rates are zero, so the power is what acts on the rest); returns the power the
-    laws remove (m g b / sqrt(b/g))."""
-    power = hinge_torques(damping, e, w, tau)
+    their rates are zero, so the power is what acts on the rest), w the angular
+    velocities; returns the power the laws remove (m g b / sqrt(b/g))."""
+    power = hinge_torques(laws.damping, e, w, tau)
     for i in range(e.shape[0]):
         if is_landed(anchored, i):
             for q in range(3):
                 tau[i, q] = 0.0
     return power
+
+
+@njit(cache=True)
+def smooth_axis_forces(laws, e, de, f):
+    """f <- the same laws' forces on the axes in the axes' rates de = de/dt (maximal
+    coordinates: the force f_i on e_i does what the torque e_i x f_i does); returns the
+    power they remove.  The caller applies them to the segments not landed."""
+    return axis_forces(laws.damping, e, de, f)
 
 
 @njit(cache=True)

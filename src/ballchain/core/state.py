@@ -23,6 +23,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from .forces import SmoothLaws
+
 MAXR = 7  # constraint rows per point at most: 3 + 3 + 1
 
 Model = namedtuple(
@@ -144,16 +146,16 @@ Work = namedtuple(
         "rhs",  # (N+1, MAXR): right-hand sides
         "x",  # (N+1, MAXR): multipliers (forces, lock multipliers, impulses)
         "gf",  # (N, 6): force and torque of the multipliers on each segment
-        "damping",  # (1,): the hinges' viscous coefficient C (Model.damping; the accelerations read it here)
+        "laws",  # the smooth laws' constants (forces.SmoothLaws, from the Model: the accelerations read them here)
         "tau",  # (N, 3): the smooth laws' torques on the segments at the last evaluation (core.forces)
         "power",  # (1,): the power they removed there (m g b / sqrt(b/g))
     ],
 )
 
 
-def new_work(n: int, damping: float = 0.0) -> Work:
-    """Preallocated arrays for the O(N) kernels of an N-segment chain (``damping``: the
-    hinges' viscous coefficient, ``Model.damping``)."""
+def new_work(n: int, model=None) -> Work:
+    """Preallocated arrays for the O(N) kernels of an N-segment chain (``model``: the run's
+    ``Model``, whose smooth laws the accelerations apply; none without it)."""
     p = n + 1
     return Work(
         np.zeros((p, MAXR, 12)),
@@ -165,7 +167,7 @@ def new_work(n: int, damping: float = 0.0) -> Work:
         np.zeros((p, MAXR)),
         np.zeros((p, MAXR)),
         np.zeros((n, 6)),
-        np.full(1, float(damping)),
+        SmoothLaws(0.0 if model is None else float(model.damping)),
         np.zeros((n, 3)),
         np.zeros(1),
     )

@@ -109,7 +109,7 @@ def run(setup, progress, stop) -> RunOutput:
         laws=p,
     )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
-    watch, ws, st, sc, books = new_watch(n), new_work(n, model.damping), new_stepper(n), new_instant(n), new_books()
+    watch, ws, st, sc, books = new_watch(n), new_work(n, model), new_stepper(n), new_instant(n), new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
     _arm(model, chain, watch, sc, books)

@@ -49,7 +49,7 @@ from __future__ import annotations
 import math
 
 from ...contacts.coulomb import anchors, grips, slides
-from ...contacts.damping import damped
+from ...core.forces import any_smooth_law
 from ...jit import njit
 from .blocks import factors_view
 from .books import (
@@ -62,7 +62,6 @@ from .books import (
     lock_loss_after_landing,
 )
 from .codes import ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
-from .damping import first_damping_work
 from .friction import (
     friction_directions,
     friction_work,
@@ -79,6 +78,7 @@ from .rows import (
     Rows,
     copy_layout,
 )
+from .smooth import first_smooth_work
 from .stage1 import ITER_BUDGET, NEWTON_MAX, ROUNDS_MAX, stage1
 from .stage2 import land, settle, stage2
 from .state import Motion, Scratch, active_points, copy_motion_points, mechanical_energy
@@ -202,8 +202,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
     if grip:
         friction_work(h, model.friction, mo, sc.start, sc.acc)
-    if damped(model.damping):
-        first_damping_work(mo, sc)
+    if any_smooth_law(model):
+        first_smooth_work(mo, sc)
     na, touched, ns = 0, 0, 0
     if landings or slides(model.friction) or grip:  # (a frame's step on a floor that lets points slide too)
         na, ns = land(t + h, h, model, mo, sc, landings)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 from ...contacts.coulomb import grips
-from ...contacts.damping import damped
+from ...core.forces import any_smooth_law
 from ...core.rules import (
     is_landed,
     limit_in_force,
@@ -20,7 +20,6 @@ from ...floors.dispatch import floor_level, floor_watched_range
 from ...jit import njit
 from .blocks import factor_blocks, solve_blocks
 from .codes import ERR_ACTIVE_SET, ERR_NEWTON
-from .damping import first_damping_kick
 from .friction import friction_kick
 from .rows import (
     K_BEND,
@@ -34,6 +33,7 @@ from .rows import (
     row_values,
     segment_force,
 )
+from .smooth import first_smooth_kick
 from .state import point_z
 
 NEWTON_MAX = 40  # simplified Newton iterations of stage 1 at most (per active set)
@@ -284,8 +284,8 @@ def stage1(h, model, mo, ws, sc, budget):
     grip = grips(model.friction)
     if grip:
         friction_kick(h, model.friction, mo, sc.ukc, sc.uke)
-    if damped(model.damping):
-        first_damping_kick(h, model.damping, mo, sc)
+    if any_smooth_law(model):
+        first_smooth_kick(h, model, mo, sc)
     for j in range(sc.floor_on.shape[0]):  # (a point that touched the floor at the last step starts on it)
         sc.floor_on[j] = 1 if (mo.touching[j] != 0 and mo.anchored[j] == 0) else 0
     newt_valid = False  # ws.newt holds the factors of a Newton matrix of this stage ...

@@ -6,8 +6,8 @@ after a landing (``settle``)."""
 from __future__ import annotations
 
 from ...contacts.coulomb import closes, grips, released, slides
-from ...contacts.damping import damped
 from ...contacts.newton import bounce_resolved, floor_rebound
+from ...core.forces import any_smooth_law
 from ...core.rules import (
     LOG_STICK,
     Z_TOL,
@@ -20,7 +20,6 @@ from ...floors.dispatch import floor_cascade
 from ...jit import njit
 from .blocks import solve_blocks
 from .codes import ERR_ACTIVE_SET
-from .damping import second_damping_kick
 from .friction import clear_impact_friction, friction_kick, friction_work, jam, landing_slips, stops
 from .rebounds import leave_limits, rebound_targets, restitution
 from .rows import (
@@ -31,6 +30,7 @@ from .rows import (
     is_floor,
     row_rates,
 )
+from .smooth import second_smooth_kick
 from .stage1 import ROUNDS_MAX, _factor, add_impulses, half_kick, position_tol
 from .state import HELD, PINNED, point_positions, point_vz, point_z
 
@@ -181,8 +181,8 @@ def stage2(h, model, mo, ws, sc):
     e, anchored, locked = mo.e, mo.anchored, mo.locked
     tol = position_tol(e.shape[0])
     half_kick(h, anchored, mo.vc, mo.ve, sc.ukc, sc.uke)
-    if damped(model.damping):
-        second_damping_kick(h, model.damping, mo, sc)
+    if any_smooth_law(model):
+        second_smooth_kick(h, model, mo, sc)
     grip = grips(model.friction)
     if grip:
         friction_kick(h, model.friction, mo, sc.ukc, sc.uke)

@@ -58,7 +58,7 @@ Scratch = namedtuple(
         #   what the sliding points' friction force removed (``friction.friction_work``),
         #   [11] stage 1's active-set rounds, [12] those of them ended early by a limit or
         #   the floor found passed (``stage1``: counted for ``benchmarks/probes/rattle_steps.py``), [13] what
-        #   the hinges' damping removed (``damping``)
+        #   the smooth laws removed (``smooth``: the hinges' damping)
         "pull",  # (3,): the pile's impulse on the hanging chain in the step
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
@@ -75,7 +75,7 @@ Scratch = namedtuple(
         "fallback",  # (N+1,) uint8: with restitution, the step's new contacts that Newton's law would rebound
         #   and a fallback rule held instead: bit 1 point j anchored (logged ``pin``), bit 2 hinge j - 1 held at its
         #   limit (logged ``hold``)
-        "fdamp",  # (N, 3): the hinges' damping force on the axes at the last half kick (``damping``)
+        "fdamp",  # (N, 3): the smooth laws' force on the axes at the last half kick (``smooth``)
         "vdamp",  # (N, 3): the rates it was taken at in stage 2 (2 u_half - u)
     ],
 )  # fmt: skip

@@ -372,8 +372,8 @@ def _free_velocity(h, model, chain, ws, sc):
     ones) in sc.vmax, w_free = w + h W tau (the smooth laws' torques at the step's start,
     ws.tau, into w), and its difference from the velocities of w, iw.dv = V_free - V(e, w)."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
-    if any_smooth_law(model.damping):
-        smooth_torques(model.damping, e, w, anchored, ws.tau)
+    if any_smooth_law(model):
+        smooth_torques(model, e, w, anchored, ws.tau)
         for i in range(e.shape[0]):
             for q in range(3):
                 w[i, q] += h * W_W * ws.tau[i, q]
@@ -393,7 +393,7 @@ def _free_velocity(h, model, chain, ws, sc):
 
 
 @njit(cache=True)
-def _damping_work(h, w_pre, w, tau):
+def _smooth_work(h, w_pre, w, tau):
     """What the smooth laws' kick removed in the step: -h tau . (w + w+) / 2, its impulse's
     work with the rates before and after the step (landed segments: tau 0)."""
     s = 0.0
@@ -837,8 +837,8 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     if model.e_floor > 0.0 and na > 0:
         _leave_floor(h, na, chain, sc)
     _book(t, h, na, model.e_floor, chain, ws, sc, books, log)
-    if any_smooth_law(model.damping):
-        books.lost_damping[0] += _damping_work(h, sc.w_pre, w, ws.tau)
+    if any_smooth_law(model):
+        books.lost_damping[0] += _smooth_work(h, sc.w_pre, w, ws.tau)
     books.floor_flow[2] += h * landed_count(anchored)
     books.n_evals[0] += 1
     settle_anchors(chain, model.cone, model.alpha)

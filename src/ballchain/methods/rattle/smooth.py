@@ -1,5 +1,6 @@
-"""The hinges' viscous damping in RATTLE (``contacts.damping``): its force on the axes in
-each half kick, and what it removed, booked as ``lost_damping``.
+"""The smooth laws beside gravity in RATTLE (``core.forces``; today the hinges' viscous
+damping, ``contacts.damping``): their force on the axes in each half kick, and what it
+removed, booked as ``lost_damping``.
 
 The first half kick takes the force at the step's start, f1 = f(q, u); the second at its
 end, f2 = f(q+, u~), with the rates u~ = 2 u_half - u (u+ to O(h^2): the kick stays
@@ -10,7 +11,7 @@ the step's displacement, -f . (e+ - e) / 2, as for the sliding points' friction
 
 from __future__ import annotations
 
-from ...contacts.damping import axis_forces
+from ...core.forces import smooth_axis_forces
 from ...core.rules import is_landed
 from ...jit import njit
 
@@ -31,14 +32,14 @@ def _kick_and_work(h, anchored, e, e0, f, uke):
 
 
 @njit(cache=True)
-def first_damping_kick(h, c, mo, sc):
-    """Stage 1's half kick of the damping force at the step's start (sc.fdamp keeps it)."""
-    axis_forces(c, mo.e, mo.ve, sc.fdamp)
+def first_smooth_kick(h, model, mo, sc):
+    """Stage 1's half kick of the smooth laws' force at the step's start (sc.fdamp keeps it)."""
+    smooth_axis_forces(model, mo.e, mo.ve, sc.fdamp)
     _kick_and_work(h, mo.anchored, mo.e, mo.e, sc.fdamp, sc.uke)
 
 
 @njit(cache=True)
-def first_damping_work(mo, sc):
+def first_smooth_work(mo, sc):
     """After stage 1 (mo at q+): what the first half kick removed, into sc.acc[13]."""
     loss = 0.0
     for i in range(sc.fdamp.shape[0]):
@@ -50,11 +51,11 @@ def first_damping_work(mo, sc):
 
 
 @njit(cache=True)
-def second_damping_kick(h, c, mo, sc):
+def second_smooth_kick(h, model, mo, sc):
     """Stage 2's half kick at q+ with the rates 2 u_half - u (mo.ve: u_half), and its work into sc.acc[13]."""
     v = sc.vdamp
     for i in range(v.shape[0]):
         for q in range(3):
             v[i, q] = 2.0 * mo.ve[i, q] - sc.start.ve[i, q]
-    axis_forces(c, mo.e, v, sc.fdamp)
+    smooth_axis_forces(model, mo.e, v, sc.fdamp)
     sc.acc[13] += _kick_and_work(h, mo.anchored, mo.e, sc.start.e, sc.fdamp, sc.uke)
