@@ -357,6 +357,7 @@ def test_output_round_trip(engine, tmp_path):
         "gamma_inferred",
         "pile_radius",
         "pile_offset",
+        "pile_kinetic",
         "wall_includes_compile",
         "setup_seconds",
         "setup_compiled",

@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 
 from ballchain.cli import app
 from ballchain.engine import simulate
-from ballchain.model import ChainParams, SolverOptions
+from ballchain.model import ChainParams, InitialCondition, SolverOptions
 from ballchain.records.measures import derived_measures, pile_shape
 
 THETA0 = 0.3  # rad from the vertical
@@ -39,6 +39,7 @@ def test_an_anchored_rod_lies_down_2b_from_its_foot_along_its_lean(method):
     assert pile.points == 2
     assert pile.radius == pytest.approx(1.0, abs=1e-9)  # half the rod, b = 1
     assert pile.offset == pytest.approx(1.0, abs=1e-9)
+    assert abs(pile.kinetic) < 1e-12  # landed: at rest, the pile read where it lies
     top = np.asarray(r.anchor_pos)[0]
     assert math.atan2(top[1], top[0]) == pytest.approx(AZIMUTH, abs=1e-9)  # in the plane it leaned in
 
@@ -49,6 +50,25 @@ def test_a_rod_on_a_frictionless_floor_lies_down_about_its_centre_of_mass():
     pile = pile_shape(r)
     assert pile.offset == pytest.approx(math.sin(THETA0), abs=1e-9)  # its centre's start, b sin theta0
     assert pile.radius == pytest.approx(1.0, abs=1e-4)  # flat to within the last frame's turn
+    # its centre falls vertically, and the touch of its top stops the rest: at rest when read
+    assert abs(pile.kinetic) < 1e-12
+
+
+def test_a_pile_read_while_the_chain_still_slides_says_how_much_moves():
+    """On a frictionless floor the run ends when every point has touched it; a chain's pile
+    is read then, from the last frame, with the kinetic energy that frame still had."""
+    r = simulate(
+        ChainParams(segments=16, friction=0.0), InitialCondition("random", seed=1), SolverOptions(method="rattle")
+    )
+    assert r.status == "landed"
+    pile = pile_shape(r)
+    assert pile.kinetic == pytest.approx(r.frame_kinetic[-1] / r.energy["initial"], rel=1e-12)
+    assert pile.kinetic > 1e-3
+    res = CliRunner().invoke(
+        app, ["simulate", "-N", "16", "--friction", "0", "--method", "rattle", "--seed", "1", "--ic", "random"]
+    )
+    assert res.exit_code == 0, res.stderr
+    assert "still kinetic" in res.stdout
 
 
 def test_turning_the_start_about_the_vertical_changes_neither_number():
@@ -91,3 +111,4 @@ def test_the_summary_the_json_and_the_sweep_table_carry_it(tmp_path):
     run_sweep(SweepSpec(segments=(4,), alphas=(0.8,), runs=2), table, workers=1, progress=False)
     rows = read_table(table)
     assert all(r["pile_radius"] > 0.0 for r in rows)
+    assert all(abs(r["pile_kinetic"]) < 1e-12 for r in rows)  # anchored piles are at rest

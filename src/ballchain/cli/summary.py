@@ -28,6 +28,13 @@ def run_summary(result) -> dict:
     return s
 
 
+def _still_moving(kinetic) -> str:
+    """The pile line's note where the chain still moved when the pile was read (above 1e-6 E0)."""
+    if kinetic is None or not math.isfinite(kinetic) or kinetic <= 1e-6:
+        return ""
+    return f"; read while {100 * kinetic:.3g}% of E0 was still kinetic (it may still be moving)"
+
+
 def _fmt(x: Any, spec: str = ".6g") -> str:
     if x is None:
         return "n/a"
@@ -114,6 +121,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         lines.append(
             f"  pile               radius of gyration {_fmt(s.get('pile_radius'), '.4g')} {u_l}, its centre "
             f"{_fmt(s.get('pile_offset'), '.4g')} {u_l} from the bottom end's start (seen from above)"
+            + _still_moving(s.get("pile_kinetic"))
         )
     if s.get("floor") == "pivot":
         depth = s.get("max_depth")

@@ -49,6 +49,8 @@ RUN = {
     "than two points on the floor)",
     "pile_offset": "the horizontal distance of the pile's centroid from the bottom end's start (null: fewer "
     "than two points on the floor)",
+    "pile_kinetic": "the kinetic energy the chain still had where the pile was read, over the initial energy "
+    "(a pile on a floor that lets points slide may still be moving at the end)",
     "wall_includes_compile": "whether the wall time includes compiling the kernels",
     "setup_seconds": "(runs of the command line) seconds spent loading or compiling the kernels before the run",
     "setup_compiled": "(runs of the command line) whether the kernels were compiled before the run",

@@ -130,11 +130,15 @@ class PileShape:
     run's length unit): ``radius``, the radius of gyration of its points in the floor's
     plane, sqrt(mean |r_j - c|^2) over their horizontal positions r_j about their centroid
     c; ``offset``, |c|, how far that centroid lies from where the bottom end started (the
-    origin); ``points``, how many points it counts."""
+    origin); ``points``, how many points it counts; ``kinetic``, the kinetic energy the
+    chain still had where the pile was read, over the initial energy (0 on a floor that
+    holds what it touches once every segment has landed; on one that lets points slide the
+    run ends when every point has touched the floor, and the pile may still be moving)."""
 
     radius: float
     offset: float
     points: int
+    kinetic: float = math.nan
 
 
 def pile_shape(r) -> PileShape:
@@ -146,17 +150,20 @@ def pile_shape(r) -> PileShape:
     1/frames_per_tff of the end: such a pile is still moving).  NaN with fewer than two
     points."""
     touched = np.isfinite(np.asarray(r.anchor_t, dtype=float))
+    e0 = float(r.energy.get("initial", math.nan)) if r.energy else math.nan
     if r.params.friction == math.inf:
         pos = np.asarray(r.anchor_pos, dtype=float)
+        kinetic = float(r.energy.get("kinetic", math.nan)) / e0 if e0 else math.nan
     else:
         pts = r.points(slice(-1, None)) if len(r.frame_t) else np.zeros((1, touched.size, 3))
         pos = np.asarray(pts, dtype=float)[0]
+        kinetic = float(np.asarray(r.frame_kinetic)[-1]) / e0 if len(r.frame_t) and e0 else math.nan
     xy = pos[touched, :2]
     if xy.shape[0] < 2:
-        return PileShape(math.nan, math.nan, int(xy.shape[0]))
+        return PileShape(math.nan, math.nan, int(xy.shape[0]), kinetic)
     c = xy.mean(axis=0)
     radius = math.sqrt(float(np.mean(np.sum((xy - c) ** 2, axis=1))))
-    return PileShape(radius, float(np.hypot(c[0], c[1])), int(xy.shape[0]))
+    return PileShape(radius, float(np.hypot(c[0], c[1])), int(xy.shape[0]), kinetic)
 
 
 def derived_measures(result) -> dict[str, float]:
@@ -164,7 +171,8 @@ def derived_measures(result) -> dict[str, float]:
     ``--json`` and the sweep table: ``gamma_measured`` (``floor_gamma``: the Hamm-Geminard
     gamma of the floor's momentum record), ``gamma_inferred`` (the gamma whose fall
     time is t_fall/t_ff, ``theory.gamma_from_time_ratio``) and the pile's shape at the
-    end (``pile_shape``: ``pile_radius``, ``pile_offset``).  NaN where a run does not
+    end (``pile_shape``: ``pile_radius``, ``pile_offset``, and ``pile_kinetic``, the kinetic
+    energy left there over E0).  NaN where a run does not
     define them (a partial run, a ratio outside the theory's range)."""
     from ..theory import gamma_from_time_ratio
 
@@ -182,6 +190,7 @@ def derived_measures(result) -> dict[str, float]:
         "gamma_inferred": inferred,
         "pile_radius": pile.radius,
         "pile_offset": pile.offset,
+        "pile_kinetic": pile.kinetic,
     }
 
 

@@ -98,6 +98,11 @@ COLUMNS: dict[str, tuple[str, str]] = {
         "the horizontal distance of the pile's centroid from the bottom end's start, b (empty in tables "
         "written before the column)",
     ),
+    "pile_kinetic": (
+        "float64",
+        "the kinetic energy left where the pile was read, over the initial energy (a pile on a floor that lets "
+        "points slide may still be moving; empty in tables written before the column)",
+    ),
     "wall_seconds": ("float64", "wall time of the run, s"),
     "n_steps": ("int64", "accepted integrator steps"),
     "n_evals": ("int64", "right-hand-side evaluations"),
