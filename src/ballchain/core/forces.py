@@ -12,16 +12,14 @@ Today's one: viscous damping at the hinges (``contacts.damping``).
 
 from __future__ import annotations
 
-from collections import namedtuple
-
 from ..contacts.damping import axis_forces, damped, hinge_torques
 from ..jit import njit
 from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_W
 from .rules import is_landed
 
-# The smooth laws' constants: any bundle with these fields is read (``state.Model`` has them,
-# and the event method's ``Work.laws``, a ``SmoothLaws``, carries them to its accelerations).
-SmoothLaws = namedtuple("SmoothLaws", ["damping"])  # the hinges' viscous coefficient C (m g b sqrt(b/g))
+# The smooth laws' constants are read from any bundle with their fields: ``state.Model``, or
+# the event method's ``Work.laws`` (a ``state.SmoothLaws``), which carries them to its
+# accelerations.
 
 
 @njit(cache=True, inline="always")

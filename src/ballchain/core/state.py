@@ -23,8 +23,6 @@ from collections import namedtuple
 
 import numpy as np
 
-from .forces import SmoothLaws
-
 MAXR = 7  # constraint rows per point at most: 3 + 3 + 1
 
 Model = namedtuple(
@@ -133,6 +131,9 @@ def new_chain(e0: np.ndarray, w0: np.ndarray, alpha: float) -> Chain:
     anchor_t[n] = 0.0
     return Chain(Y, anchored, np.zeros(nh, np.uint8), np.full(nh, math.cos(alpha)), anchor_pos, anchor_t)
 
+
+# The smooth laws' constants (``core.forces`` reads them; ``Model`` has the same fields)
+SmoothLaws = namedtuple("SmoothLaws", ["damping"])  # the hinges' viscous coefficient C (m g b sqrt(b/g))
 
 Work = namedtuple(
     "Work",
