@@ -13,7 +13,8 @@ not counted): the runs, the mean t_fall/t_ff with its 95% bootstrap interval
 worst |imbalance|/E0; the paired difference of t_fall/t_ff from C = 0 on the same starts.
 Then each other table against the reference on the same starts, per (N, C): the mean paired
 differences of t_fall/t_ff and of E_damp/E0 with their 95% intervals, and the two-sample KS
-p of the fall times.
+p of the fall times.  ``--plot FILE``: the mean t_fall/t_ff with its interval, per method, at
+C = 0 and C, one panel per N.
 """
 
 from __future__ import annotations
@@ -80,15 +81,48 @@ def against(df: pd.DataFrame, ref: pd.DataFrame) -> None:
         print(f"| {n} | {c:g} | {len(g)} | {_mean(dt)} | {p:.2f} | {damp} |")
 
 
+def plot(tables: list[pd.DataFrame], path: str) -> None:
+    """Mean t_fall/t_ff [95%] against C, one line per method, one panel per N."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sizes = sorted(set().union(*(set(df.segments) for df in tables)))
+    fig, axes = plt.subplots(1, len(sizes), figsize=(3.2 * len(sizes), 3.4), sharey=True, squeeze=False)
+    for ax, n in zip(axes[0], sizes, strict=True):
+        for k, df in enumerate(tables):
+            ok = df[(df.status == "landed") & (df.segments == n)]
+            pts = []
+            for c, g in ok.groupby("hinge_damping"):
+                x = g.ratio.to_numpy(dtype=float)
+                lo, hi = mean_interval(x)
+                pts.append((c, x.mean(), lo, hi))
+            c, m, lo, hi = (np.array(v) for v in zip(*pts))
+            shift = 0.004 * (k - (len(tables) - 1) / 2) * max(c.max(), 1e-9) / 0.1
+            ax.errorbar(c + shift, m, yerr=[m - lo, hi - m], marker="o", capsize=3, label=", ".join(set(df.method)))
+        ax.axhline(1.0, color="0.5", lw=0.8, ls="--")
+        ax.set_title(f"N = {n}")
+        ax.set_xlabel("hinge damping C, m g b sqrt(b/g)")
+    axes[0, 0].set_ylabel("t_fall / t_ff (mean, 95%)")
+    axes[0, 0].legend(frameon=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    print(f"\nplot: {path}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("tables", nargs="+", help="the reference's table first")
+    ap.add_argument("--plot")
     a = ap.parse_args()
     tables = [_read(t) for t in a.tables]
     for df in tables:
         per_table(df)
     for df in tables[1:]:
         against(df, tables[0])
+    if a.plot:
+        plot(tables, a.plot)
 
 
 if __name__ == "__main__":

@@ -391,3 +391,24 @@ def test_the_restitution_floor_page_pairs_the_time_stepper_as_its_commands_and_d
     assert f"{zero[0]} and {zero[1]} at E = 0 (N = 64 and 128)" in note
     cap = [(d.status == "max_time").sum() for d in (ts[16][ts[16].segments == 64], ts[64])]
     assert f"({cap[0]} at N = 64, E = 0.9 on 16 starts, {cap[1]} on 64)" in note
+
+
+def test_the_hinge_damping_page_quotes_what_its_command_prints():
+    """Each row of the page's table is its method's row of the study's output (the page
+    names the method where the output gives the runs), and each interval of its findings
+    is printed by the command."""
+    page = ROOT / "docs" / "hinge-damping.md"
+    printed = _page_commands(page)
+    sections = dict(re.findall(r"^(\w+): \d+ runs.*?\n(.*?)(?=^\w+: \d+ runs|^\w+ minus|\Z)", printed, re.M | re.S))
+    assert set(sections) == {"event", "rattle", "timestep"}
+    text = page.read_text()
+    rows = [ln for ln in text.splitlines() if re.match(r"\| \d+ \| [\d.]+ \| \w+ \|", ln)]
+    assert len(rows) == 6
+    for row in rows:
+        n, c, method, *rest = (x.strip() for x in row.strip("|").split("|"))
+        assert f"| {n} | {c} | 16 | " + " | ".join(rest) + " |" in sections[method], row
+    findings = " ".join(text.split("## Findings")[1].split("![")[0].split())
+    quoted = re.findall(r"[+-]?\d\.\d{3,4} \[[+-]?\d\.\d{3,4}, [+-]?\d\.\d{3,4}\]", findings)
+    assert len(quoted) >= 10
+    for q in quoted:
+        assert q in printed, q
