@@ -172,6 +172,7 @@ def test_defaults_by_n_come_from_the_owner_or_the_method():
         (dict(rtol=1e-15), "below what double precision can honour"),
         (dict(dt=5.0), "dt must be at most 4 (units of t_ff/N)"),
         (dict(theta=0.4), "theta must be in [0.5, 1] (below 1/2 the step is unstable)"),
+        (dict(theta=1.5), "theta must be in [0.5, 1] (above 1 the axes would turn at rates beyond those after"),
         (dict(dt_rule="adaptive"), "dt_rule must be one of ('fixed', 'landing')"),
         (dict(step_energy_tol=-1.0), "step_energy_tol must be finite and >= 0"),
         (dict(hold_apex=1e-13), "hold_apex must be >= 1e-12"),

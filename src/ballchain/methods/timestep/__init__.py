@@ -109,7 +109,11 @@ OPTIONS = (
         1,
         "The position update of --method timestep, in [0.5, 1]: the axes turn at theta w+ + (1 - theta) w, "
         "w and w+ the rates before and after a step's impulses.",
-        in_range(0.5, 1.0, "below 1/2 the step is unstable"),
+        in_range(
+            0.5,
+            1.0,
+            ("below 1/2 the step is unstable", "above 1 the axes would turn at rates beyond those after the impulses"),
+        ),
         json="the time-stepper's position update",
         column="position update of the timestep method (axes turn at theta w+ + (1 - theta) w; not used by the "
         "event method; empty in tables written before the column: 0.5)",
