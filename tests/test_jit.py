@@ -198,3 +198,33 @@ def test_an_edited_callee_recompiles_its_callers(tmp_path):
     assert text.count(old) == 1
     rules.write_text(text.replace(old, old + " - 1.0"))
     assert run() == pytest.approx(0.8 - 0.5 - 1.0, abs=1e-15)
+
+
+def test_an_index_naming_a_type_that_has_gone_is_a_miss_not_an_error(tmp_path, monkeypatch):
+    """An older engine's cache index can name a type that has since moved (a bundle moved
+    from one module to another): reading it back must give an empty index, so the kernel
+    compiles again, rather than stop the run with an AttributeError."""
+    import pickle
+    import types
+
+    from numba.core import caching
+
+    import ballchain.jit  # noqa: F401  (installs the guard)
+
+    mod = types.ModuleType("ballchain_gone_module")
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+
+    class Gone:
+        pass
+
+    Gone.__module__, Gone.__qualname__ = mod.__name__, "Gone"
+    mod.Gone = Gone
+    cache = caching.IndexDataCacheFile(str(tmp_path), "kernel", "stamp")
+    cache._save_index({("sig", Gone): "kernel.1.nbc"})
+    assert cache._load_index() == {("sig", Gone): "kernel.1.nbc"}  # readable while the type exists
+    del mod.Gone
+    with open(cache._index_path, "rb") as f:  # numba's own reader stops on it
+        pickle.load(f)
+        with pytest.raises(AttributeError):
+            pickle.loads(f.read())
+    assert cache._load_index() == {}

@@ -38,12 +38,16 @@ against an old callee in another file would load stale machine code after an edi
 that callee (or a package upgrade).  The cache locators of the package's kernels add
 ``provenance.engine_fingerprint()`` (a hash of all the engine's sources) to that key
 (``_keyed_locator``): any edit recompiles every kernel once.  An index with another key
-is rewritten in place, so stale entries do not pile up.
+is rewritten in place, so stale entries do not pile up.  An index that cannot even be read
+back (an older engine's, naming a type that has since moved or gone: numba unpickles it
+before it compares the key, and would stop the run there) is a miss as well
+(``_install_stale_index_guard``).
 """
 
 from __future__ import annotations
 
 import os
+import pickle
 
 from numba import njit  # noqa: F401  (the kernels' decorator: ``from ..jit import njit``)
 from numba.core import caching as _caching
@@ -298,6 +302,34 @@ def _install_cache_key() -> bool:
 
 
 _CACHE_KEYED = _install_cache_key()
+
+# what reading back an index written by another engine can raise (a type it names has moved
+# or gone, a module renamed, a truncated file)
+_STALE_INDEX_ERRORS = (AttributeError, ImportError, EOFError, pickle.UnpicklingError, TypeError, ValueError)
+
+
+def _install_stale_index_guard() -> bool:
+    """numba's cache index reader, with an index that cannot be read back taken as empty
+    (a miss: the kernel compiles and the index is rewritten) instead of an error."""
+    cls = getattr(_caching, "IndexDataCacheFile", None) or getattr(_caching, "_IndexDataCacheFile", None)
+    read = getattr(cls, "_load_index", None)
+    if read is None:
+        return False
+    if getattr(read, "guards_stale_index", False):
+        return True  # installed already (the module was reloaded)
+
+    def _load_index(self):
+        try:
+            return read(self)
+        except _STALE_INDEX_ERRORS:
+            return {}
+
+    _load_index.guards_stale_index = True
+    cls._load_index = _load_index
+    return True
+
+
+_STALE_GUARDED = _install_stale_index_guard()
 
 
 def cache_keyed() -> bool:
