@@ -58,7 +58,7 @@ def per_table(df: pd.DataFrame) -> None:
         x = g.ratio.to_numpy(dtype=float)
         lo, hi = mean_interval(x)
         d = (g.set_index(["segments", "run_index"]).ratio - base).dropna().to_numpy(dtype=float)
-        diff = "" if c == 0.0 else _mean(d)
+        diff = "" if c == 0.0 or d.size < 2 else _mean(d)  # (a table without C = 0: none)
         print(
             f"| {n} | {c:g} | {len(g)} | {x.mean():.3f} [{lo:.3f}, {hi:.3f}] | {diff} | {g.edamp.median():.4f} | "
             f"{g.imb.max():.1e} |"
