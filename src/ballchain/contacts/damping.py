@@ -37,24 +37,29 @@ def damped(c):
     return c > 0.0
 
 
+@njit(cache=True, inline="always")
+def _bend(e, k):
+    """Hinge k's bend: the unit normal n = e_k x e_{k+1} / sin theta and sin theta."""
+    nx = e[k, 1] * e[k + 1, 2] - e[k, 2] * e[k + 1, 1]
+    ny = e[k, 2] * e[k + 1, 0] - e[k, 0] * e[k + 1, 2]
+    nz = e[k, 0] * e[k + 1, 1] - e[k, 1] * e[k + 1, 0]
+    s = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if s < SIN_STRAIGHT:
+        return 0.0, 0.0, 0.0, s
+    return nx / s, ny / s, nz / s, s
+
+
 @njit(cache=True)
 def hinge_torques(c, e, w, tau):
     """tau <- the damping torques on the segments (N, 3), tau_k = C thetadot_k n_k and
     -C thetadot_k n_k on segment k+1 (w: the angular velocities); returns the power they
     remove, C sum_k thetadot_k^2 (m g b / sqrt(b/g))."""
-    n = e.shape[0]
-    for i in range(n):
-        for q in range(3):
-            tau[i, q] = 0.0
+    tau[:, :] = 0.0
     power = 0.0
-    for k in range(n - 1):
-        nx = e[k, 1] * e[k + 1, 2] - e[k, 2] * e[k + 1, 1]
-        ny = e[k, 2] * e[k + 1, 0] - e[k, 0] * e[k + 1, 2]
-        nz = e[k, 0] * e[k + 1, 1] - e[k, 1] * e[k + 1, 0]
-        s = math.sqrt(nx * nx + ny * ny + nz * nz)
+    for k in range(e.shape[0] - 1):
+        nx, ny, nz, s = _bend(e, k)
         if s < SIN_STRAIGHT:
             continue
-        nx, ny, nz = nx / s, ny / s, nz / s
         rate = -((w[k, 0] - w[k + 1, 0]) * nx + (w[k, 1] - w[k + 1, 1]) * ny + (w[k, 2] - w[k + 1, 2]) * nz)
         m = c * rate
         tau[k, 0] += m * nx
@@ -72,16 +77,10 @@ def axis_forces(c, e, de, f):
     """f <- the damping forces on the axes (N, 3) in the axes' rates de = de/dt,
     f_k = C thetadot_k (e_{k+1} - cos theta e_k) / sin theta and the same with k and k+1
     exchanged on e_{k+1}; returns the power they remove, C sum_k thetadot_k^2."""
-    n = e.shape[0]
-    for i in range(n):
-        for q in range(3):
-            f[i, q] = 0.0
+    f[:, :] = 0.0
     power = 0.0
-    for k in range(n - 1):
-        nx = e[k, 1] * e[k + 1, 2] - e[k, 2] * e[k + 1, 1]
-        ny = e[k, 2] * e[k + 1, 0] - e[k, 0] * e[k + 1, 2]
-        nz = e[k, 0] * e[k + 1, 1] - e[k, 1] * e[k + 1, 0]
-        s = math.sqrt(nx * nx + ny * ny + nz * nz)
+    for k in range(e.shape[0] - 1):
+        s = _bend(e, k)[3]
         if s < SIN_STRAIGHT:
             continue
         cs = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2]
