@@ -232,13 +232,7 @@ def step(t, h, model, fall, books, frames, trace, log):
     if control.touch_cut[0] > 0.0:  # cut at a touch (``touch_ahead``, or taken again: ``cut_at_touch``)
         h = min(h, control.touch_cut[0])
     etol = control.energy_bound[0]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < split_cuts, _budget(level, cuts_max))
-    if code == ERR_REBOUND:  # the same step with its impacts inelastic
-        undo_step(mo, sc)
-        ws.valid[0] = 0
-        sc.inelastic[0] = 1
-        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < split_cuts, _budget(level, cuts_max))
-        sc.inelastic[0] = 0
+    code, na = _attempt(t, h, model, mo, ws, sc, etol, level < split_cuts, _budget(level, cuts_max))
     if code < 0 and code != ERR_NAN and level < cuts_max:  # taken again, shorter
         control.level[0] = min(cuts_max, level + _cut(code, lg.energy_lost[0], etol))
         control.steps_at_level[0] = 0
@@ -257,10 +251,35 @@ def step(t, h, model, fall, books, frames, trace, log):
         control.touch_cut[0], control.touch_how[0] = cut, how
         _retake(mo, ws, sc, books)
         return 0, t
+    return _accept(t, h, h == whole, level, na, model, fall, books, trace, log)
+
+
+@njit(cache=True)
+def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
+    """The fall's ``rattle_step``; one whose impacts by Newton's law created energy
+    (ERR_REBOUND) is taken again with its impacts inelastic.  Returns (code, new anchors)."""
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, split, budget)
+    if code == ERR_REBOUND:
+        undo_step(mo, sc)
+        ws.valid[0] = 0
+        sc.inelastic[0] = 1
+        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, split, budget)
+        sc.inelastic[0] = 0
+    return code, na
+
+
+@njit(cache=True)
+def _accept(t, h, grow, level, na, model, fall, books, trace, log):
+    """A step from t of h accepted: its warm start kept, the control's next level (as its
+    change of U + T asks, if it was not cut at a touch: ``grow``; ``level``: its own), its
+    frames left pending, its books, log and trace.  Returns (code, t + h)."""
+    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+    lg = sc.ledger
     if control.touch_how[0] != 2:  # (a landing's own short step: its impact impulse, scaled up to the
         keep_warm_start(h, ws, sc)  # next step's size, is no guess; the step's before it is)
     control.touch_cut[0], control.last_how[0] = 0.0, control.touch_how[0]
-    if h == whole:  # (after a step cut at its touch, the next at the size it was cut from)
+    if grow:  # (after a step cut at its touch, the next at the size it was cut from)
+        etol = control.energy_bound[0]
         control.level[0] = max(
             0.0, level - _growth(lg.energy_lost[0], lg.impact[0], etol, control, grips(model.friction))
         )
