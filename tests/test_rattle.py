@@ -92,6 +92,49 @@ def test_frames_do_not_change_the_fall():
         assert r.energy["lost_locking"] == pytest.approx(runs[0].energy["lost_locking"], rel=1e-9)
 
 
+class _Watcher:
+    """A step observer (``driver.StepObserver``) that counts the attempts and accepted steps,
+    tries to write the state it is shown, and pauses the fall at ``pause`` if given."""
+
+    def __init__(self, pause=None):
+        self.attempts, self.accepted, self.writes, self.pause, self.steps = 0, 0, 0, pause, 0
+
+    def before(self, t, seen):
+        self.steps = int(seen.books.n_steps[0])
+        for a in (seen.fall.motion.e, seen.fall.control.level, seen.fall.scratch.ledger.impact, seen.books.n_steps):
+            try:
+                a[0] = 0
+                self.writes += 1
+            except ValueError:
+                pass
+        return None if self.pause is None else t + self.pause
+
+    def after(self, t, seen, code):
+        self.attempts += 1
+        self.accepted += int(seen.books.n_steps[0]) > self.steps
+
+
+def test_an_observed_fall_is_the_fall_and_its_observer_only_reads():
+    """``simulate(observer=)``: the observer is called around every attempt of a step and
+    shown read-only views; the fall is the same to every digit.  A fall it pauses (a short
+    time ahead of each attempt) lands too, in more steps, cut at the pauses."""
+    params, ic = ChainParams(segments=6, alpha=math.pi / 4), InitialCondition(kind="random", seed=9090)
+    options = SolverOptions(method="rattle")
+    plain = simulate(params, ic, options)
+    seen = _Watcher()
+    watched = simulate(params, ic, options, observer=seen)
+    assert seen.writes == 0 and seen.accepted == watched.n_steps and seen.attempts > seen.accepted
+    for name in ("t", "z_top", "frame_e", "frame_omega", "event_t", "event_energy", "event_impulse"):
+        assert np.array_equal(getattr(plain, name), getattr(watched, name)), name
+    assert plain.energy == watched.energy
+    paused = simulate(params, ic, options, observer=_Watcher(pause=0.01))
+    assert paused.status == "landed" and paused.n_steps > plain.n_steps
+    assert paused.t_fall == pytest.approx(plain.t_fall, rel=0.05)  # (2.61 and 2.63 t_ff)
+    assert abs(paused.energy["imbalance"]) < 1e-4 * paused.energy["initial"]
+    with pytest.raises(TypeError, match="no observer"):
+        simulate(params, ic, SolverOptions(method="event"), observer=seen)
+
+
 def test_every_frame_balances_the_floors_record_with_the_momentum():
     """The anchor: what the floor gave the chain up to each frame (its impulse record, the
     landed segments' support included) is the chain's momentum change plus the weight's
@@ -233,7 +276,7 @@ def test_the_landed_part_takes_no_part_in_a_step():
     from ballchain.core.state import new_model
     from ballchain.methods.rattle import scheme as S
     from ballchain.methods.rattle.rows import new_rows
-    from ballchain.methods.rattle.state import copy_motion, new_scratch
+    from ballchain.methods.rattle.state import clear_ledger, copy_motion, new_scratch
 
     n = 12
     model = new_model(math.pi / 4, 0, False, SolverOptions(method="rattle").for_segments(n), 1e9, 0.0, 1)
@@ -244,7 +287,7 @@ def test_the_landed_part_takes_no_part_in_a_step():
         t, h, locks = 0.0, 0.01, 0
         for _ in range(40):
             if whole:  # (rattle_step's preamble, on every point)
-                sc.acc[:], sc.pull[:] = 0.0, 0.0
+                clear_ledger(sc.ledger)
                 copy_motion(mo, sc.start)
                 code, na = S._step_points(t, h, model, mo, ws, sc, 0.0, True, False, S.ITER_BUDGET)
             else:

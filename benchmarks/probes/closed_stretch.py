@@ -30,7 +30,6 @@ from machine import machine_info  # noqa: E402
 from rattle_steps import fall_by_attempts  # noqa: E402
 
 from ballchain.methods.outputs import stretch_chord_extremes  # noqa: E402
-from ballchain.methods.rattle.codes import RT_RETURN, RT_STOP  # noqa: E402
 
 
 def closed_stretches(anchored, locked) -> list[tuple[int, int]]:
@@ -50,6 +49,31 @@ def dihedrals(e: np.ndarray, a: int, b: int) -> list[float]:
     ]
 
 
+class _Samples:
+    """The base fall of ``loss_tiles.py``, paused on the windows' times i t_ff/N, and the
+    state at each step's start: (t, level, e, anchored, locked, anchor_pos, vc, ve)."""
+
+    def __init__(self, n: int):
+        self.n, self.next, self.unit, self.samples = n, None, None, []
+
+    def before(self, t, seen):
+        if self.unit is None:
+            self.unit, self.next = seen.h / DEFAULT.for_segments(self.n).dt, 0.0
+        if t >= self.next * (1.0 - 1e-14) - 1e-14:
+            self.next = t + self.unit
+        samples = self.samples
+        if not samples or samples[-1][0] != t:
+            mo = seen.fall.motion
+            level = int(seen.fall.control.level[0])
+            samples.append((t, level, *(a.copy() for a in (mo.e, mo.anchored, mo.locked, mo.anchor_pos, mo.vc, mo.ve))))
+            if len(samples) > 4000:
+                del samples[:2000]
+        return self.next
+
+    def after(self, t, seen, code):
+        pass
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--segments", type=int, default=128)
@@ -58,36 +82,9 @@ def main() -> None:
     a = ap.parse_args()
     print(machine_info())
     n = a.segments
-    state = {"next": None, "unit": None}
-    samples = []  # (t, level, e, anchored, locked, anchor_pos, vc, ve) at each step's start
-
-    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
-        if state["unit"] is None:
-            state["unit"], state["next"] = h / DEFAULT.for_segments(n).dt, 0.0
-        if t >= state["next"] * (1.0 - 1e-14) - 1e-14:
-            state["next"] = t + state["unit"]
-        if not samples or samples[-1][0] != t:
-            samples.append(
-                (
-                    t,
-                    int(fb[19]),
-                    mo.e.copy(),
-                    mo.anchored.copy(),
-                    mo.locked.copy(),
-                    mo.anchor_pos.copy(),
-                    mo.vc.copy(),
-                    mo.ve.copy(),
-                )
-            )
-            if len(samples) > 4000:
-                del samples[:2000]
-        cut = model._replace(t_stop=min(state["next"], model.t_stop))
-        code, t = loop(t, h, cut, mo, ws, sc, fr, fb, books, frames, trace, log)
-        if code == RT_STOP and cut.t_stop < model.t_stop:
-            code = RT_RETURN
-        return code, t
-
-    r = fall_by_attempts(n, a.start, DEFAULT, one_attempt)
+    seen = _Samples(n)
+    r = fall_by_attempts(n, a.start, DEFAULT, seen)
+    samples = seen.samples
     print(f"\nN = {n}, start {a.start}: status {r.status}, at t/t_ff = {r.t[-1] / r.t_ff:.6f}")
     print(f"message: {r.message}")
     if r.status != "error":

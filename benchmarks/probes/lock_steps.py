@@ -5,9 +5,9 @@ landing alone, neither), at two steps, on the same starts.
     python benchmarks/probes/lock_steps.py --segments 512 --starts 0-3 --dt 0.05,0.1:1e-6
 
 For each start (random, seed 2026, alpha = pi/4, floor all) and step (``dt`` or
-``dt:step_energy_tol``), the compiled loop is made to return after every attempt of a step
-(``driver.RETURN_EVERY``), and each accepted step's change of the books' losses is read
-with its new anchors (``Scratch.acc[6]``) and its new locks (hinges locked after it, not
+``dt:step_energy_tol``), the fall is watched attempt by attempt
+(``engine.simulate(observer=)``), and each accepted step's change of the books' losses is read
+with its new anchors (its ledger's ``new_anchors``) and its new locks (hinges locked after it, not
 before).  Prints the machine, then per step the means
 over the starts, in E0: the losses at the hinges and at the landings booked by steps of
 each kind, and the number of such steps per N.  A diagnostic of where the longer step's
@@ -33,21 +33,34 @@ from ballchain.model import SolverOptions  # noqa: E402
 KINDS = ("a landing and a new lock", "a new lock, no landing", "a landing, no new lock", "neither")
 
 
+class _Booked:
+    """Each accepted step's new anchors, new locks and losses (E_lock, E_land)."""
+
+    def __init__(self):
+        self.rows = []
+
+    def before(self, t, seen):
+        books = seen.books
+        self.steps, self.lock, self.land = (
+            int(books.n_steps[0]),
+            float(books.lost_locking[0]),
+            float(books.lost_landing[0]),
+        )
+        self.locked = seen.fall.motion.locked.copy()
+
+    def after(self, t, seen, code):
+        books, locked = seen.books, seen.fall.motion.locked
+        if int(books.n_steps[0]) > self.steps:
+            new = int(np.count_nonzero((locked != 0) & (self.locked == 0)))
+            lost = (books.lost_locking[0] - self.lock, books.lost_landing[0] - self.land)
+            self.rows.append((seen.fall.scratch.ledger.new_anchors[0], new, *lost))
+
+
 def booked_by_kind(n: int, key: int, dt: float, etol: float | None) -> dict:
     """One fall: {kind: (E_lock, E_land, steps)} in E0 and per N."""
-    rec = []
-
-    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
-        s0, lk0, ld0 = int(books.n_steps[0]), float(books.lost_locking[0]), float(books.lost_landing[0])
-        locked0 = mo.locked.copy()
-        code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
-        if int(books.n_steps[0]) > s0:
-            new = int(np.count_nonzero((mo.locked != 0) & (locked0 == 0)))
-            rec.append((sc.acc[6], new, books.lost_locking[0] - lk0, books.lost_landing[0] - ld0))
-        return code, t
-
-    r = fall_by_attempts(n, key, SolverOptions(method="rattle", dt=dt, step_energy_tol=etol), one_attempt)
-    a = np.array(rec, dtype=float)
+    seen = _Booked()
+    r = fall_by_attempts(n, key, SolverOptions(method="rattle", dt=dt, step_energy_tol=etol), seen)
+    a = np.array(seen.rows, dtype=float)
     e0 = r.energy["initial"]
     na, new, lock, land = a[:, 0] > 0, a[:, 1] > 0, a[:, 2] / e0, a[:, 3] / e0
     masks = {KINDS[0]: na & new, KINDS[1]: ~na & new, KINDS[2]: na & ~new, KINDS[3]: ~na & ~new}

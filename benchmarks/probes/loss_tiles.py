@@ -45,7 +45,8 @@ from rattle_steps import fall_by_attempts  # noqa: E402
 from ballchain.core.kinds import LOG_LANDING, LOG_LOCK, LOG_UNLOCK  # noqa: E402
 from ballchain.core.state import new_frames, new_log, new_trace  # noqa: E402
 from ballchain.methods.rattle import STEP_ENERGY_TOL  # noqa: E402
-from ballchain.methods.rattle.codes import RT_LANDED, RT_RETURN, RT_STOP  # noqa: E402
+from ballchain.methods.rattle.codes import RT_LANDED, RT_STOP  # noqa: E402
+from ballchain.methods.rattle.state import new_frame_books, new_step_control  # noqa: E402
 from ballchain.methods.rattle.stepper import run_steps  # noqa: E402
 from ballchain.model import SolverOptions  # noqa: E402
 
@@ -73,26 +74,27 @@ def window_losses(
     cut: bool = False,
     events: list | None = None,
 ) -> tuple[float, float]:
-    """The copied bundles ``snap`` stepped from t0 to t_end at step h: (E_lock, E_land) over
+    """Copies of the bundles ``snap`` (model, fall, books: ``driver.ObservedFall``'s) stepped
+    from t0 to t_end at step h, with a step control of their own: (E_lock, E_land) over
     the window (m g b), NaN if a step failed.  ``etol_abs``: the energy bound per step (None:
     the fall's); ``h_now``: the first step is no longer than this (the base fall's step at
     t0), None: the first step is h; ``cut``: landing steps cut at the touch (``--landing-step cut``);
     ``events``: a list that gets the window's locks, unlocks and landings (t, kind, index, energy)."""
-    model, mo, ws, sc, fr, fb, books = (_copy(x) for x in snap)
+    model, fall, books = (_copy(x) for x in snap)
     model = model._replace(t_stop=t_end, return_every=np.int64(10**9))
-    n = mo.e.shape[0]
-    fb[18], fb[20] = 0.0, 0.0  # no frame pending
-    fb[19] = 0.0 if h_now is None else max(0.0, math.log2(h / h_now))  # (the step is h / 2^fb[19])
-    if etol_abs is not None:
-        fb[21] = etol_abs
-    fb[22], fb[23], fb[24], fb[25] = float(cut), 0.0, 0.0, 0.0  # (no cut pending, none before)
+    n = fall.motion.e.shape[0]
+    c = fall.control
+    level = 0.0 if h_now is None else max(0.0, math.log2(h / h_now))  # (the step is h / 2^level)
+    bound = c.energy_bound[0] if etol_abs is None else etol_abs
+    control = new_step_control(bound, cut, c.extra_cuts[0], level)  # (no cut pending, none before)
+    fall = fall._replace(control=control, frame_books=new_frame_books())  # (no frame pending)
     frames = new_frames(n, math.inf, 16)
     frames.next[0] = math.inf
     trace, log = new_trace(1 << 16), new_log(1 << 16)
     lk0, ld0 = float(books.lost_locking[0]), float(books.lost_landing[0])
     t = t0
     while True:
-        code, t = run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
+        code, t = run_steps(t, h, model, fall, books, frames, trace, log)
         if events is not None:
             events += [
                 (float(log.t[i]), int(log.kind[i]), int(log.index[i]), float(log.energy[i]))
@@ -126,37 +128,48 @@ def tiles(
     window's first step is the step compared, whole (else no longer than the base's there).
     ``events``: a list that gets, per window, the hinges locked at its start and per step
     its events (``window_losses``), times in t_ff/N from the window's start, energies in E0."""
-    rows = []
-    state = {"next": None, "unit": None}
-
-    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
-        if state["unit"] is None:  # (the first attempt: h is the default dt in t_ff / N)
-            state["unit"], state["next"] = h / DEFAULT.for_segments(n).dt, 0.0
-        if t >= state["next"] * (1.0 - 1e-14) - 1e-14:  # a window starts here: step copies through it
-            t_end = t + window * state["unit"]
-            snap = (model, mo, ws, sc, fr, fb, books)
-            e0 = fb[21] / STEP_ENERGY_TOL  # (fb[21]: the fall's bound, the default's times E0)
-            row, logs = [], []
-            for dt, etol, cut_at_touch in map(_step, steps):
-                bound = None if etol is None else etol * e0
-                h_now = None if whole else h / 2.0 ** fb[19]
-                logs.append([])
-                row.append(window_losses(snap, t, dt * state["unit"], t_end, bound, h_now, cut_at_touch, logs[-1]))
-            if events is not None:
-                rel = [[((u - t) / state["unit"], k, j, en / abs(e0)) for u, k, j, en in log] for log in logs]
-                events.append((mo.locked.copy(), rel))
-            rows.append(row)
-            state["next"] = t_end
-        cut = model._replace(t_stop=min(state["next"], model.t_stop))
-        code, t = loop(t, h, cut, mo, ws, sc, fr, fb, books, frames, trace, log)
-        if code == RT_STOP and cut.t_stop < model.t_stop:
-            code = RT_RETURN  # (the window's end, not the run's)
-        return code, t
-
-    r = fall_by_attempts(n, key, DEFAULT, one_attempt)
+    seen = _Windows(n, steps, window, whole, events)
+    r = fall_by_attempts(n, key, DEFAULT, seen)
     if r.status != "landed":
         raise SystemExit(f"start {key}: the base fall ended {r.status} ({r.message})")
-    return np.array(rows) / r.energy["initial"], r.t_fall / r.t_ff
+    return np.array(seen.rows) / r.energy["initial"], r.t_fall / r.t_ff
+
+
+class _Windows:
+    """The base fall paused on the windows' times (the pause ``before`` names: the window's
+    end), each window stepped again from its start at every step of ``steps`` (``tiles``)."""
+
+    def __init__(self, n: int, steps: list[str], window: float, whole: bool, events: list | None):
+        self.n, self.steps, self.window, self.whole, self.events = n, steps, window, whole, events
+        self.rows, self.next, self.unit = [], None, None
+
+    def before(self, t, seen):
+        if self.unit is None:  # (the first attempt: h is the default dt in t_ff / N)
+            self.unit, self.next = seen.h / DEFAULT.for_segments(self.n).dt, 0.0
+        if t >= self.next * (1.0 - 1e-14) - 1e-14:  # a window starts here: step copies through it
+            self.next = self._window(t, seen)
+        return self.next
+
+    def after(self, t, seen, code):
+        pass
+
+    def _window(self, t, seen) -> float:
+        """The window from t: its losses at each step; returns its end."""
+        t_end = t + self.window * self.unit
+        snap = (seen.model, seen.fall, seen.books)
+        control = seen.fall.control
+        e0 = control.energy_bound[0] / STEP_ENERGY_TOL  # (the fall's bound: the default's times E0)
+        row, logs = [], []
+        for dt, etol, cut_at_touch in map(_step, self.steps):
+            bound = None if etol is None else etol * e0
+            h_now = None if self.whole else seen.h / 2.0 ** control.level[0]
+            logs.append([])
+            row.append(window_losses(snap, t, dt * self.unit, t_end, bound, h_now, cut_at_touch, logs[-1]))
+        if self.events is not None:
+            rel = [[((u - t) / self.unit, k, j, en / abs(e0)) for u, k, j, en in log] for log in logs]
+            self.events.append((seen.fall.motion.locked.copy(), rel))
+        self.rows.append(row)
+        return t_end
 
 
 def main() -> None:

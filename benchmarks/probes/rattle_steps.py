@@ -21,8 +21,9 @@ block factorisations (whole or partial, counted alike) and stage 1's Newton eval
 the share of each kind that the turn limit shortened (its test, made before each attempt),
 stage 1's active-set rounds (and how many of them ended early, a limit or the floor found
 passed by far more than the iterate's residual: ``stage1``), and for the smooth steps how
-many took 1, 2, 3 or 4 factorisations.  A diagnostic of the method's internals: the compiled loop is made to return after every attempt
-(``driver.RETURN_EVERY``), and its counters (``Scratch.acc``) are read at each return.
+many took 1, 2, 3 or 4 factorisations.  A diagnostic of the method's internals: the fall is
+watched attempt by attempt (``engine.simulate(observer=)``, ``methods.rattle.driver.StepObserver``),
+and its counters (the step's ledger, ``state.StepLedger``) are read after each.
 
 ``--landings``: instead, one fall with each ``--landing-step`` (whole, cut): the points
 anchored, how many of them in a step taken again cut at its touch, the accepted steps and
@@ -75,48 +76,54 @@ def steps_of(n: int, key: int, etol: float | None, dt: float | None = None) -> d
     )
 
 
-def fall_by_attempts(n: int, key: int, options: SolverOptions, attempt):
-    """One fall (random start of seed 2026, spawn key ``key``, alpha = pi/4) with the
-    compiled loop made to return after every attempt of a step (``driver.RETURN_EVERY``):
-    ``attempt(loop, *args)`` runs each, calling ``loop(*args)`` (``stepper.run_steps``) and
-    reading the bundles around it.  Returns the result."""
-    from ballchain.methods.rattle import driver
-
-    loop, every = driver.run_steps, driver.RETURN_EVERY
-    driver.run_steps, driver.RETURN_EVERY = (lambda *args: attempt(loop, *args)), 1
-    try:
-        return simulate(
-            ChainParams(segments=n, alpha=np.pi / 4),
-            InitialCondition(kind="random", seed=2026, spawn_key=(key,)),
-            options,
-        )
-    finally:
-        driver.run_steps, driver.RETURN_EVERY = loop, every
+def fall_by_attempts(n: int, key: int, options: SolverOptions, observer):
+    """One fall (random start of seed 2026, spawn key ``key``, alpha = pi/4) watched attempt
+    by attempt by ``observer`` (``methods.rattle.driver.StepObserver``: read-only views of
+    the fall's bundles before and after each attempt of a step).  Returns the result."""
+    return simulate(
+        ChainParams(segments=n, alpha=np.pi / 4),
+        InitialCondition(kind="random", seed=2026, spawn_key=(key,)),
+        options,
+        observer=observer,
+    )
 
 
-def _turn_limited(h, mo, fb) -> bool:
+def _turn_limited(seen) -> bool:
     """Will the next attempt be shortened by the turn limit (``stepper.step``: the step
     h / 2^level turns the fastest segment not landed by more than TURN_MAX)?"""
     from ballchain.methods.rattle.state import active_points
     from ballchain.methods.rattle.stepper import TURN_MAX, _fastest_turn
 
-    return h / 2.0 ** fb[19] * _fastest_turn(mo.ve[: active_points(mo.anchored) - 1]) > TURN_MAX
+    mo = seen.fall.motion
+    return (
+        seen.h / 2.0 ** seen.fall.control.level[0] * _fastest_turn(mo.ve[: active_points(mo.anchored) - 1]) > TURN_MAX
+    )
+
+
+class _Attempts:
+    """Each attempt's row (``--attempts``): accepted, its factorisations and Newton
+    iterations, whether it had an impact, whether the turn limit shortened it, stage 1's
+    rounds and those ended early."""
+
+    def __init__(self):
+        self.rows, self.steps, self.turn = [], 0, False
+
+    def before(self, t, seen):
+        self.steps, self.turn = int(seen.books.n_steps[0]), _turn_limited(seen)
+
+    def after(self, t, seen, code):
+        lg = seen.fall.scratch.ledger
+        accepted = int(seen.books.n_steps[0]) > self.steps
+        counts = (lg.factorisations[0], lg.newton_iterations[0], lg.impact[0] > 0, self.turn)
+        self.rows.append((accepted, *counts, lg.stage1_rounds[0], lg.rounds_ended_early[0]))
 
 
 def attempts_of(n: int, key: int, dt: float | None = None) -> dict:
     """One fall at the defaults (but the ceiling ``dt``), its attempts of a step by kind
     (``--attempts``), and which of them the turn limit shortened."""
-    rec = []
-
-    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
-        s0 = int(books.n_steps[0])
-        turn = _turn_limited(h, mo, fb)
-        code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
-        rec.append((int(books.n_steps[0]) > s0, sc.acc[5], sc.acc[7], sc.acc[9] > 0, turn, sc.acc[11], sc.acc[12]))
-        return code, t
-
-    r = fall_by_attempts(n, key, _options(dt), one_attempt)
-    a = np.array(rec, dtype=float)
+    seen = _Attempts()
+    r = fall_by_attempts(n, key, _options(dt), seen)
+    a = np.array(seen.rows, dtype=float)
     ok, impact, turn = a[:, 0] > 0, a[:, 3] > 0, a[:, 4] > 0
     fac, evals, rounds, early = a[:, 1], a[:, 2], a[:, 5], a[:, 6]
     kinds = {"smooth": ok & ~impact, "impact": ok & impact, "refused": ~ok}
@@ -147,32 +154,40 @@ def _header(*cells: str) -> None:
 
 def landings_of(n: int, key: int, how: str) -> dict:
     """One fall with ``--landing-step how``: its points anchored, those anchored in a step
-    cut at a touch (the accepted step's fb[25] > 0), the steps taken again to be cut at
-    their touch (a landing not foreseen), its accepted steps and Newton evaluations, and
-    the attempts that follow a landing's own short step (fb[25] = 2 before them): their
-    number, how many were refused, and their Newton evaluations."""
-    count = {"anchored": 0, "in_cut": 0, "retaken": 0, "after": 0, "after_refused": 0, "after_evals": 0.0}
+    cut at a touch (the accepted step's control.last_how > 0), the steps taken again to be
+    cut at their touch (a landing not foreseen), its accepted steps and Newton evaluations,
+    and the attempts that follow a landing's own short step (last_how = 2 before them):
+    their number, how many were refused, and their Newton evaluations."""
+    seen = _Landings()
+    r = fall_by_attempts(n, key, SolverOptions(method="rattle", landing_step=how), seen)
+    return dict(status=r.status, ratio=r.t_fall / r.t_ff, steps=r.n_steps, evals=r.n_evals, **seen.count)
 
-    def one_attempt(loop, t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
-        before = int((mo.anchored > 0).sum())
-        s0 = int(books.n_steps[0])
-        pending, after_landing = fb[23], fb[25] == 2.0
-        code, t = loop(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log)
-        accepted = int(books.n_steps[0]) > s0
+
+class _Landings:
+    """The counts of ``landings_of``, attempt by attempt."""
+
+    def __init__(self):
+        self.count = {"anchored": 0, "in_cut": 0, "retaken": 0, "after": 0, "after_refused": 0, "after_evals": 0.0}
+
+    def before(self, t, seen):
+        control = seen.fall.control
+        self.anchored = int((seen.fall.motion.anchored > 0).sum())
+        self.steps = int(seen.books.n_steps[0])
+        self.pending, self.after_landing = control.touch_cut[0], control.last_how[0] == 2
+
+    def after(self, t, seen, code):
+        count, control = self.count, seen.fall.control
+        accepted = int(seen.books.n_steps[0]) > self.steps
         if accepted:
-            new = int((mo.anchored > 0).sum()) - before
+            new = int((seen.fall.motion.anchored > 0).sum()) - self.anchored
             count["anchored"] += new
-            count["in_cut"] += new if fb[25] > 0.0 else 0
-        elif fb[23] > 0.0 and pending == 0.0 and code == 0:
+            count["in_cut"] += new if control.last_how[0] > 0 else 0
+        elif control.touch_cut[0] > 0.0 and self.pending == 0.0 and code == 0:
             count["retaken"] += 1
-        if after_landing:
+        if self.after_landing:
             count["after"] += 1
             count["after_refused"] += 0 if accepted else 1
-            count["after_evals"] += sc.acc[7]
-        return code, t
-
-    r = fall_by_attempts(n, key, SolverOptions(method="rattle", landing_step=how), one_attempt)
-    return dict(status=r.status, ratio=r.t_fall / r.t_ff, steps=r.n_steps, evals=r.n_evals, **count)
+            count["after_evals"] += seen.fall.scratch.ledger.newton_iterations[0]
 
 
 def print_landings(segments, starts) -> None:

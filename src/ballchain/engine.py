@@ -26,7 +26,7 @@ from .core.kinds import EVENT_KINDS
 from .core.kinematics import kinetic_energy, potential_energy
 from .core.rules import is_landed
 from .initial import check_inside_cone, initial_directions
-from .methods import check_contacts, check_options, method_runner
+from .methods import check_contacts, check_options, method_package, method_runner
 from .methods.checkpoint import Checkpoint
 from .methods.outputs import FRAME_CHUNK_BYTES, RunOutput, SimulationError, frame_bytes  # noqa: F401  (re-exported)
 from .model import ChainParams, InitialCondition, ParameterError, SolverOptions
@@ -199,6 +199,7 @@ class Setup:
     t_stop: float  # the run stops here at the latest
     E0: float  # energy at t = 0 (potential + kinetic)
     checkpoint: Checkpoint | None = None  # where the run saves its state, and resumes from
+    observer: object | None = None  # what watches the run's steps (a method's package's OBSERVER), or None
 
 
 def _setup(params: ChainParams, ic: InitialCondition | None, options: SolverOptions, state) -> Setup:
@@ -262,6 +263,7 @@ def simulate(
     state=None,
     progress: Callable[[float, dict], None] | None = None,
     checkpoint: Checkpoint | str | Path | None = None,
+    observer=None,
 ) -> Result:
     """Simulate one fall.  ``state = (e0, w0)`` (nondimensional, w in sqrt(g/b))
     overrides the initial condition family.  ``checkpoint`` (a path, or a
@@ -269,6 +271,9 @@ def simulate(
     state there every 10 minutes of wall time and when interrupted, and, if the file
     holds this run's state (same parameters, start and engine), resumes from it; the
     file is left in place (``Checkpoint.discard`` it once the result is saved).
+    ``observer``: what watches the run step by step, for a method that takes one (its
+    package's ``OBSERVER`` names the protocol: ``--method rattle``'s
+    ``methods.rattle.driver.StepObserver``; TypeError for the others).
     Returns a Result in the run's units."""
     options = (options or SolverOptions()).for_segments(params.segments)
     check_contacts(params, options.method)
@@ -276,6 +281,10 @@ def simulate(
     check_memory(params, options)
     wall0 = _time.perf_counter()
     setup = _setup(params, ic, options, state)
+    if observer is not None:
+        if getattr(method_package(options.method), "OBSERVER", None) is None:
+            raise TypeError(f"--method {options.method} takes no observer of its steps")
+        setup = replace(setup, observer=observer)
     if checkpoint is not None:
         ck = checkpoint if isinstance(checkpoint, Checkpoint) else Checkpoint(checkpoint)
         ck.open(setup, options.method, engine_fingerprint())

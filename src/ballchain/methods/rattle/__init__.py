@@ -16,6 +16,7 @@ from ...options import MethodOption, non_negative, number_text, one_of
 from ..bounds import AuditBounds
 
 SUMMARY_COUNT = ("n_steps", "steps")  # what the summary's line of events counts (no event instants: steps)
+OBSERVER = "driver.StepObserver"  # its runs can be watched step by step (``engine.simulate(observer=)``)
 
 DEFAULT_DT = 0.05  # the step in units of t_ff / N when --dt is not given (the longest step)
 STEP_ENERGY_TOL = 1e-7  # a step may change U + T by this much of E0 (else it is taken again, shorter)

@@ -5,8 +5,6 @@ the locks and the landings in the exact method's order (``lock_loss_after_landin
 
 from __future__ import annotations
 
-import numpy as np
-
 from ...core.blocks import _weights
 from ...core.books import log_row, lowest_point
 from ...core.rules import (
@@ -72,15 +70,15 @@ def _new_anchor_work(anchored, kind, nrow, x, before, after):
 
 
 @njit(cache=True)
-def _anchor_impulse(kind, nrow, x, acc):
-    """acc[2:5] += the anchors' and the floor's impulse on the chain (rows' P)."""
+def _anchor_impulse(kind, nrow, x, impulse):
+    """impulse (3,) += the anchors' and the floor's impulse on the chain (rows' P)."""
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):
             k = kind[j, r]
             if K_ANCHOR_LOWER <= k < K_AXIS:
-                acc[2 + (k - K_ANCHOR_LOWER) % 3] += x[j, r]
+                impulse[(k - K_ANCHOR_LOWER) % 3] += x[j, r]
             elif is_floor(k):
-                acc[4] += x[j, r]
+                impulse[2] += x[j, r]
 
 
 @njit(cache=True)
@@ -150,7 +148,7 @@ def lock_loss_after_landing(mo, ws, sc):
             locked[k] = 1
     row_gradients(e, sc.kind_old, sc.nrow_old, ws.J1, 0)
     factor_blocks(anchored, ws.J1, ws.J1, sc.kind_old, sc.nrow_old, ws.newt.drop, ws.newt, True, 0)
-    sc.acc[5] += 1.0
+    sc.ledger.factorisations[0] += 1
     row_rates(ws.J1, sc.kind_old, sc.nrow_old, dc, de, ws.rhs)
     solve_blocks(sc.nrow_old, ws.newt, ws.rhs, sc.x_old)
     loss = 0.0
@@ -165,23 +163,24 @@ def lock_loss_after_landing(mo, ws, sc):
 
 
 @njit(cache=True)
-def _book_impact(lost, lock_work, land_work, lock_after, na, acc):
+def _book_impact(lost, lock_work, land_work, lock_after, na, lg):
     """A step with an impact (a new lock, a landing): what it removed from U + T (``lost``)
     is what the impact dissipated.  With a landing and a new lock, the locks take what
     they dissipate after the landing (``lock_after``, ``lock_loss_after_landing``), the
     landing the rest; otherwise it is shared between the hinges and the landings as their
     impulses' work.  The step's impact is resolved at the step's end, not at its instant,
     so gravity's work over the step is not the change of U: that O(h) error is the
-    impact's, and the imbalance keeps only the smooth steps' error (second order)."""
+    impact's, and the imbalance keeps only the smooth steps' error (second order).
+    Into the step's ledger lg."""
     if na > 0 and lock_after >= 0.0:
-        acc[0] = min(lock_after, max(lost, 0.0))
-        acc[1] = lost - acc[0]
+        lg.lost_locking[0] = min(lock_after, max(lost, 0.0))
+        lg.lost_landing[0] = lost - lg.lost_locking[0]
         return
     lw = max(lock_work, 0.0)
     dw = max(land_work, 0.0) if na > 0 else 0.0
     share = lw / (lw + dw) if lw + dw > 0.0 else (0.0 if na > 0 else 1.0)
-    acc[0] = share * lost
-    acc[1] = lost - acc[0]
+    lg.lost_locking[0] = share * lost
+    lg.lost_landing[0] = lost - lg.lost_locking[0]
 
 
 @njit(cache=True)
@@ -222,13 +221,13 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
     (a step with a landing: the impacts' account, else the flow), the landed segments'
     weight, locks (a hinge starts taking impulse in stage 2), unlocks, landings (sharing
     the step's floor impulse and loss at landing equally), t_fall and the counts."""
-    anchored, locked = mo.anchored, mo.locked
-    books.lost_locking[0] += sc.acc[0]
-    books.lost_landing[0] += sc.acc[1]
-    books.lost_damping[0] += sc.acc[13]
+    anchored, locked, lg = mo.anchored, mo.locked, sc.ledger
+    books.lost_locking[0] += lg.lost_locking[0]
+    books.lost_landing[0] += lg.lost_landing[0]
+    books.lost_damping[0] += lg.smooth_loss[0]
     account = books.floor_impulse if na > 0 else books.floor_flow
     for q in range(3):
-        account[q] += sc.acc[2 + q]
+        account[q] += lg.floor_impulse[q]
     books.floor_flow[2] += h * landed_count(sc.start.anchored)
     if top_event(model.floor):  # (logged first: its instant is within the step, the others' at its end)
         _top_reached(t, h, mo, sc, books, log)
@@ -252,19 +251,20 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
             g[j, 0] = 0.0
     if na > 0:
         share = 1.0 / na
+        impulse = lg.floor_impulse
         for r in range(na):
             j = sc.new_anchor[r]
             kind = LOG_BOUNCE if sc.rebound[j] > 0.0 else (LOG_PIN if sc.fallback[j] & PINNED else LOG_LANDING)
             sc.rebound[j] = 0.0
             log_row(
-                log, t + h, kind, j, share * sc.acc[2], share * sc.acc[3], share * sc.acc[4],
-                share * sc.acc[1], sc.pts, j,
+                log, t + h, kind, j, share * impulse[0], share * impulse[1], share * impulse[2],
+                share * lg.lost_landing[0], sc.pts, j,
             )  # fmt: skip
         if not top_event(model.floor) and _top_touched(na, anchored, sc):  # the top end landed: when, within the step
             s = ballistic_touch(point_z(sc.start, 0), point_vz(sc.start, 0), h)
             fall_ended(books, t + s * h, False, True)
     books.n_steps[0] += 1
-    books.n_evals[0] += np.int64(sc.acc[5])
+    books.n_evals[0] += lg.factorisations[0]
     if base_at_origin(mo):
         lowest_point(mo.e, books.lowest)  # (heights from the anchored bottom end)
     else:

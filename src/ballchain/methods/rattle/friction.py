@@ -99,11 +99,11 @@ def friction_kick(h, mu, mo, ukc, uke):
 
 
 @njit(cache=True)
-def friction_work(h, mu, mo, start, acc):
+def friction_work(h, mu, mo, start, lg):
     """The books of one half kick of the sliding points' friction force (``friction_kick``,
-    after stage 1 for its own and at stage 2's start for the second): acc[10] += what it
-    removed, -sum F_j . (p_j(q+) - p_j(q)) / 2 (the step's displacement, stage 1's), and
-    its impulse h/2 F_j into the floor's (acc[2:4]).  A point anchored in the step between
+    after stage 1 for its own and at stage 2's start for the second), into the step's
+    ledger lg: friction_loss += what it removed, -sum F_j . (p_j(q+) - p_j(q)) / 2 (the
+    step's displacement, stage 1's), and its impulse h/2 F_j into floor_impulse (x, y).  A point anchored in the step between
     the two takes only the first."""
     loss = 0.0
     for j in range(mo.anchored.shape[0]):
@@ -113,9 +113,9 @@ def friction_work(h, mu, mo, start, acc):
             x1, y1 = _point_xy(mo.c, mo.e, j)
             x0, y0 = _point_xy(start.c, start.e, j)
             loss -= fx * (x1 - x0) + fy * (y1 - y0)
-            acc[2] += h * fx
-            acc[3] += h * fy
-    acc[10] += loss
+            lg.floor_impulse[0] += h * fx
+            lg.floor_impulse[1] += h * fy
+    lg.friction_loss[0] += loss
 
 
 @njit(cache=True)
@@ -235,11 +235,12 @@ def clear_impact_friction(sc):
 
 
 @njit(cache=True)
-def impact_friction_impulse(sc, acc):
-    """The landings' friction impulses of the step into the floor's (acc[2:4])."""
+def impact_friction_impulse(sc):
+    """The landings' friction impulses of the step into the floor's (the ledger's floor_impulse, x, y)."""
+    impulse = sc.ledger.floor_impulse
     for j in range(sc.fimp.shape[0]):
-        acc[2] += sc.fimp[j, 0]
-        acc[3] += sc.fimp[j, 1]
+        impulse[0] += sc.fimp[j, 0]
+        impulse[1] += sc.fimp[j, 1]
 
 
 @njit(cache=True)
@@ -364,7 +365,7 @@ def hold_marked(mo, sc):
     """At a step's start: the points marked HELD are anchored where they are (``rules.hold_at``),
     their stop logged (``stick``; the stages take their velocity, as a landing's).  A
     segment that lies between two anchors from then on has landed: the stages do not see
-    it, so it is stopped here, its momentum taken by the floor (acc[2:5]; its kinetic
+    it, so it is stopped here, its momentum taken by the floor (the ledger's floor_impulse; its kinetic
     energy is the step's loss, booked at the floor).  Returns how many points."""
     n = mo.e.shape[0]
     held = 0
@@ -384,7 +385,7 @@ def hold_marked(mo, sc):
     for i in range(n):
         if is_landed(mo.anchored, i):
             for q in range(3):
-                sc.acc[2 + q] -= mo.vc[i, q]  # (m = 1)
+                sc.ledger.floor_impulse[q] -= mo.vc[i, q]  # (m = 1)
                 mo.vc[i, q] = 0.0
                 mo.ve[i, q] = 0.0
     return held

@@ -69,7 +69,7 @@ def impact_rates(h, model, mo, ws, sc):
                 m += 1
     if m == 0 or m > MAX_NEW:
         return
-    _factor_symmetric(mo.anchored, ws, sc.acc, 0)
+    _factor_symmetric(mo.anchored, ws, sc.ledger, 0)
     ginv = np.zeros((m, m))
     for c in range(m):
         for jj in range(ws.nrow.shape[0]):

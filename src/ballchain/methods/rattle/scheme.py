@@ -81,7 +81,7 @@ from .rows import (
 from .smooth import first_smooth_work
 from .stage1 import ITER_BUDGET, NEWTON_MAX, ROUNDS_MAX, stage1
 from .stage2 import land, settle, stage2
-from .state import Motion, Scratch, active_points, copy_motion_points, mechanical_energy
+from .state import Motion, Scratch, active_points, clear_ledger, copy_motion_points, mechanical_energy
 
 SPLIT_CUTS = 8  # a landing step with a new lock beside it is taken again halved, down to h / 2^SPLIT_CUTS
 SPLIT_REACH = 16  # ... "beside": the hinge's point within this many points of the landing point
@@ -102,7 +102,7 @@ def keep_warm_start(h, ws, sc):
 @njit(cache=True)
 def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
-    what the books need is left in sc (acc, pull, new_anchor, stage 1's layout and
+    what the books need is left in sc (its ledger, new_anchor, stage 1's layout and
     rates; stage 2's in ws, sc.val, sc.rate).  With etol > 0 a step is refused
     (ERR_STEP_ENERGY) that changes U + T by more than etol without an impact, or raises
     it by more than etol with one (an impact removes energy).  Without ``landings`` (a
@@ -112,10 +112,7 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
     ``budget``: stage 1's Newton iterations at most.
     Returns (code, new anchors).  The stages see the chain down to its landed part only
     (``active_points``: views of the same arrays, its indices the chain's)."""
-    for q in range(sc.acc.shape[0]):
-        sc.acc[q] = 0.0
-    for q in range(3):
-        sc.pull[q] = 0.0
+    clear_ledger(sc.ledger)
     sc.unmet[0] = -1.0  # (where a stage fails in this step: set by it)
     p = active_points(mo.anchored)
     # sc.start <- mo (a refused step is undone from it).  In the fall, sc.start already holds
@@ -168,7 +165,7 @@ def scratch_view(sc, p):
         motion_view(sc.start, p), sc.ukc[:s], sc.uke[:s], sc.val[:p], sc.rate[:p], sc.floor_on[:p], sc.cand[:k],
         sc.kind1[:p], sc.nrow1[:p], sc.x1[:p], sc.rb1[:p], sc.ra1[:p],
         sc.kind_old[:p], sc.nrow_old[:p], sc.x_old[:p], sc.kind_w[:p], sc.nrow_w[:p], sc.x_w[:p],
-        sc.new_anchor[:p], sc.pts[:p], sc.acc, sc.pull, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
+        sc.new_anchor[:p], sc.pts[:p], sc.ledger, sc.h_last, sc.unmet, sc.fcand[:p], sc.rebound[:p],
         sc.hrebound[:k], sc.newrow, sc.inelastic, sc.fimp[:p], sc.fsec[:p], sc.grip_log[:p], sc.fallback[:p],
         sc.fdamp[:s], sc.vdamp[:s],
     )  # fmt: skip
@@ -198,10 +195,11 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         sc.rebound[:] = 0.0
     lock_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_BEND)
     land_work = -_work(sc.kind1, sc.nrow1, sc.x1, sc.rb1, sc.ra1, K_FLOOR)
-    _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, sc.acc)
-    _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, sc.pull)
+    lg = sc.ledger
+    _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, lg.floor_impulse)
+    _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, lg.pile_pull)
     if grip:
-        friction_work(h, model.friction, mo, sc.start, sc.acc)
+        friction_work(h, model.friction, mo, sc.start, lg)
     if any_smooth_law(model):
         first_smooth_work(mo, sc)
     na, touched, ns = 0, 0, 0
@@ -212,7 +210,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         for j in range(sc.floor_on.shape[0]):
             touched += sc.floor_on[j]
             sc.floor_on[j] = 0
-    sc.acc[6] = na
+    lg.new_anchors[0] = na
     code = stage2(h, model, mo, ws, sc)
     if code < 0:
         return code, na
@@ -226,30 +224,30 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     land_work -= _new_anchor_work(mo.anchored, ws.kind, ws.nrow, ws.x, sc.val, sc.rate)
     land_work -= _work(ws.kind, ws.nrow, ws.x, sc.val, sc.rate, K_FLOOR)  # (a frictionless floor's rows)
     lock_after = lock_loss_after_landing(mo, ws, sc) if na > 0 else -1.0
-    _anchor_impulse(ws.kind, ws.nrow, ws.x, sc.acc)
-    _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, sc.pull)
+    _anchor_impulse(ws.kind, ws.nrow, ws.x, lg.floor_impulse)
+    _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, lg.pile_pull)
     if grip:
-        impact_friction_impulse(sc, sc.acc)
+        impact_friction_impulse(sc)
     if (na > 0 or ns > 0) and (
         anchors(model.friction) or grip
     ):  # (landed segments do not move: nothing else to settle)
         settle(model, mo)
         ws.valid[0] = 0  # landed segments: the columns of the factors are not the state's
-    fric = sc.acc[10]  # (what the sliding points' friction force removed: booked at the floor, not the step's error)
-    damp = sc.acc[13]  # (what the hinges' damping removed: booked as lost_damping)
+    fric = lg.friction_loss[0]  # (what the sliding points' friction removed: booked at the floor, not as error)
+    damp = lg.smooth_loss[0]  # (what the hinges' damping removed: booked as lost_damping)
     lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve) - fric - damp
-    sc.acc[8] = lost
+    lg.energy_lost[0] = lost
     if not math.isfinite(lost):  # (a singular stage: taken again halved, as a failed one)
         return ERR_STEP_NAN, na
     if na > 0 or ns > 0 or touched > 0 or _new_lock(sc.start.locked, sc.kind1, sc.nrow1, sc.x1):
-        sc.acc[9] = 1.0
+        lg.impact[0] = 1
         created = etol + (REBOUND_TOL * rebound_energy(mo.anchored, ws, sc) if bounce else 0.0)
         if etol > 0.0 and lost < -created:
             return (ERR_REBOUND if created > etol else ERR_STEP_ENERGY), na
-        _book_impact(lost, lock_work, land_work, lock_after, na + touched + ns, sc.acc)
+        _book_impact(lost, lock_work, land_work, lock_after, na + touched + ns, lg)
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
-    sc.acc[1] += fric
+    lg.lost_landing[0] += fric
     if grip and landings:  # the sliding points' normal forces for the next step; anchors that let go
         normal_forces(h, mo, ws, sc)
         stop_rigid_stretches(mo)

@@ -40,22 +40,22 @@ def first_smooth_kick(h, model, mo, sc):
 
 @njit(cache=True)
 def first_smooth_work(mo, sc):
-    """After stage 1 (mo at q+): what the first half kick removed, into sc.acc[13]."""
+    """After stage 1 (mo at q+): what the first half kick removed, into the ledger's smooth_loss."""
     loss = 0.0
     for i in range(sc.fdamp.shape[0]):
         if is_landed(sc.start.anchored, i):
             continue
         for q in range(3):
             loss -= 0.5 * sc.fdamp[i, q] * (mo.e[i, q] - sc.start.e[i, q])
-    sc.acc[13] += loss
+    sc.ledger.smooth_loss[0] += loss
 
 
 @njit(cache=True)
 def second_smooth_kick(h, model, mo, sc):
-    """Stage 2's half kick at q+ with the rates 2 u_half - u (mo.ve: u_half), and its work into sc.acc[13]."""
+    """Stage 2's half kick at q+ with the rates 2 u_half - u (mo.ve: u_half), and its work into the ledger's smooth_loss."""
     v = sc.vdamp
     for i in range(v.shape[0]):
         for q in range(3):
             v[i, q] = 2.0 * mo.ve[i, q] - sc.start.ve[i, q]
     smooth_axis_forces(model, mo.e, v, sc.fdamp)
-    sc.acc[13] += _kick_and_work(h, mo.anchored, mo.e, sc.start.e, sc.fdamp, sc.uke)
+    sc.ledger.smooth_loss[0] += _kick_and_work(h, mo.anchored, mo.e, sc.start.e, sc.fdamp, sc.uke)

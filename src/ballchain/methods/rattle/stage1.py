@@ -157,7 +157,7 @@ def floor_gap(model, mo, j):
 
 
 @njit(cache=True)
-def _factor(anchored, locked, floor_on, kind_old, nrow_old, acc, ws, e, reuse, factor, keep):
+def _factor(anchored, locked, floor_on, kind_old, nrow_old, lg, ws, e, reuse, factor, keep):
     """The rows of the current layout at axes e, and (with ``factor``) the factors of
     J W J^T; with ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its
     layout is this one: a step's stage 1 starts where the last stage 2 ended, with its
@@ -165,7 +165,7 @@ def _factor(anchored, locked, floor_on, kind_old, nrow_old, acc, ws, e, reuse, f
     the factors of J W J^T if ``factor``) only the points from the one before the first
     changed point are done again.  Returns (whether ws holds the factors of J W J^T for
     these rows (without them, no row is marked redundant), that first point done again).
-    (kind_old, nrow_old: scratch for the layout; acc[5] counts the factorisations.)"""
+    (kind_old, nrow_old: scratch for the layout; the step's ledger lg counts the factorisations.)"""
     layout(anchored, locked, floor_on, kind_old, nrow_old)
     first = first_change(kind_old, nrow_old, ws.kind, ws.nrow)
     if reuse and ws.valid[0] != 0 and first == ws.nrow.shape[0]:
@@ -175,7 +175,7 @@ def _factor(anchored, locked, floor_on, kind_old, nrow_old, acc, ws, e, reuse, f
     layout(anchored, locked, floor_on, ws.kind, ws.nrow)
     row_gradients(e, ws.kind, ws.nrow, ws.J, j0)
     if factor:
-        _factor_symmetric(anchored, ws, acc, j0)
+        _factor_symmetric(anchored, ws, lg, j0)
     else:
         for j in range(ws.nrow.shape[0]):
             for r in range(ws.nrow[j]):
@@ -184,11 +184,11 @@ def _factor(anchored, locked, floor_on, kind_old, nrow_old, acc, ws, e, reuse, f
 
 
 @njit(cache=True)
-def _factor_symmetric(anchored, ws, acc, j0):
+def _factor_symmetric(anchored, ws, lg, j0):
     """The factors of J W J^T for the rows in ws (ws.sym), its redundant rows dropped, from
-    point j0 on (``blocks.factor_blocks``); acc[5] counts it."""
+    point j0 on (``blocks.factor_blocks``); the step's ledger lg counts it."""
     factor_blocks(anchored, ws.J, ws.J, ws.kind, ws.nrow, ws.sym.drop, ws.sym, True, j0)
-    acc[5] += 1.0
+    lg.factorisations[0] += 1
 
 
 @njit(cache=True)
@@ -204,13 +204,13 @@ def _factor_newton(mo, ws, j0):
 def _refactor_newton(mo, ws, sc, j0, have_sym):
     """Stage 1's Newton matrix A factored at this q+ from point j0 on; if it is singular
     and J W J^T's factors are not at hand, those (its redundant rows dropped) and A again
-    from the top (sc.acc[5] counts each).  Returns (whether ws.newt holds A's factors,
+    from the top (the ledger counts each).  Returns (whether ws.newt holds A's factors,
     whether ws.sym holds J W J^T's)."""
-    sc.acc[5] += 1.0
+    sc.ledger.factorisations[0] += 1
     exact = _factor_newton(mo, ws, j0)
     if not exact and not have_sym:
-        _factor_symmetric(mo.anchored, ws, sc.acc, 0)
-        sc.acc[5] += 1.0
+        _factor_symmetric(mo.anchored, ws, sc.ledger, 0)
+        sc.ledger.factorisations[0] += 1
         exact = _factor_newton(mo, ws, 0)
         have_sym = True
     return exact, have_sym
@@ -292,11 +292,11 @@ def stage1(h, model, mo, ws, sc, budget):
     newt_from = 0  # ... whose rows are those of the current layout at the points before this one
     sym_upto = 0  # ws.sym holds the factors of J W J^T at the step's start for the current rows before this point
     for rnd in range(ROUNDS_MAX):
-        sc.acc[11] += 1.0
+        sc.ledger.stage1_rounds[0] += 1
         if rnd > 0:  # (the last round's layout and impulses: kept past _factor for the carry-over)
             copy_layout(sc.kind_old, sc.nrow_old, sc.x_old, sc.kind1, sc.nrow1, sc.x1)
         have_sym, j0 = _factor(
-            mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, sc.start.e, rnd == 0, False,
+            mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.ledger, ws, sc.start.e, rnd == 0, False,
             rnd > 0,
         )  # (J W J^T only if the last stage 2's serves)  # fmt: skip
         newt_from = min(newt_from, j0)  # (a round that did not factor A leaves its factors to the next)
@@ -309,12 +309,12 @@ def stage1(h, model, mo, ws, sc, budget):
         switched = False  # rows switched on before the iteration met its rows
         last = math.inf
         for it in range(NEWTON_MAX):
-            if sc.acc[7] >= budget:
+            if sc.ledger.newton_iterations[0] >= budget:
                 _record_unmet(ws, sc)
                 return ERR_NEWTON
             add_impulses(h, mo, ws, sc, True)
             res = row_values(mo.c, mo.e, mo.anchor_pos, model.cos_alpha, model.floor, ws.kind, ws.nrow, sc.val)
-            sc.acc[7] += 1.0
+            sc.ledger.newton_iterations[0] += 1
             if res <= tol or (grip and exact and res <= STALL_TOL and res > NEWTON_RATE * last):
                 met = True  # (finite friction: a stall on the exact matrix within STALL_TOL is met, ``STALL_TOL``)
                 break
@@ -352,7 +352,7 @@ def stage1(h, model, mo, ws, sc, budget):
                 for r in range(ws.nrow[j]):
                     ws.x[j, r] += sc.rate[j, r]
         if switched:  # a new round with the rows switched on, from these impulses
-            sc.acc[12] += 1.0
+            sc.ledger.rounds_ended_early[0] += 1
             copy_layout(ws.kind, ws.nrow, ws.x, sc.kind_old, sc.nrow_old, sc.x_old)
             continue
         if not met:

@@ -186,7 +186,7 @@ def stage2(h, model, mo, ws, sc):
     grip = grips(model.friction)
     if grip:
         friction_kick(h, model.friction, mo, sc.ukc, sc.uke)
-        friction_work(h, model.friction, mo, sc.start, sc.acc)
+        friction_work(h, model.friction, mo, sc.start, sc.ledger)
         clear_impact_friction(sc)
     for k in range(locked.shape[0]):
         g = e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - model.cos_alpha
@@ -208,7 +208,7 @@ def stage2(h, model, mo, ws, sc):
         settled = False
         for rnd in range(ROUNDS_MAX):
             keep = rnd > 0 or fp > 0
-            _factor(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.acc, ws, e, False, True, keep)
+            _factor(mo.anchored, mo.locked, sc.floor_on, sc.kind_old, sc.nrow_old, sc.ledger, ws, e, False, True, keep)
             row_rates(ws.J, ws.kind, ws.nrow, sc.ukc, sc.uke, sc.val)
             for j in range(ws.nrow.shape[0]):
                 for r in range(ws.nrow[j]):

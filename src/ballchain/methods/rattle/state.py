@@ -1,7 +1,10 @@
-"""What a RATTLE step works on (numba bundles): the motion in maximal coordinates
-(``Motion``: centres, axes and their velocities beside the chain's anchors and locks), a
-step's scratch (``Scratch``), a frame's own copy of both (``FrameWork``); the energies
-in these coordinates (m = b = g = 1) and the points' heights."""
+"""What a RATTLE fall works on (numba bundles, each allocated here beside its definition,
+as ``core.state``'s): the motion in maximal coordinates (``Motion``: centres, axes and
+their velocities beside the chain's anchors and locks), a step's scratch (``Scratch``)
+and what it booked and counted (``StepLedger``), a frame's own copy of the motion and
+scratch (``FrameWork``), the step control (``StepControl``), the books that frames
+record (``FrameBooks``), and all of a fall's own bundles together (``Fall``); the
+energies in these coordinates (m = b = g = 1) and the points' heights."""
 
 from __future__ import annotations
 
@@ -37,6 +40,49 @@ Motion = namedtuple(
 )
 
 
+# What one attempt of a step booked and counted (cleared at its start: ``clear_ledger``);
+# the books take it when the step is accepted (``books.commit``), the frames inside it
+# from their own steps' (``frames``), the step control its change of U + T and impact.
+StepLedger = namedtuple(
+    "StepLedger",
+    [
+        "lost_locking",  # (1,): energy the step's impacts dissipated at the hinges (m g b)
+        "lost_landing",  # (1,): ... at the landings, and what the sliding points' friction removed (m g b)
+        "floor_impulse",  # (3,): the anchors' and the floor's impulse on the chain in the step (m sqrt(g b))
+        "pile_pull",  # (3,): the pile's impulse on the hanging chain in the step (m sqrt(g b))
+        "energy_lost",  # (1,): U + T at the step's start minus at its end, less friction_loss and smooth_loss
+        #   (m g b): what its impacts dissipated, else its error (the step control's measure)
+        "friction_loss",  # (1,): what the sliding points' friction force removed (``friction.friction_work``; m g b)
+        "smooth_loss",  # (1,): what the smooth laws removed (``smooth``: the hinges' damping; m g b)
+        "impact",  # (1,) uint8: 1 if the step had an impact (a landing, a new lock, a touch of the floor)
+        "new_anchors",  # (1,) int64: points anchored in the step
+        "factorisations",  # (1,) int64: block factorisations, whole or partial (``books.n_evals`` adds them)
+        "newton_iterations",  # (1,) int64: stage 1's Newton iterations (its budget counts them)
+        "stage1_rounds",  # (1,) int64: stage 1's active-set rounds
+        "rounds_ended_early",  # (1,) int64: ... of them ended early, a limit or the floor found passed (``stage1``)
+    ],
+)
+
+
+def new_step_ledger() -> StepLedger:
+    """An empty ledger."""
+    f, i = (lambda m=1: np.zeros(m)), (lambda: np.zeros(1, np.int64))  # noqa: E731
+    return StepLedger(f(), f(), f(3), f(3), f(), f(), f(), np.zeros(1, np.uint8), i(), i(), i(), i(), i())
+
+
+@njit(cache=True)
+def clear_ledger(lg):
+    """lg <- empty (an attempt's start)."""
+    for a in (lg.lost_locking, lg.lost_landing, lg.energy_lost, lg.friction_loss, lg.smooth_loss):
+        a[0] = 0.0
+    for q in range(3):
+        lg.floor_impulse[q] = 0.0
+        lg.pile_pull[q] = 0.0
+    lg.impact[0] = 0
+    for a in (lg.new_anchors, lg.factorisations, lg.newton_iterations, lg.stage1_rounds, lg.rounds_ended_early):
+        a[0] = 0
+
+
 # A step's scratch and what it hands to the books.
 Scratch = namedtuple(
     "Scratch",
@@ -52,14 +98,7 @@ Scratch = namedtuple(
         "kind_w", "nrow_w", "x_w",  # the last accepted step's stage 2 impulses: the next stage 1's warm start
         "new_anchor",  # (N+1,) int64: points anchored in this step
         "pts",  # (N+1, 3): point positions
-        "acc",  # (14,): [0] lost at hinges, [1] lost at landings, [2:5] anchors' impulse,
-        #   [5] factorisations, [6] new anchors, [7] Newton iterations, [8] U + T at the
-        #   step's start minus at its end, less [10], [9] 1 if the step had an impact, [10]
-        #   what the sliding points' friction force removed (``friction.friction_work``),
-        #   [11] stage 1's active-set rounds, [12] those of them ended early by a limit or
-        #   the floor found passed (``stage1``: counted for ``benchmarks/probes/rattle_steps.py``), [13] what
-        #   the smooth laws removed (``smooth``: the hinges' damping)
-        "pull",  # (3,): the pile's impulse on the hanging chain in the step
+        "ledger",  # StepLedger: what the step booked and counted
         "h_last",  # (1,): the step of that stage 2 (its impulses, the warm start, scale with it)
         "unmet",  # (3,): where stage 1 last failed: the point, the row's kind, its value
         "fcand",  # (N+1,) uint8: on a frictionless floor, stage 2's candidates at the floor
@@ -95,7 +134,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), np.zeros(14), np.zeros(3), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p, np.int64), v3(p), new_step_ledger(), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
         np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8), v3(p), np.zeros((p, 2)), np.zeros((p, 4)),
         np.zeros(p, np.uint8), v3(n), v3(n),
     )  # fmt: skip
@@ -109,6 +148,90 @@ def new_frame_work(n: int) -> FrameWork:
     from .rows import new_rows
 
     return FrameWork(new_motion(n), new_rows(n), new_scratch(n))
+
+
+# The step control: how long the next step is, and how it is cut at a touch of the floor
+# (``stepper``: ``step``, ``_cut``, ``_growth``, ``touch_ahead``, ``cut_at_touch``).
+StepControl = namedtuple(
+    "StepControl",
+    [
+        "level",  # (1,): the step is dt t_ff/N / 2^level (level >= 0, not only whole: a step whose stage 1 or 2
+        #   failed is taken again halved, one that changed U + T beyond energy_bound shortened as its h^3 error
+        #   asks)
+        "steps_at_level",  # (1,) int64: without the bound, the steps taken at that size (after GROW_AFTER the
+        #   step is doubled); with it, finite friction's impact steps
+        "energy_bound",  # (1,): the most a step may change U + T (SolverOptions.step_energy_tol E0; m g b; 0: no bound)
+        "landing_cut",  # (1,) uint8: 1 with landing step "cut" (``stepper.landing_cut``)
+        "touch_cut",  # (1,): > 0: the next step is cut at a touch of the floor to this length (sqrt(b/g))
+        #   (``stepper.touch_ahead``, ``stepper.cut_at_touch``)
+        "touch_how",  # (1,) int64: how: 1 to end before the touch, 2 to take the landing just after it (0: no cut)
+        "last_how",  # (1,) int64: the last accepted step's touch_how
+        "extra_cuts",  # (1,) int64: the halvings a step takes beyond CUTS_MAX and SPLIT_CUTS (``scheme.extra_cuts``:
+        #   0 at the default --dt)
+    ],
+)
+
+
+def new_step_control(energy_bound: float, landing_cut: bool, extra_cuts: int, level: float = 0.0) -> StepControl:
+    """The control of a fall's first step (or of a copy stepped from ``level``): no cut pending."""
+    i = lambda v=0: np.full(1, v, np.int64)  # noqa: E731
+    return StepControl(
+        np.full(1, float(level)), i(), np.full(1, float(energy_bound)), np.full(1, int(landing_cut), np.uint8),
+        np.zeros(1), i(), i(), i(extra_cuts),
+    )  # fmt: skip
+
+
+# The books a frame records (the run's, the step's forces), as of now or at the last step's start.
+Tally = namedtuple(
+    "Tally",
+    [
+        "lost_locking",  # (1,): energy lost at the hinges so far (m g b)
+        "lost_landing",  # (1,): ... at the landings (m g b)
+        "floor_impulse",  # (3,): the floor's whole impulse on the chain so far (m sqrt(g b))
+        "lost_damping",  # (1,): what the smooth laws removed so far (m g b)
+    ],
+)
+
+
+def new_tally() -> Tally:
+    return Tally(np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(1))
+
+
+# What the frames inside a step are taken with (``frames``): the books now and at the last
+# step's start, the step's forces, and that step (its frames pending while frames_due).
+FrameBooks = namedtuple(
+    "FrameBooks",
+    [
+        "now",  # Tally: the books at the state a frame records (after the last step, or inside it)
+        "at_start",  # Tally: the books at the last step's start
+        "floor_force",  # (3,): the anchors' mean force on the chain over the last step (m g)
+        "pile_pull",  # (3,): the pile's mean pull on the hanging chain over the last step (m g)
+        "step_t",  # (1,): the last step's start (sqrt(b/g))
+        "step_h",  # (1,): its length (sqrt(b/g))
+        "frames_due",  # (1,) uint8: 1 while frames inside it are still to be taken (the frame buffer was full)
+    ],
+)
+
+
+def new_frame_books() -> FrameBooks:
+    """Empty books, no step pending."""
+    return FrameBooks(
+        new_tally(), new_tally(), np.zeros(3), np.zeros(3), np.zeros(1), np.zeros(1), np.zeros(1, np.uint8)
+    )
+
+
+# A RATTLE fall's own bundles (beside the shared ``core.state`` ones: books and outputs).
+Fall = namedtuple(
+    "Fall",
+    [
+        "motion",  # Motion: the state (it aliases the chain's arrays)
+        "rows",  # Rows: the last stage 2's rows and factors (the next stage 1 iterates on them)
+        "scratch",  # Scratch: the last step's scratch, its start and ledger
+        "frame_work",  # FrameWork: what frames inside a step are stepped with
+        "control",  # StepControl
+        "frame_books",  # FrameBooks
+    ],
+)
 
 
 def new_motion(n: int) -> Motion:

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ...contacts.coulomb import anchors, grips
 from ...core.rules import (
     fall_ended,
@@ -29,7 +27,7 @@ from .codes import (
     RT_RETURN,
     RT_STOP,
 )
-from .frames import _books_now, frame_substeps, record_frame
+from .frames import books_now, copy_tally, frame_substeps, record_frame
 from .friction import hold_stuck_stretch
 from .scheme import CUTS_MAX, SPLIT_CUTS, _budget, keep_warm_start, rattle_step
 from .stage1 import floor_gap
@@ -99,20 +97,20 @@ def landing_cut(s, h, after):
 
 
 @njit(cache=True, inline="always")
-def _cuts_landings(model, fb):
-    """Landing step "cut" (fb[22] = 1) where points land to stay: not with restitution at
-    the floor, nor on a floor that lets them slide."""
-    return fb[22] != 0.0 and model.e_floor == 0.0 and anchors(model.friction)
+def _cuts_landings(model, control):
+    """Landing step "cut" (control.landing_cut) where points land to stay: not with
+    restitution at the floor, nor on a floor that lets them slide."""
+    return control.landing_cut[0] != 0 and model.e_floor == 0.0 and anchors(model.friction)
 
 
 @njit(cache=True)
-def touch_ahead(h, model, mo, fb):
+def touch_ahead(h, model, mo, control):
     """Landing step "cut", ahead of the step: (length, how) of ``landing_cut`` for the
     earliest ``gravity_touch`` of the free points moving down, from the state now; the
     landing just after a touch (how = 2) only in the step after one that ended before a
-    touch (fb[25] = 1), so that a point that hangs just above the floor cannot shrink the
+    touch (control.last_how = 1), so that a point that hangs just above the floor cannot shrink the
     steps to TOUCH_SHORTEST.  (0, 0): the step is not cut."""
-    if not _cuts_landings(model, fb):
+    if not _cuts_landings(model, control):
         return 0.0, 0
     s = math.inf
     j0, j1 = floor_watched_range(model.floor, mo.anchored)
@@ -121,17 +119,17 @@ def touch_ahead(h, model, mo, fb):
             vz = point_vz(mo, j)
             if vz < 0.0:
                 s = min(s, gravity_touch(floor_gap(model, mo, j), vz))
-    return landing_cut(s, h, fb[25] == 1.0)
+    return landing_cut(s, h, control.last_how[0] == 1)
 
 
 @njit(cache=True)
-def cut_at_touch(h, na, model, sc, fb):
+def cut_at_touch(h, na, model, sc, control):
     """Landing step "cut", after a step h that anchored points (na) and was not cut
-    (fb[23] = 0): (length, how) of ``landing_cut`` for the earliest touch of the points it
+    (control.touch_cut = 0): (length, how) of ``landing_cut`` for the earliest touch of the points it
     anchored (``touch_time``), the step to be taken again so; (0, 0): it stands.  Catches
     the landings that ``touch_ahead`` did not foresee (a point moving up at the step's
     start, a landing right after a step that did not end before a touch)."""
-    if na == 0 or fb[23] > 0.0 or not _cuts_landings(model, fb):
+    if na == 0 or control.touch_cut[0] > 0.0 or not _cuts_landings(model, control):
         return 0.0, 0
     return landing_cut(touch_time(model, sc.start, sc.new_anchor, na), h, True)
 
@@ -147,7 +145,7 @@ def _cut(code, change, etol):
 
 
 @njit(cache=True)
-def _growth(change, impact, etol, fb, grip):
+def _growth(change, impact, etol, control, grip):
     """How many halvings (log2) the next step is lengthened by after one accepted: with the
     energy bound, the smooth step's change of U + T brought to SAFETY etol (h^3), by a
     factor in [1/GROW_MAX, GROW_MAX] (an impact step, whose change is its loss, keeps the
@@ -157,20 +155,20 @@ def _growth(change, impact, etol, fb, grip):
     after GROW_AFTER steps at a size."""
     if etol > 0.0:
         if impact:
-            return _count_up(fb) if grip else 0.0
+            return _count_up(control) if grip else 0.0
         if change == 0.0:
             return math.log2(GROW_MAX)
         g = math.log2(SAFETY * etol / abs(change)) / 3.0
         return min(max(g, -math.log2(GROW_MAX)), math.log2(GROW_MAX))
-    return _count_up(fb)
+    return _count_up(control)
 
 
 @njit(cache=True)
-def _count_up(fb):
-    """One halving undone after GROW_AFTER accepted steps at a size (fb[20] counts them)."""
-    fb[20] += 1.0
-    if fb[20] >= GROW_AFTER:
-        fb[20] = 0.0
+def _count_up(control):
+    """One halving undone after GROW_AFTER accepted steps at a size (control.steps_at_level counts them)."""
+    control.steps_at_level[0] += 1
+    if control.steps_at_level[0] >= GROW_AFTER:
+        control.steps_at_level[0] = 0
         return 1.0
     return 0.0
 
@@ -183,68 +181,109 @@ def _stuck(code, model):
 
 
 @njit(cache=True)
-def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
-    """One step from t (h at most: cut at the stop time) with its books, log and trace;
-    the frames inside it are left pending (fb[18]).  Returns (code, t + h)."""
-    if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
-        _books_now(books, fb)
-        record_frame(t, mo, fb, frames)
-    level = fb[19]  # the step is h / 2^level (level >= 0, not only whole: the energy control sets it)
-    cuts_max, split_cuts = CUTS_MAX + fb[26], SPLIT_CUTS + fb[26]  # (a longer --dt halves more: ``extra_cuts``)
-    wmax = _fastest_turn(mo.ve[: active_points(mo.anchored) - 1])  # a step turns no segment more than TURN_MAX
-    #   (the landed segments, past the active points, are at rest)
+def _level(h, mo, control, cuts_max):
+    """The level of the next step (control.level), raised so that it turns no segment
+    further than TURN_MAX (the landed segments, past the active points, are at rest)."""
+    level = control.level[0]  # (the step is h / 2^level, level >= 0, not only whole: the energy control sets it)
+    wmax = _fastest_turn(mo.ve[: active_points(mo.anchored) - 1])
     if h / 2.0**level * wmax > TURN_MAX:
         level = min(cuts_max, math.log2(h * wmax / TURN_MAX))
-    fb[19] = level
+    control.level[0] = level
+    return level
+
+
+@njit(cache=True)
+def _retake(mo, ws, sc, books):
+    """A step refused: the state back to its start, its factorisations counted."""
+    undo_step(mo, sc)
+    ws.valid[0] = 0
+    books.n_evals[0] += sc.ledger.factorisations[0]
+
+
+@njit(cache=True)
+def _frames_from(t, h, fall, books):
+    """After an accepted step from t of h: the frame books at its start and end, the frames
+    inside it pending (``frames.frame_substeps``)."""
+    fbk = fall.frame_books
+    books_now(books, fbk)
+    copy_tally(fbk.now, fbk.at_start)
+    fbk.step_t[0], fbk.step_h[0], fbk.frames_due[0] = t, h, 1
+
+
+@njit(cache=True)
+def step(t, h, model, fall, books, frames, trace, log):
+    """One step from t (h at most: cut at the stop time) with its books, log and trace;
+    the frames inside it are left pending (the frame books' frames_due).  Returns (code, t + h)."""
+    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+    lg = sc.ledger
+    if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
+        books_now(books, fall.frame_books)
+        record_frame(t, mo, fall.frame_books, frames)
+    extra = control.extra_cuts[0]
+    cuts_max, split_cuts = CUTS_MAX + extra, SPLIT_CUTS + extra  # (a longer --dt halves more: ``extra_cuts``)
+    level = _level(h, mo, control, cuts_max)
     h = h / 2.0**level
     left = model.t_stop - t
     if left < 2.0 * h:  # the last steps before the stop: no step shorter than h / 2
         h = left if left <= h else 0.5 * left
     whole = h
-    if fb[23] == 0.0:  # landing step "cut": a touch foreseen in the step
-        fb[23], fb[24] = touch_ahead(h, model, mo, fb)
-    if fb[23] > 0.0:  # cut at a touch (``touch_ahead``, or taken again: ``cut_at_touch``)
-        h = min(h, fb[23])
-    etol = fb[21]
-    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < split_cuts, _budget(level, cuts_max))
-    if code == ERR_REBOUND:  # the same step with its impacts inelastic
-        undo_step(mo, sc)
-        ws.valid[0] = 0
-        sc.inelastic[0] = 1
-        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, level < split_cuts, _budget(level, cuts_max))
-        sc.inelastic[0] = 0
+    if control.touch_cut[0] == 0.0:  # landing step "cut": a touch foreseen in the step
+        control.touch_cut[0], control.touch_how[0] = touch_ahead(h, model, mo, control)
+    if control.touch_cut[0] > 0.0:  # cut at a touch (``touch_ahead``, or taken again: ``cut_at_touch``)
+        h = min(h, control.touch_cut[0])
+    etol = control.energy_bound[0]
+    code, na = _attempt(t, h, model, mo, ws, sc, etol, level < split_cuts, _budget(level, cuts_max))
     if code < 0 and code != ERR_NAN and level < cuts_max:  # taken again, shorter
-        undo_step(mo, sc)
-        ws.valid[0] = 0
-        fb[19] = min(cuts_max, level + _cut(code, sc.acc[8], etol))
-        fb[20] = 0.0
-        fb[23] = 0.0  # (the shorter step may be cut at its touch again)
-        books.n_evals[0] += np.int64(sc.acc[5])
+        control.level[0] = min(cuts_max, level + _cut(code, lg.energy_lost[0], etol))
+        control.steps_at_level[0] = 0
+        control.touch_cut[0] = 0.0  # (the shorter step may be cut at its touch again)
+        _retake(mo, ws, sc, books)
         return 0, t
     if code < 0:
         undo_step(mo, sc)  # (the run ends at the last accepted state, its books true)
         ws.valid[0] = 0
         if _stuck(code, model) and hold_stuck_stretch(mo, int(sc.unmet[0])) > 0:
-            books.n_evals[0] += np.int64(sc.acc[5])
+            books.n_evals[0] += lg.factorisations[0]
             return 0, t  # taken again with the stretch held (finite friction)
         return code, t
-    cut, how = cut_at_touch(h, na, model, sc, fb)
+    cut, how = cut_at_touch(h, na, model, sc, control)
     if cut > 0.0:  # taken again, to end just before (or, where the touch is early, just after) the touch
+        control.touch_cut[0], control.touch_how[0] = cut, how
+        _retake(mo, ws, sc, books)
+        return 0, t
+    return _accept(t, h, h == whole, level, na, model, fall, books, trace, log)
+
+
+@njit(cache=True)
+def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
+    """The fall's ``rattle_step``; one whose impacts by Newton's law created energy
+    (ERR_REBOUND) is taken again with its impacts inelastic.  Returns (code, new anchors)."""
+    code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, split, budget)
+    if code == ERR_REBOUND:
         undo_step(mo, sc)
         ws.valid[0] = 0
-        fb[23], fb[24] = cut, how
-        books.n_evals[0] += np.int64(sc.acc[5])
-        return 0, t
-    if fb[24] != 2.0:  # (a landing's own short step: its impact impulse, scaled up to the
+        sc.inelastic[0] = 1
+        code, na = rattle_step(t, h, model, mo, ws, sc, etol, True, split, budget)
+        sc.inelastic[0] = 0
+    return code, na
+
+
+@njit(cache=True)
+def _accept(t, h, grow, level, na, model, fall, books, trace, log):
+    """A step from t of h accepted: its warm start kept, the control's next level (as its
+    change of U + T asks, if it was not cut at a touch: ``grow``; ``level``: its own), its
+    frames left pending, its books, log and trace.  Returns (code, t + h)."""
+    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+    lg = sc.ledger
+    if control.touch_how[0] != 2:  # (a landing's own short step: its impact impulse, scaled up to the
         keep_warm_start(h, ws, sc)  # next step's size, is no guess; the step's before it is)
-    fb[23], fb[25] = 0.0, fb[24]
-    if h == whole:  # (after a step cut at its touch, the next at the size it was cut from)
-        fb[19] = max(0.0, level - _growth(sc.acc[8], sc.acc[9], etol, fb, grips(model.friction)))
-    _books_now(books, fb)
-    for q in range(5):
-        fb[11 + q] = fb[q]
-    fb[28] = fb[27]
-    fb[16], fb[17], fb[18] = t, h, 1.0
+    control.touch_cut[0], control.last_how[0] = 0.0, control.touch_how[0]
+    if grow:  # (after a step cut at its touch, the next at the size it was cut from)
+        etol = control.energy_bound[0]
+        control.level[0] = max(
+            0.0, level - _growth(lg.energy_lost[0], lg.impact[0], etol, control, grips(model.friction))
+        )
+    _frames_from(t, h, fall, books)
     commit(t, h, na, model, mo, ws, sc, books, log)
     kt = trace.count[0]
     z_end = mo.c[0, 2] + mo.e[0, 2]
@@ -258,14 +297,15 @@ def step(t, h, model, mo, ws, sc, fb, books, frames, trace, log):
 
 @entry
 @njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
-def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
+def run_steps(t, h, model, fall, books, frames, trace, log):
     """Steps of size h until the fall ends, the stop time, full buffers or
     ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""
+    mo = fall.motion
     n = mo.e.shape[0]
     room = 4 * n + 8  # (log rows a step can write at most: locks, unlocks, landings, the floor's hold)
     taken = 0
     while True:
-        code = frame_substeps(model, sc, fr.ws, fr.motion, fr.sc, fb, frames)  # the last step's, if pending
+        code = frame_substeps(model, fall, frames)  # the last step's, if pending
         if code != 0:
             return code, t
         if fall_over(mo.anchored, mo.anchor_t, model.friction):
@@ -280,7 +320,7 @@ def run_steps(t, h, model, mo, ws, sc, fr, fb, books, frames, trace, log):
             return RT_STOP, t
         if books.n_steps[0] >= model.max_steps:
             return RT_MAX_STEPS, t
-        code, t = step(t, h, model, mo, ws, sc, fb, books, frames, trace, log)
+        code, t = step(t, h, model, fall, books, frames, trace, log)
         if code < 0:
             return code, t
         taken += 1
