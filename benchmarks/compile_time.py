@@ -7,6 +7,7 @@
     BALLCHAIN_OPTIMIZE_CALLEES=1 python benchmarks/compile_time.py --breakdown   # policy off
     python benchmarks/compile_time.py --run-pairs 10  # the default fall: policy off vs on
     python benchmarks/compile_time.py --functions     # one cold compile: seconds per kernel
+    python benchmarks/compile_time.py --per-method    # each method's cold compile alone, and the run after it
 
 Each compile is a fresh process with an empty numba cache (``NUMBA_CACHE_DIR`` in a
 temporary directory) that imports ballchain and loads the kernels as the first run of
@@ -42,8 +43,10 @@ import json, resource, time
 t0 = time.perf_counter()
 import ballchain
 from ballchain import engine
+import os
 if hasattr(engine, "load_kernels"):
-    cold = engine.load_kernels()
+    method = os.environ.get("BALLCHAIN_PROBE_METHOD")
+    cold = engine.load_kernels(method) if method else engine.load_kernels()
 else:  # a revision from before load_kernels: the smallest run through its CLI
     import tempfile
     from ballchain.cli import app
@@ -193,6 +196,43 @@ def run_pairs(pairs: int) -> None:
     )
 
 
+def per_method(reps: int) -> None:
+    """Each method's cold compile alone (a fresh process, an empty cache, the method's
+    kernels as its first run loads them), ``reps`` times, the methods in turn; after each,
+    the same in a second process on the cache it filled (what every later run pays).
+    Prints every compile and the medians of wall and CPU seconds per method."""
+    from ballchain.methods import METHODS
+
+    src = ROOT / "src"
+    got = {m: {"cpu": [], "wall": [], "after": []} for m in METHODS}
+    for rep in range(reps):
+        for m in METHODS:
+            with tempfile.TemporaryDirectory() as cache:
+                env = dict(os.environ, PYTHONPATH=str(src), NUMBA_CACHE_DIR=cache, BALLCHAIN_PROBE_METHOD=m)
+                runs = [
+                    subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True) for _ in "12"
+                ]
+            for out in runs:
+                if out.returncode != 0:
+                    raise SystemExit(f"{m}: {out.stderr.strip().splitlines()[-3:]}")
+            cold, warm = (json.loads(out.stdout.strip().splitlines()[-1]) for out in runs)
+            if not cold["cold"] or warm["cold"]:
+                raise SystemExit(f"{m}: not a cold compile then a cached load: {cold}, {warm}")
+            got[m]["cpu"].append(cold["cpu"])
+            got[m]["wall"].append(cold["wall"])
+            got[m]["after"].append(warm["wall"])
+            print(
+                f"  rep {rep + 1} {m}: cold {cold['wall']:.1f} s wall, {cold['cpu']:.1f} s CPU; "
+                f"the run after it {warm['wall']:.1f} s",
+                flush=True,
+            )
+    print("\n| method | cold compile, CPU s (median) | wall s (median) | the run after it, wall s (median) |")
+    print("|---|---|---|---|")
+    for m, g in got.items():
+        med = {k: statistics.median(v) for k, v in g.items()}
+        print(f"| {m} | {med['cpu']:.1f} | {med['wall']:.1f} | {med['after']:.1f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", help="git revision to compare with this checkout (default: the policy off vs on)")
@@ -212,8 +252,12 @@ def main() -> None:
         metavar="P",
         help="instead: P pairs of default falls compiled with the policy off and on",
     )
+    ap.add_argument("--per-method", action="store_true", help="each method's cold compile alone, and the run after it")
     args = ap.parse_args()
     print(machine_info())
+    if args.per_method:
+        per_method(args.reps)
+        return
     if args.run_pairs:
         run_pairs(args.run_pairs)
         return
