@@ -2,7 +2,8 @@
 
 * Every command of their code blocks runs (in a temporary directory, in their order; the
   slow ones on a small chain: ``SMALL`` below is the whole mapping), and the README's set-up
-  is two commands, the second exactly what CI runs (``.ci/run``).
+  is two commands, the second exactly what CI runs first (``.ci/run``: the fast tier; the
+  slow tier after it).
 * The "Which method when" table is the same on both, and each of its contact-law cells is
   what the methods' registry says (``ballchain.methods.honours``) and what a run does.
 * Every number their prose and tables quote stands on a page the same paragraph links.
@@ -83,6 +84,8 @@ def test_the_readme_is_read_in_five_minutes():
 def test_the_set_up_is_two_commands_and_the_second_is_what_ci_runs():
     install_run, install_test = _setup(README)
     assert install_test == _ci_line("python3 -m venv")
+    assert install_test.endswith('pytest -q -m "not slow"')  # the fast tier ...
+    assert _ci_line("pytest -q -m slow")  # ... and CI runs the slow tier after it
     assert install_run.startswith("python3 -m venv .venv && . .venv/bin/activate && pip install ")
     assert "--force" in install_run.split(" && ")[-1]  # safe to run twice
     # the site's build command the README gives is the one CI runs
