@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 from conftest import chain_directions
 from oracle import reference as ref
 
@@ -50,6 +51,7 @@ def test_lemke_matches_enumeration():
         np.testing.assert_allclose(z, _enumerate(M, q), atol=1e-9)
 
 
+@pytest.mark.slow
 def test_lock_set_finishes_on_a_span_between_two_anchors():
     """Segments 1 and 2 of a 3-segment chain span the anchored points 1 and 3: their
     hinge's angle is fixed by the anchors, so its lock row is a combination of the

@@ -432,7 +432,7 @@ def _general_path(e, w, anchored, locked):
     return ws
 
 
-@pytest.mark.parametrize("n", [2, 3, 8, 40])
+@pytest.mark.parametrize("n", [2, 3, 8, pytest.param(40, marks=pytest.mark.slow)])
 def test_fixed_size_path_equals_general_path(n):
     """The closed-form 4x4 path (rows_rhs4, factor4, solve4, torques4) solves the same
     system as the general path built from J: multipliers and torques agree."""

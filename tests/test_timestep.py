@@ -341,6 +341,7 @@ def _meander_on_the_floor(n, seed):
     return model, chain, ws, sc, books, miss
 
 
+@pytest.mark.slow
 def test_the_projection_leaves_the_round_off_of_a_long_pile_alone():
     """Round-off is not drift.  A point's position is a sum of the axes below it, so on
     a pile of N = 16384 segments the points miss their anchors by the round-off of sums
@@ -362,6 +363,7 @@ def test_the_projection_leaves_the_round_off_of_a_long_pile_alone():
     assert books.projected[0] == 0.0
 
 
+@pytest.mark.slow
 def test_the_projection_removes_drift_above_the_round_off():
     """The same pile with its axes turned by 1e-7 rad (drift, as a step leaves it): the
     projection puts the anchored points back on their anchors, to within the scaled

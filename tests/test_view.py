@@ -60,6 +60,7 @@ def box_width(img) -> int:
     return int(cols.max() - cols.min()) if cols.size else 0
 
 
+@pytest.mark.slow
 def test_the_view_is_drawn_in_a_browser(run, tmp_path):
     r, path = run
     html = tmp_path / "fall.html"
