@@ -53,29 +53,15 @@ Model = namedtuple(
 )
 
 
-def new_model(
-    alpha,
-    floor,
-    cone,
-    options,
-    t_stop,
-    zeno_window,
-    return_every,
-    dt_rule=0,
-    v_ff=0.0,
-    e_lock=0.0,
-    e_floor=0.0,
-    friction=math.inf,
-    damping=0.0,
-    laws=None,
-) -> Model:
+def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every, dt_rule=0, v_ff=0.0, laws=None) -> Model:
     """The constant model of a run (``options``: ``model.SolverOptions``; ``dt_rule``,
-    ``v_ff``: the time-stepper's step rule, as its code, and g t_ff; ``e_lock``: the
-    restitution at the bend limit, ``ChainParams.restitution_lock``; ``e_floor``: at the floor,
-    ``ChainParams.restitution_floor``; ``friction``: ``ChainParams.friction``; ``damping``: ``ChainParams.hinge_damping`` in units of
-    m g b sqrt(b/g)).  ``laws``: a ``ChainParams`` to take all four from, in the kernels' units
-    (the one place the methods' runs read the contact laws from)."""
-    if laws is not None:
+    ``v_ff``: the time-stepper's step rule, as its code, and g t_ff).  ``laws``: the run's
+    ``ChainParams``, the one place the methods' runs read the contact laws from (the
+    restitutions, the friction and the hinges' damping, this in units of m g b sqrt(b/g));
+    None: every law at its default."""
+    if laws is None:
+        e_lock, e_floor, friction, damping = 0.0, 0.0, math.inf, 0.0
+    else:
         e_lock, e_floor, friction = laws.restitution_lock, laws.restitution_floor, laws.friction
         damping = laws.hinge_damping / laws.damping_unit
     return Model(

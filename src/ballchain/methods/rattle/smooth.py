@@ -19,15 +19,23 @@ W_AXIS = 3.0  # the axes' inverse mass (W = diag(1, 3): rods, m b^2 / 3)
 
 
 @njit(cache=True)
-def _kick_and_work(h, anchored, e, e0, f, uke):
-    """uke += h/2 W f on the segments not landed; returns -f . (e - e0) / 2 over them."""
+def _kick(h, anchored, f, uke):
+    """uke += h/2 W f on the segments not landed."""
+    for i in range(f.shape[0]):
+        if not is_landed(anchored, i):
+            for q in range(3):
+                uke[i, q] += 0.5 * h * W_AXIS * f[i, q]
+
+
+@njit(cache=True)
+def _work(anchored, f, e, e0):
+    """What a half kick of f removed over the step's displacement: -f . (e - e0) / 2 on the
+    segments not landed."""
     loss = 0.0
     for i in range(f.shape[0]):
-        if is_landed(anchored, i):
-            continue
-        for q in range(3):
-            uke[i, q] += 0.5 * h * W_AXIS * f[i, q]
-            loss -= 0.5 * f[i, q] * (e[i, q] - e0[i, q])
+        if not is_landed(anchored, i):
+            for q in range(3):
+                loss -= 0.5 * f[i, q] * (e[i, q] - e0[i, q])
     return loss
 
 
@@ -35,19 +43,13 @@ def _kick_and_work(h, anchored, e, e0, f, uke):
 def first_smooth_kick(h, model, mo, sc):
     """Stage 1's half kick of the smooth laws' force at the step's start (sc.fdamp keeps it)."""
     smooth_axis_forces(model, mo.e, mo.ve, sc.fdamp)
-    _kick_and_work(h, mo.anchored, mo.e, mo.e, sc.fdamp, sc.uke)
+    _kick(h, mo.anchored, sc.fdamp, sc.uke)
 
 
 @njit(cache=True)
 def first_smooth_work(mo, sc):
     """After stage 1 (mo at q+): what the first half kick removed, into the ledger's smooth_loss."""
-    loss = 0.0
-    for i in range(sc.fdamp.shape[0]):
-        if is_landed(sc.start.anchored, i):
-            continue
-        for q in range(3):
-            loss -= 0.5 * sc.fdamp[i, q] * (mo.e[i, q] - sc.start.e[i, q])
-    sc.ledger.smooth_loss[0] += loss
+    sc.ledger.smooth_loss[0] += _work(sc.start.anchored, sc.fdamp, mo.e, sc.start.e)
 
 
 @njit(cache=True)
@@ -58,4 +60,5 @@ def second_smooth_kick(h, model, mo, sc):
         for q in range(3):
             v[i, q] = 2.0 * mo.ve[i, q] - sc.start.ve[i, q]
     smooth_axis_forces(model, mo.e, v, sc.fdamp)
-    sc.ledger.smooth_loss[0] += _kick_and_work(h, mo.anchored, mo.e, sc.start.e, sc.fdamp, sc.uke)
+    _kick(h, mo.anchored, sc.fdamp, sc.uke)
+    sc.ledger.smooth_loss[0] += _work(mo.anchored, sc.fdamp, mo.e, sc.start.e)
