@@ -228,3 +228,36 @@ def test_an_index_naming_a_type_that_has_gone_is_a_miss_not_an_error(tmp_path, m
         with pytest.raises(AttributeError):
             pickle.loads(f.read())
     assert cache._load_index() == {}
+
+
+def _constant_caller(module):
+    """A package kernel that calls another with two different constants, and the callee."""
+
+    def scale(x, twice):
+        return 2.0 * x if twice else x
+
+    scale.__module__ = module
+    scale.__qualname__ = f"{module.replace('.', '_')}_scale"
+    scale_j = jit.njit(scale)
+
+    def both(x):
+        return scale_j(x, True) + scale_j(x, False)
+
+    both.__module__ = module
+    both.__qualname__ = f"{module.replace('.', '_')}_both"
+    return jit.njit(both), scale_j
+
+
+def test_a_kernel_called_with_constants_compiles_once_and_computes_the_same():
+    """numba compiles a callee once per literal constant a compiled caller passes it
+    (``Literal[bool](True)``, then ``(False)``): the package's kernels take the plain type
+    instead, one specialisation, each branch taken at run time as the constant says.
+    Code outside the package keeps numba's behaviour (two specialisations)."""
+    assert jit.unliteral_calls()
+    ours, scale = _constant_caller("ballchain.tests_probe")
+    assert ours(1.5) == 4.5  # 2 * 1.5 + 1.5
+    assert len(scale.signatures) == 1
+    assert "Literal" not in str(scale.signatures[0])
+    theirs, other = _constant_caller("someone_else")
+    assert theirs(1.5) == 4.5
+    assert len(other.signatures) == 2
