@@ -21,7 +21,15 @@ from ballchain.cli import app
 from ballchain.engine import simulate
 from ballchain.model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from ballchain.records.measures import momentum
-from ballchain.theory import pivot_rod_slip_angle, pivot_rod_time, sliding_rod_fall_time, sliding_rod_normal_force
+from ballchain.theory import (
+    pivot_rod_friction_ratio,
+    pivot_rod_slip_angle,
+    pivot_rod_time,
+    pivot_rod_vertical_force,
+    rod_fall_time,
+    sliding_rod_fall_time,
+    sliding_rod_normal_force,
+)
 
 THETA0 = 0.3  # rad from the vertical: the rod's start
 
@@ -288,3 +296,43 @@ def test_a_stuck_stretch_is_held_where_it_lies():
     assert mo.touching[7] == SLIDING and np.all(mo.vc[6:8] == 1e-3)
     np.testing.assert_allclose(sc.ledger.floor_impulse, -4e-3, rtol=1e-12)
     assert hold_marked(mo, sc) == 0  # (marked once: held once)
+
+
+@pytest.mark.parametrize("mu", [1e3, 1e6])
+def test_a_leaning_rod_on_a_floor_of_large_friction_pivots_and_lands_when_the_pivots_quadrature_says(mu):
+    """Pivoting on its foot from THETA0 the rod asks of the floor a vertical force that stays
+    above 0.02 m g and a friction at most about 32 times it (the closed forms): a grip of 1e3
+    or 1e6 holds it, no slip, no lift-off, and its top end lands at the pivot's quadrature
+    time, within a step (the anchor's, mu inf, to 1e-8 in the exact method)."""
+    theta = np.linspace(THETA0, 0.5 * math.pi, 2001)
+    assert np.min(pivot_rod_vertical_force(theta, THETA0)) > 0.02
+    assert np.max(np.abs(pivot_rod_friction_ratio(theta, THETA0))) < 40.0
+    e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
+    dt = 0.01
+    r = simulate(ChainParams(segments=1, friction=mu), state=(e0, None), options=SolverOptions(method="rattle", dt=dt))
+    assert r.status == "landed", r.message
+    counts = r.event_counts()
+    assert counts.get("slip", 0) == 0 and counts.get("lift", 0) == 0
+    assert abs(r.t_fall - rod_fall_time(THETA0)) < dt * r.t_ff
+    assert abs(r.energy["imbalance"]) < 1e-4 * r.energy["initial"]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_chain_on_a_floor_of_large_friction_lands_and_its_friction_creates_no_energy(seed):
+    """At mu = 1000 a point that slips is pressed hard and slides slowly: the explicit friction
+    force of a step can be far more than what stops it (the step's reversal created up to 1e5
+    E0 of energy, booked as a negative loss at the floor, and the falls stopped with an
+    error). Such a step is taken again with the point held (``friction.hold_reversed``): the
+    falls land, U + T never rises above E0 at a frame, the loss at the floor is positive and
+    the books close."""
+    r = simulate(
+        ChainParams(segments=64, alpha=math.pi / 4, friction=1e3),
+        InitialCondition(kind="random", seed=seed),
+        SolverOptions(method="rattle", max_time=4.0),
+    )
+    assert r.status == "landed", r.message
+    e0 = r.energy["initial"]
+    mech = np.asarray(r.frame_kinetic) + np.asarray(r.frame_potential)
+    assert np.max(mech) <= e0 * (1.0 + 1e-4)
+    assert r.energy["lost_landing"] > 0.0 and r.energy["lost_locking"] > 0.0
+    assert abs(r.energy["imbalance"]) < 1e-3 * e0

@@ -22,7 +22,12 @@ taken by the anchor's impulse (booked at the floor).  What the friction force re
 a step, -F . (p(q+) - p(q)), is booked at the floor (``friction_work``, half a kick at a
 time); the floor's impulse record takes its impulse h F.  Where the friction force
 reverses a slow point within a step (it is then anchored), that work can come out
-negative: the explicit force overshoots by O(h).
+negative: the explicit force overshoots by O(h).  Where it creates more than the step's
+energy bound (a step's friction impulse far beyond what stops the point: mu large, or a
+slow point pressed hard), the step is taken again at the same size with the points it
+reversed held from its start (``hold_reversed``: a stick, logged), as the cone would hold a
+point at rest under a friction that can stop it: without it, mu 1e6 threw a chain's foot
+off at 500 sqrt(g b) on its first slip, the created energy booked as a negative loss.
 """
 
 from __future__ import annotations
@@ -116,6 +121,23 @@ def friction_work(h, mu, mo, start, lg):
             lg.floor_impulse[0] += h * fx
             lg.floor_impulse[1] += h * fy
     lg.friction_loss[0] += loss
+
+
+@njit(cache=True)
+def hold_reversed(mo, start):
+    """After a step whose friction created energy: the points sliding at its start that moved
+    along their friction force over it (d . (p(q+) - p(q)) > 0, d the step's, in ``mo``: the
+    explicit force reversed them) are marked HELD in the step's start (``start``), so that the step taken again
+    anchors them there (``hold_marked``).  Returns how many."""
+    marked = 0
+    for j in range(start.anchored.shape[0]):
+        if start.anchored[j] == 0 and start.touching[j] == SLIDING:
+            x1, y1 = _point_xy(mo.c, mo.e, j)
+            x0, y0 = _point_xy(start.c, start.e, j)
+            if mo.grip[j, 1] * (x1 - x0) + mo.grip[j, 2] * (y1 - y0) > 0.0:  # (the step's d: ``friction_directions``)
+                start.touching[j] = HELD
+                marked += 1
+    return marked
 
 
 @njit(cache=True)

@@ -61,11 +61,12 @@ from .books import (
     _work,
     lock_loss_after_landing,
 )
-from .codes import ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
+from .codes import ERR_FRICTION, ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
 from .friction import (
     friction_directions,
     friction_work,
     hold_marked,
+    hold_reversed,
     impact_friction_impulse,
     let_go,
     normal_forces,
@@ -234,6 +235,8 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         settle(model, mo)
         ws.valid[0] = 0  # landed segments: the columns of the factors are not the state's
     fric = lg.friction_loss[0]  # (what the sliding points' friction removed: booked at the floor, not as error)
+    if grip and landings and etol > 0.0 and fric < -etol and hold_reversed(mo, sc.start) > 0:
+        return ERR_FRICTION, na  # (friction creates no energy: the points it reversed held, ``hold_reversed``)
     damp = lg.smooth_loss[0]  # (what the hinges' damping removed: booked as lost_damping)
     lost = e_start - mechanical_energy(mo.c, mo.vc, mo.ve) - fric - damp
     lg.energy_lost[0] = lost

@@ -17,6 +17,7 @@ from ...jit import entry, njit
 from .books import commit
 from .codes import (
     ERR_ACTIVE_SET,
+    ERR_FRICTION,
     ERR_NAN,
     ERR_NEWTON,
     ERR_REBOUND,
@@ -233,6 +234,9 @@ def step(t, h, model, fall, books, frames, trace, log):
         h = min(h, control.touch_cut[0])
     etol = control.energy_bound[0]
     code, na = _attempt(t, h, model, mo, ws, sc, etol, level < split_cuts, _budget(level, cuts_max))
+    if code == ERR_FRICTION:  # taken again at its size, the points the friction reversed held
+        _retake(mo, ws, sc, books)
+        return 0, t
     if code < 0 and code != ERR_NAN and level < cuts_max:  # taken again, shorter
         control.level[0] = min(cuts_max, level + _cut(code, lg.energy_lost[0], etol))
         control.steps_at_level[0] = 0
