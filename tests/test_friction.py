@@ -336,3 +336,94 @@ def test_a_chain_on_a_floor_of_large_friction_lands_and_its_friction_creates_no_
     assert np.max(mech) <= e0 * (1.0 + 1e-4)
     assert r.energy["lost_landing"] > 0.0 and r.energy["lost_locking"] > 0.0
     assert abs(r.energy["imbalance"]) < 1e-3 * e0
+
+
+def _rod_on_rough_floor(mu, t_end=10.0):
+    """The transitions of a rod (N = 1, released at rest at THETA0 on its foot) on a floor of
+    friction mu, from its own equations, integrated by scipy to 1e-12: [(kind, t)], kind
+    "slip", "stick", "reverse" (the foot's sliding reverses through zero speed with the
+    force beyond the cone: no stick) or "landing" (the top end).  Lagrange's equations in
+    (x_f, theta), the foot on the floor, m = b = g = 1, I = 1/3 about the centre:
+    sticking, theta'' = 3/4 sin(theta) and the floor's forces F = cos(theta) theta'' -
+    sin(theta) theta'^2, N = 1 - cos(theta) theta'^2 - sin(theta) theta''; sliding at
+    sign s, F = -mu s N and theta'' = (sin - F cos - sin cos theta'^2) / (sin^2 + 1/3),
+    x_f'' = F - cos theta'' + sin theta'^2."""
+
+    def stuck(th, w):
+        a = 0.75 * math.sin(th)
+        return a, math.cos(th) * a - math.sin(th) * w * w, 1.0 - math.cos(th) * w * w - math.sin(th) * a
+
+    def sliding(th, w, s):
+        sn, cs = math.sin(th), math.cos(th)
+        d = sn * sn + 1.0 / 3.0
+        n = (1.0 - cs * w * w - sn * (sn - sn * cs * w * w) / d) / (1.0 + mu * s * sn * cs / d)
+        f = -mu * s * n
+        a = (sn - f * cs - sn * cs * w * w) / d
+        return a, f - cs * a + sn * w * w, n
+
+    def landed(t, y):
+        return y[0] - 0.5 * math.pi
+
+    landed.terminal = True
+    t, y, s, seq = 0.0, [THETA0, 0.0, 0.0], 0.0, []
+    while t < t_end:
+        if s == 0.0:
+
+            def onset(t, y):
+                _, f, n = stuck(y[0], y[1])
+                return abs(f) - mu * n
+
+            onset.terminal, onset.direction = True, 1
+            sol = solve_ivp(lambda t, y: [y[1], stuck(y[0], y[1])[0]], (t, t_end), y[:2], events=[onset, landed],
+                            rtol=1e-12, atol=1e-13)  # fmt: skip
+            t, y = sol.t[-1], [sol.y[0, -1], sol.y[1, -1], 0.0]
+            if sol.t_events[1].size:
+                return seq + [("landing", t)]
+            s = -math.copysign(1.0, stuck(y[0], y[1])[1])
+            seq.append(("slip", t))
+            continue
+
+        def stop(t, y):
+            return y[2]
+
+        stop.terminal, stop.direction = True, -s
+        sol = solve_ivp(lambda t, y, s=s: [y[1], *sliding(y[0], y[1], s)[:2]], (t, t_end), y, events=[stop, landed],
+                        rtol=1e-12, atol=1e-13)  # fmt: skip
+        t, y = sol.t[-1], list(sol.y[:, -1])
+        assert sliding(y[0], y[1], s)[2] > 0.0  # (the foot stays on the floor)
+        if sol.t_events[1].size:
+            return seq + [("landing", t)]
+        _, f, n = stuck(y[0], y[1])
+        if abs(f) <= mu * n:
+            seq.append(("stick", t))
+            s, y[2] = 0.0, 0.0
+        else:
+            seq.append(("reverse", t))
+            s = -s
+    return seq
+
+
+@pytest.mark.parametrize("mu", [0.3, 0.39, 0.45])
+def test_a_leaning_rods_slips_and_sticks_follow_its_motion_not_the_step(mu):
+    """The foot's slip and stick rows against the rod's own equations: at mu 0.3 it slips
+    and its sliding later reverses through zero speed (no stick); at 0.39 it slips, sticks and
+    slips back the other way; at 0.45 (above the pivoting rod's largest 0.405) it slips once,
+    late, the other way.  RATTLE logs the same sequence at dt and at dt/4, a sliding foot's
+    reversal within a step not logged as a stick; each slip within 1.5 steps after its
+    time, the stick within 8 steps (the friction force lags a step: the sliding speed is
+    first order in it): bounds that shrink with the step."""
+    truth = _rod_on_rough_floor(mu)
+    kinds = [k for k, _ in truth if k in ("slip", "stick")]
+    assert kinds == {0.3: ["slip"], 0.39: ["slip", "stick", "slip"], 0.45: ["slip"]}[mu]
+    assert ("reverse" in [k for k, _ in truth]) == (mu == 0.3)
+    times = [t for k, t in truth if k in ("slip", "stick")]
+    for dt in (0.01, 0.0025):
+        r = _leaning_rod(mu, dt)
+        assert r.status == "landed", r.message
+        ev = r.events_table()
+        rows = ev[ev.kind.isin(["slip", "stick"])]
+        assert list(rows.kind) == kinds
+        h = dt * r.t_ff
+        late = np.asarray(rows.t) - np.asarray(times)
+        bound = np.array([1.5 if k == "slip" else 8.0 for k in kinds]) * h
+        assert np.all(late > 0.0) and np.all(late <= bound), (dt, late / h)

@@ -179,8 +179,10 @@ def landing_slips(mu, mo, ws, sc):
     impact x d, d = P_t / |P_t| (sc.fimp, kicked into sc.ukc, sc.uke), where x = mu P_n
     of its floor row in the round that x gives.  Stage 2 is linear, so P_n is affine in
     x: the root of g(x) = mu P_n(x) - x is found by secant steps, point by point (one
-    more round after the first guess x = mu P_n of the anchor).  Returns whether the set
-    or an impulse changed (stage 2 is solved again)."""
+    more round after the first guess x = mu P_n of the anchor).  A sliding point that
+    ``stops`` held in this step and that is let go here never stuck (its sliding reversed
+    through zero speed with the force beyond the cone): its ``stick`` row is withdrawn.
+    Returns whether the set or an impulse changed (stage 2 is solved again)."""
     changed = False
     for j in range(mo.anchored.shape[0]):
         if mo.anchored[j] == 2:
@@ -194,6 +196,8 @@ def landing_slips(mu, mo, ws, sc):
             sc.floor_on[j] = 1
             sc.fcand[j] = 1
             changed = True
+            if sc.grip_log[j, 0] == LOG_STICK:  # (a sliding point that ``stops`` held: it never stuck, its
+                sc.grip_log[j, 0] = 0.0  # sliding reversed through zero speed, the force beyond the cone)
             sc.fsec[j, 0] = math.nan  # (no secant point yet)
             if pz > 0.0 and pt > 0.0:
                 mo.grip[j, 1], mo.grip[j, 2] = px / pt, py / pt
