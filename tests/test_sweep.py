@@ -680,7 +680,7 @@ def test_a_law_of_the_grid_that_cannot_run_is_named_before_anything_runs(tmp_pat
     base = ["sweep", "-N", "4", "--alpha", "0.8", "--method", "rattle", "--out", str(out)]
     res = CliRunner().invoke(app, [*base, "--friction", "0,0.3", "--restitution-floor", "0,0.5"])
     assert res.exit_code == 2 and not out.exists()
-    assert "sweep point --restitution-floor 0.5, --friction 0:" in res.stderr
+    assert "sweep point --restitution-floor 0.5, --friction 0.3:" in res.stderr
     res = CliRunner().invoke(app, [*base, "--friction", "0,-1"])
     assert res.exit_code == 2 and "negative friction" in res.stderr and not out.exists()
 

@@ -137,8 +137,15 @@ NEEDS_EVERY_POINT_WATCHED = {
     "restitution_floor": "a point that rebounds must be watched again",
     "friction": "a point that slides must be watched",
 }
-# ... and pairs of parameters that cannot both leave their defaults, with the reason
-EXCLUDES = ((("friction", "restitution_floor"), "a sliding point that bounces is not built yet"),)
+# ... and pairs of parameters that cannot both leave their defaults where the first takes
+# the values a test names, with the reason
+EXCLUDES = (
+    (
+        ("friction", "restitution_floor"),
+        lambda mu: 0.0 < mu < float("inf"),
+        "a point that bounces off a floor of finite friction is not built yet (a frictionless floor, 0, takes it)",
+    ),
+)
 
 
 def check_laws(params, every_point_floors) -> None:
@@ -155,8 +162,8 @@ def check_laws(params, every_point_floors) -> None:
                 f"{name} {getattr(params, name):g} needs floor {' or '.join(every_point_floors)} "
                 f"({NEEDS_EVERY_POINT_WATCHED[name]}; floor {params.floor} watches only the bottom airborne segment)"
             )
-    for (a, b), why in EXCLUDES:
-        if a in moved and b in moved:
+    for (a, b), where, why in EXCLUDES:
+        if a in moved and b in moved and where(getattr(params, a)):
             raise ParameterError(
                 f"{a} {getattr(params, a):g} with {b} {getattr(params, b):g}: {why} (set one of them to its default)"
             )

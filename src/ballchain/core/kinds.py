@@ -42,8 +42,8 @@ EVENT_MEANINGS = {
     "step); no impulse given",
     "lift": "finite friction: a point held by the floor is let go, the floor having pulled it; impulse: that "
     "force (x, y, z) over the step",
-    "pin": "restitution at the floor: a point that lands and that Newton's law would bounce is anchored instead by a "
-    "fallback rule (its bounce would be too small to resolve: the accumulation limit of a series of bounces; or "
+    "pin": "restitution at the floor: a point that lands and that Newton's law would bounce is anchored instead (on a "
+    "frictionless floor: kept on it, sliding) by a fallback rule (its bounce would be too small to resolve: the accumulation limit of a series of bounces; or "
     "the impact's other contacts turned it back down); impulse and energy as a landing's",
 }
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}

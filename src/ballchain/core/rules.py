@@ -151,15 +151,19 @@ def all_anchored(anchored):
 
 
 @njit(cache=True)
-def fall_over(anchored, anchor_t, friction):
+def fall_over(anchored, anchor_t, touching, friction, e_floor):
     """The run is over: every point anchored (the anchor, friction inf: ``all_anchored``),
     or, on a floor that lets points slide (friction 0: nothing is anchored, the pile slides
     on; finite friction: a point may slip again), every point has touched the floor (its
-    first touch in ``anchor_t``)."""
+    first touch in ``anchor_t``); on a frictionless floor with restitution (``e_floor`` > 0:
+    a point that touched may bounce off again), every point on the floor at once (each
+    ``touching`` it)."""
     if friction == math.inf:
         return all_anchored(anchored)
     for j in range(anchor_t.shape[0]):
         if not anchor_t[j] == anchor_t[j]:
+            return False
+        if e_floor > 0.0 and touching[j] == 0:
             return False
     return True
 

@@ -30,7 +30,7 @@ REBOUND_TOL = 0.02  # a step with rebounds may raise U + T by this fraction of t
 def _is_new_contact(k, locked0, mark, p):
     """Is a row of kind k, after stage 1, a new contact: the bend row of a hinge not locked
     at the step's start (locked0), or the floor row of a free point (its mark in
-    ``anchored``: 0), with impulse p > 0?  (Numbers, not the bundles: a call with them in
+    ``anchored`` and ``touching``: 0), with impulse p > 0?  (Numbers, not the bundles: a call with them in
     the loop over the rows costs numba a reference count of each of their arrays.)"""
     bend = k == K_BEND and locked0 == 0
     return (bend or (is_floor(k) and mark == 0)) and p > 0.0
@@ -58,12 +58,13 @@ def impact_rates(h, model, mo, ws, sc):
     for j in range(sc.rebound.shape[0]):
         sc.rebound[j] = 0.0
     m = 0
-    kind, nrow, x, locked0, anchored = ws.kind, ws.nrow, ws.x, sc.start.locked, mo.anchored
+    kind, nrow, x, locked0, anchored, touching = ws.kind, ws.nrow, ws.x, sc.start.locked, mo.anchored, mo.touching
     for j in range(nrow.shape[0]):
         nk = locked0.shape[0]  # (hinge j - 1, at point j: its mark where it exists, clamped elsewhere, unused there)
         lock0 = locked0[min(max(j - 1, 0), nk - 1)] if nk > 0 else 0
+        mark = anchored[j] | touching[j]  # (a point sliding on the floor since the last step: no new contact)
         for r in range(nrow[j]):
-            if _is_new_contact(kind[j, r], lock0, anchored[j], x[j, r]):
+            if _is_new_contact(kind[j, r], lock0, mark, x[j, r]):
                 if m < MAX_NEW:
                     sc.newrow[m, 0], sc.newrow[m, 1] = j, r
                 m += 1
@@ -122,13 +123,14 @@ def _bounce_row(anchored, j, k):
 @njit(cache=True)
 def rebound_targets(anchored, ws, sc):
     """Stage 2's right-hand side with restitution: a rebounding hinge's row and a bouncing
-    point's vertical row aim at the rate they leave with (G P = target - rate before)."""
+    point's vertical row (on a frictionless floor: its height row) aim at the rate they
+    leave with (G P = target - rate before)."""
     for j in range(ws.nrow.shape[0]):
         for r in range(ws.nrow[j]):
             k = ws.kind[j, r]
             if k == K_BEND:
                 ws.rhs[j, r] += sc.hrebound[j - 1]
-            elif _bounce_row(anchored, j, k):
+            elif _bounce_row(anchored, j, k) or is_floor(k):
                 ws.rhs[j, r] += sc.rebound[j]
 
 
@@ -142,7 +144,7 @@ def rebound_energy(anchored, ws, sc):
             k = ws.kind[j, r]
             if k == K_BEND:
                 s += 0.5 * abs(ws.x[j, r]) * sc.hrebound[j - 1]
-            elif _bounce_row(anchored, j, k):
+            elif _bounce_row(anchored, j, k) or is_floor(k):
                 s += 0.5 * abs(ws.x[j, r]) * sc.rebound[j]
     return s
 
@@ -151,7 +153,9 @@ def rebound_energy(anchored, ws, sc):
 def leave_limits(mo, sc):
     """After stage 2 with restitution: a hinge that took its impulse and rebounds is not
     locked (sc.hrebound stays its rate: ``commit`` logs its impact as a lock's); one that
-    was released takes no rebound (0).  A bouncing point's floor rows are off again."""
+    was released takes no rebound (0).  A bouncing point's floor rows are off again; on a
+    frictionless floor a point whose height row took its impulse and rebounds leaves the
+    floor (not touching), one whose row was released takes no rebound."""
     for k in range(mo.locked.shape[0]):
         if sc.hrebound[k] > 0.0:
             if mo.locked[k] != 0:
@@ -161,3 +165,9 @@ def leave_limits(mo, sc):
     for j in range(sc.floor_on.shape[0]):
         if sc.floor_on[j] == BOUNCE:
             sc.floor_on[j] = 0
+        elif sc.rebound[j] > 0.0:  # (a frictionless floor's height row: ``stage2.land``)
+            if sc.floor_on[j] != 0:
+                sc.floor_on[j] = 0
+                mo.touching[j] = 0
+            else:
+                sc.rebound[j] = 0.0

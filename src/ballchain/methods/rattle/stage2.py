@@ -58,7 +58,10 @@ def land(t, h, model, mo, sc, landings):
     frictionless floor (``coulomb.slides``)
     nothing is anchored: the points that stage 1 stopped and that were not touching it
     are its new contacts (listed; a first touch's time in anchor_t), and the floor rows
-    stay on for stage 2.  With finite friction (``coulomb.grips``) a new touch is anchored
+    stay on for stage 2; with restitution at the floor a new contact that would bounce
+    (the rule above) keeps its height row, aimed at its upward velocity (sc.rebound; its
+    horizontal velocity kept), and a shorter bounce is not made: it stays on the floor,
+    sliding (a ``pin`` row).  With finite friction (``coulomb.grips``) a new touch is anchored
     (listed; stage 2 checks its impact against the cone: ``friction.landing_slips``) and a
     sliding point keeps its floor row, or, where it stops (``friction.stops``), is anchored
     (not listed: counted in the second number returned); a frame's step (not ``landings``)
@@ -93,6 +96,11 @@ def land(t, h, model, mo, sc, landings):
                     mo.anchor_t[j] = t
                 sc.new_anchor[na] = j
                 na += 1
+                v = floor_rebound(approach, model.e_floor)  # (0 for e_floor 0)
+                if bounce_resolved(v, h, HOLD_RATE):  # it bounces: its height row aims at v in stage 2
+                    sc.rebound[j] = v
+                elif model.e_floor > 0.0 and (v > TOUCH_RATE or point_vz(sc.start, j) < -TOUCH_RATE):
+                    sc.fallback[j] |= PINNED  # (kept on the floor: the bounce is too short to resolve)
             continue
         if sc.floor_on[j] != 0 and mo.anchored[j] == 0:
             v = floor_rebound(approach, model.e_floor)  # (0 for e_floor 0)
@@ -149,7 +157,7 @@ def _switch_stage2(mo, ws, sc, slide):
                 changed = True
                 _flipped(sc, j, ws.kind[j, r], ws.x[j, r])
     for j in range(sc.fcand.shape[0] if slide else 0):
-        if sc.fcand[j] != 0 and sc.floor_on[j] == 0 and closes(point_vz(mo, j), RATE_TOL):
+        if sc.fcand[j] != 0 and sc.floor_on[j] == 0 and closes(point_vz(mo, j) - sc.rebound[j], RATE_TOL):
             sc.floor_on[j] = 1
             changed = True
             _flipped(sc, j, K_FLOOR, point_vz(mo, j))

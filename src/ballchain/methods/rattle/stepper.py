@@ -312,7 +312,7 @@ def run_steps(t, h, model, fall, books, frames, trace, log):
         code = frame_substeps(model, fall, frames)  # the last step's, if pending
         if code != 0:
             return code, t
-        if fall_over(mo.anchored, mo.anchor_t, model.friction):
+        if fall_over(mo.anchored, mo.anchor_t, mo.touching, model.friction, model.e_floor):
             books.t_landed[0] = t
             fall_ended(books, t, True, True)
             return RT_LANDED, t
@@ -328,5 +328,7 @@ def run_steps(t, h, model, fall, books, frames, trace, log):
         if code < 0:
             return code, t
         taken += 1
-        if taken >= model.return_every and not fall_over(mo.anchored, mo.anchor_t, model.friction):
+        if taken >= model.return_every and not fall_over(
+            mo.anchored, mo.anchor_t, mo.touching, model.friction, model.e_floor
+        ):
             return RT_RETURN, t
