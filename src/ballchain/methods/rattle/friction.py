@@ -181,7 +181,8 @@ def landing_slips(mu, mo, ws, sc):
     x: the root of g(x) = mu P_n(x) - x is found by secant steps, point by point (one
     more round after the first guess x = mu P_n of the anchor).  A sliding point that
     ``stops`` held in this step and that is let go here never stuck (its sliding reversed
-    through zero speed with the force beyond the cone): its ``stick`` row is withdrawn.
+    through zero speed with the force beyond the cone): its ``stick`` row is withdrawn and
+    its last anchor (``anchor_pos``) is again the one before.
     Returns whether the set or an impulse changed (stage 2 is solved again)."""
     changed = False
     for j in range(mo.anchored.shape[0]):
@@ -198,6 +199,8 @@ def landing_slips(mu, mo, ws, sc):
             changed = True
             if sc.grip_log[j, 0] == LOG_STICK:  # (a sliding point that ``stops`` held: it never stuck, its
                 sc.grip_log[j, 0] = 0.0  # sliding reversed through zero speed, the force beyond the cone)
+                for q in range(3):  # (nor was it held there: its last anchor is still the one before)
+                    mo.anchor_pos[j, q] = sc.start.anchor_pos[j, q]
             sc.fsec[j, 0] = math.nan  # (no secant point yet)
             if pz > 0.0 and pt > 0.0:
                 mo.grip[j, 1], mo.grip[j, 2] = px / pt, py / pt
@@ -234,7 +237,12 @@ def jam(mo, sc):
 @njit(cache=True)
 def _hold(j, mo, sc):
     """The landing j, let go in this stage 2, is held again (anchored, marked: not let go
-    again in it), its friction impulse withdrawn."""
+    again in it), its friction impulse withdrawn; a sliding point (one that ``stops`` held
+    and ``landing_slips`` let go) sticks after all: held where it is (``rules.hold_at``;
+    sc.pts: the positions ``stage2.land`` took), its ``stick`` row logged again."""
+    if mo.touching[j] != 0:
+        hold_at(mo, j, sc.pts)
+        sc.grip_log[j, 0] = LOG_STICK
     _set_impact_friction(j, 0.0, mo, sc)
     sc.fimp[j, 2] = -1.0
     mo.anchored[j] = 2
