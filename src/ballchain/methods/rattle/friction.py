@@ -375,12 +375,25 @@ def hold_stuck_stretch(mo, j):
     STUCK_REACH of j.  Such a stretch lies on the floor between held points with its hinges
     at their limits: its rows repeat one another (a taut or rigid stretch: m segments in
     the floor's plane have m - 2 freedoms), and the friction cone decides from the next
-    step on whether it slides again (``let_go``).  Returns how many points it marks."""
+    step on whether it slides again (``let_go``).  Where no sliding point lies that near
+    (the row is up the chain), every sliding point is held: a friction force mu F_n far
+    beyond what stops a point within the step (F_n the last step's floor impulse over h:
+    8.5e3 m g on one point at mu = 1e6) kicks the chain so hard that stage 1 cannot
+    follow it at any step, and a point so braked sticks.  Returns how many points it marks."""
     n1 = mo.anchored.shape[0]
     if j < 0 or j >= n1:
         return 0
+    marked = _hold_stretches(mo, max(j - STUCK_REACH, 0), min(j + STUCK_REACH, n1 - 1))
+    return marked if marked > 0 else _hold_stretches(mo, 0, n1 - 1)
+
+
+@njit(cache=True)
+def _hold_stretches(mo, lo, hi):
+    """Mark HELD each whole stretch of consecutive sliding points that has a point in
+    lo..hi; returns how many points."""
+    n1 = mo.anchored.shape[0]
     marked = 0
-    for i in range(max(j - STUCK_REACH, 0), min(j + STUCK_REACH, n1 - 1) + 1):
+    for i in range(lo, hi + 1):
         if mo.anchored[i] != 0 or mo.touching[i] == 0 or mo.touching[i] == HELD:
             continue
         a, b = i, i
