@@ -180,6 +180,7 @@ def test_json_summary(engine):
         "stick": 0,
         "lift": 0,
         "pin": 0,
+        "jam": 0,
     }
     assert set(out["energy"]) >= {"initial", "potential", "kinetic", "lost_locking", "lost_landing", "imbalance"}
     assert out["segments"] == 16 and out["floor"] == "all"

@@ -273,9 +273,11 @@ def test_a_stuck_stretch_is_held_where_it_lies():
     ``friction.hold_stuck_stretch``), the whole stretch of consecutive sliding points near
     the failing row is held, and nothing else: at the next step's start each of its points
     is anchored where it lies (a zigzag on the floor: the anchors are the points, one
-    segment length apart), its stop logged as a ``stick``, its state otherwise untouched."""
-    from ballchain.core.rules import LOG_STICK
-    from ballchain.methods.rattle.friction import SLIDING, hold_marked, hold_stuck_stretch
+    segment length apart), its stop logged as a ``jam`` (a fallback rule's hold), its state
+    otherwise untouched.  Where no sliding point lies within the reach of the failing row,
+    every sliding stretch is held."""
+    from ballchain.core.rules import LOG_JAM
+    from ballchain.methods.rattle.friction import JAMMED, SLIDING, hold_marked, hold_stuck_stretch
     from ballchain.methods.rattle.state import new_motion, new_scratch
 
     n = 10
@@ -293,17 +295,19 @@ def test_a_stuck_stretch_is_held_where_it_lies():
     mo.vc[[1, 2, 3, 4, 6, 7]] = 1e-3  # (the segments not landed; a held point's velocity is the stages' to take)
     assert hold_stuck_stretch(mo, -1) == 0  # (no failing row named)
     assert hold_stuck_stretch(mo, 2) == 3  # points 2, 3, 4 (the reach, 2 +- 4, ends before point 7)
-    assert [j for j in range(n + 1) if mo.touching[j] == 3] == [2, 3, 4]
+    assert [j for j in range(n + 1) if mo.touching[j] == JAMMED] == [2, 3, 4]
     assert hold_marked(mo, sc) == 3
     np.testing.assert_array_equal(mo.anchored, [1, 1, 1, 1, 1, 1, 1, 0, 1, 1, 1])
     np.testing.assert_allclose(mo.anchor_pos[2:5], pts[2:5], atol=1e-14)
     assert np.allclose(np.linalg.norm(np.diff(mo.anchor_pos[1:6], axis=0), axis=1), 2.0)
-    assert [j for j in range(n + 1) if sc.grip_log[j, 0] == LOG_STICK] == [2, 3, 4]
+    assert [j for j in range(n + 1) if sc.grip_log[j, 0] == LOG_JAM] == [2, 3, 4]
     # segments 1..4 now lie between anchors: stopped, their momentum taken by the floor
     assert np.all(mo.vc[1:5] == 0.0) and np.all(mo.ve[1:5] == 0.0)
     assert mo.touching[7] == SLIDING and np.all(mo.vc[6:8] == 1e-3)
     np.testing.assert_allclose(sc.ledger.floor_impulse, -4e-3, rtol=1e-12)
     assert hold_marked(mo, sc) == 0  # (marked once: held once)
+    assert hold_stuck_stretch(mo, 0) == 1  # (no sliding point within 0 +- 4: every sliding one, point 7)
+    assert [j for j in range(n + 1) if mo.touching[j] == JAMMED] == [7]
 
 
 @pytest.mark.parametrize("mu", [1e3, 1e6])

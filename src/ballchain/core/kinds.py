@@ -21,6 +21,7 @@ EVENT_KINDS = {
     11: "stick",
     12: "lift",
     13: "pin",
+    14: "jam",
 }
 EVENT_MEANINGS = {
     "lock": "a free hinge reaches its limit and locks; impulse (Lambda, 0, 0), Lambda >= 0 (0: a touch)",
@@ -46,12 +47,18 @@ EVENT_MEANINGS = {
     "frictionless floor: kept on it, sliding) by a fallback rule (its bounce would be too small to resolve: the accumulation limit of a series of bounces; or "
     "the impact's other contacts turned it back down); impulse and energy as a landing's",
 }
+EVENT_MEANINGS["jam"] = (
+    "finite friction: a point held by a fallback rule where the law gives no outcome the step can take: a landing or "
+    "sliding point whose slide in the impact has no solution (Painleve's kind: the friction would press it into the "
+    "floor harder than it is pressed), or the sliding points near a row that the stages could not meet even at "
+    "their shortest step; no impulse given"
+)
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = (EVENT_CODES[k] for k in ("lock", "unlock", "landing", "top"))
 LOG_IMPULSE, LOG_RELEASE, LOG_HOLD, LOG_ANCHOR = (EVENT_CODES[k] for k in ("impulse", "release", "hold", "anchor"))
 LOG_BOUNCE = EVENT_CODES["bounce"]
 LOG_SLIP, LOG_STICK, LOG_LIFT = (EVENT_CODES[k] for k in ("slip", "stick", "lift"))
-LOG_PIN = EVENT_CODES["pin"]
+LOG_PIN, LOG_JAM = EVENT_CODES["pin"], EVENT_CODES["jam"]
 # the rows of a fallback rule, one that changes a law's outcome (``hold``: a hinge held at its
 # limit instead of rebounding or leaving it; ``pin``: a point anchored instead of bouncing)
-FALLBACK_KINDS = ("hold", "pin")
+FALLBACK_KINDS = ("hold", "pin", "jam")

@@ -34,6 +34,7 @@ from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a 
     LOG_BOUNCE,
     LOG_HOLD,
     LOG_IMPULSE,
+    LOG_JAM,
     LOG_LANDING,
     LOG_LIFT,
     LOG_LOCK,

@@ -97,7 +97,7 @@ def anchor_miss(result: Result) -> tuple[float, float]:
     anchor = np.asarray(result.anchor_pos, dtype=float)
     since = np.full(anchored.shape[1], -math.inf)
     kind, index, te = (np.asarray(getattr(result, f)) for f in ("event_kind", "event_index", "event_t"))
-    took = np.isin(kind, [EVENT_CODES[k] for k in ("landing", "pin", "stick")])
+    took = np.isin(kind, [EVENT_CODES[k] for k in ("landing", "pin", "stick", "jam")])
     np.maximum.at(since, index[took].astype(int), te[took].astype(float))
     ft = np.asarray(result.frame_t, dtype=float)
     held = anchored & (ft[:, None] >= since[None, :])

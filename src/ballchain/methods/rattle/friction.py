@@ -34,15 +34,17 @@ from __future__ import annotations
 
 import math
 
-from ...core.rules import LOG_LIFT, LOG_SLIP, LOG_STICK, hold_at, is_landed
+from ...core.rules import LOG_JAM, LOG_LIFT, LOG_SLIP, LOG_STICK, hold_at, is_landed
 from ...jit import njit
 from .rows import K_ANCHOR_LOWER, K_AXIS, is_floor
 from .state import point_positions
 
 V_SLIP = 1e-9  # sqrt(g b): a sliding point slower than this keeps the direction its friction had
 FIXED_POINT_TOL = 1e-12  # a landing's friction impulse (m sqrt(g b)) settled to this, relative (``landing_slips``)
-SLIDING, STOPPING, HELD = 1, 2, 3  # Motion.touching at finite friction: slides; reversed in the last stage 2
-#   (anchored next); in a stretch that a stage could not move (``hold_stuck_stretch``: held at the next step's start)
+SLIDING, STOPPING, HELD, JAMMED = 1, 2, 3, 4  # Motion.touching at finite friction: slides; reversed in the last
+#   stage 2 (anchored next); reversed by its friction in a step that created energy (``hold_reversed``: held at the
+#   step's start, a stick); in a stretch that a stage could not move (``hold_stuck_stretch``: held at the next
+#   step's start by a fallback rule, a jam)
 STUCK_REACH = 4  # points: a stage that fails on a row at point j holds the sliding stretches this near it
 
 
@@ -212,7 +214,7 @@ def landing_slips(mu, mo, ws, sc):
             if abs(g) <= FIXED_POINT_TOL * (1.0 + x):
                 vx, vy, _ = point_velocity(mo, j)
                 if vx * mo.grip[j, 1] + vy * mo.grip[j, 2] > 0.0:  # the friction reversed it: it sticks
-                    _hold(j, mo, sc)
+                    _hold(j, mo, sc, LOG_STICK)
                     changed = True
                 continue
             x0, g0 = sc.fsec[j, 0], sc.fsec[j, 1]
@@ -228,21 +230,23 @@ def jam(mo, sc):
     """Where the landings' friction impulses did not settle (sliding has no solution: an
     impact of Painleve's kind, where the friction would press the point harder into the
     floor than it is pressed), the points let go in this stage 2 are held instead (the
-    anchor's impulse, outside the cone: a jam).  Their friction impulses are withdrawn."""
+    anchor's impulse, outside the cone: a jam, logged).  Their friction impulses are withdrawn."""
     for j in range(mo.anchored.shape[0]):
         if mo.anchored[j] == 0 and sc.fimp[j, 2] > 0.0:
-            _hold(j, mo, sc)
+            _hold(j, mo, sc, LOG_JAM)
 
 
 @njit(cache=True)
-def _hold(j, mo, sc):
+def _hold(j, mo, sc, kind):
     """The landing j, let go in this stage 2, is held again (anchored, marked: not let go
     again in it), its friction impulse withdrawn; a sliding point (one that ``stops`` held
-    and ``landing_slips`` let go) sticks after all: held where it is (``rules.hold_at``;
-    sc.pts: the positions ``stage2.land`` took), its ``stick`` row logged again."""
+    and ``landing_slips`` let go) is held after all, where it is (``rules.hold_at``;
+    sc.pts: the positions ``stage2.land`` took).  Its row: ``kind`` (LOG_STICK, or LOG_JAM
+    where a fallback rule holds it; a landing's own row is its landing: it sticks)."""
     if mo.touching[j] != 0:
         hold_at(mo, j, sc.pts)
-        sc.grip_log[j, 0] = LOG_STICK
+    if mo.touching[j] != 0 or kind == LOG_JAM:
+        sc.grip_log[j, 0] = kind
     _set_impact_friction(j, 0.0, mo, sc)
     sc.fimp[j, 2] = -1.0
     mo.anchored[j] = 2
@@ -370,8 +374,8 @@ def let_go(h, mu, mo, ws, sc):
 @njit(cache=True)
 def hold_stuck_stretch(mo, j):
     """A stage failed even at its shortest step on a row at point j (``Scratch.unmet``):
-    the sliding points there are held (HELD, anchored at the step's start when it is taken
-    again: ``hold_marked``), each whole stretch of consecutive sliding points within
+    the sliding points there are held (JAMMED, anchored at the step's start when it is taken
+    again: ``hold_marked``, a ``jam`` row: a fallback rule), each whole stretch of consecutive sliding points within
     STUCK_REACH of j.  Such a stretch lies on the floor between held points with its hinges
     at their limits: its rows repeat one another (a taut or rigid stretch: m segments in
     the floor's plane have m - 2 freedoms), and the friction cone decides from the next
@@ -389,12 +393,12 @@ def hold_stuck_stretch(mo, j):
 
 @njit(cache=True)
 def _hold_stretches(mo, lo, hi):
-    """Mark HELD each whole stretch of consecutive sliding points that has a point in
+    """Mark JAMMED each whole stretch of consecutive sliding points that has a point in
     lo..hi; returns how many points."""
     n1 = mo.anchored.shape[0]
     marked = 0
     for i in range(lo, hi + 1):
-        if mo.anchored[i] != 0 or mo.touching[i] == 0 or mo.touching[i] == HELD:
+        if mo.anchored[i] != 0 or mo.touching[i] == 0 or mo.touching[i] == HELD or mo.touching[i] == JAMMED:
             continue
         a, b = i, i
         while a > 0 and mo.anchored[a - 1] == 0 and mo.touching[a - 1] != 0:
@@ -402,33 +406,35 @@ def _hold_stretches(mo, lo, hi):
         while b < n1 - 1 and mo.anchored[b + 1] == 0 and mo.touching[b + 1] != 0:
             b += 1
         for k in range(a, b + 1):
-            mo.touching[k] = HELD
+            mo.touching[k] = JAMMED
             marked += 1
     return marked
 
 
 @njit(cache=True)
 def hold_marked(mo, sc):
-    """At a step's start: the points marked HELD are anchored where they are (``rules.hold_at``),
-    their stop logged (``stick``; the stages take their velocity, as a landing's).  A
+    """At a step's start: the points marked HELD or JAMMED are anchored where they are
+    (``rules.hold_at``), their stop logged (``stick``, or ``jam`` for a fallback rule's
+    hold; the stages take their velocity, as a landing's).  A
     segment that lies between two anchors from then on has landed: the stages do not see
     it, so it is stopped here, its momentum taken by the floor (the ledger's floor_impulse; its kinetic
     energy is the step's loss, booked at the floor).  Returns how many points."""
     n = mo.e.shape[0]
     held = 0
     for j in range(n + 1):
-        if mo.touching[j] == HELD and mo.anchored[j] == 0:
+        if (mo.touching[j] == HELD or mo.touching[j] == JAMMED) and mo.anchored[j] == 0:
             held += 1
     if held == 0:
         return 0
     point_positions(mo.c, mo.e, sc.pts)
     for j in range(n + 1):
-        if mo.touching[j] == HELD:
+        if mo.touching[j] == HELD or mo.touching[j] == JAMMED:
+            kind = LOG_JAM if mo.touching[j] == JAMMED else LOG_STICK
             mo.touching[j] = SLIDING
             if mo.anchored[j] == 0:
                 hold_at(mo, j, sc.pts)
                 mo.anchored[j] = 1
-                sc.grip_log[j, 0] = LOG_STICK
+                sc.grip_log[j, 0] = kind
     for i in range(n):
         if is_landed(mo.anchored, i):
             for q in range(3):
