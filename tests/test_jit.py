@@ -261,3 +261,43 @@ def test_a_kernel_called_with_constants_compiles_once_and_computes_the_same():
     theirs, other = _constant_caller("someone_else")
     assert theirs(1.5) == 4.5
     assert len(other.signatures) == 2
+
+
+def _wrapped(dispatcher) -> list:
+    """Is each specialisation of the dispatcher compiled with numba's Python wrapper?"""
+    return [
+        cres.library.get_pointer_to_function(cres.fndesc.llvm_cpython_wrapper_name) != 0
+        for cres in dispatcher.overloads.values()
+    ]
+
+
+def _callee(caller, qualname):
+    """The kernel ``caller`` calls under that name (a cell of its closure)."""
+    return next(c.cell_contents for c in caller.py_func.__closure__ if c.cell_contents.py_func.__qualname__ == qualname)
+
+
+@needs_policy
+def test_callees_compile_bare_and_python_calls_compile_them_in_full():
+    """A kernel compiled only for a compiled caller of the package has no wrappers (the
+    Python one unboxes every array of every bundle it takes: a third of a cold compile);
+    a call from Python with its types compiles it again with them, and computes the same.
+    Entries, foreign code and the kernel called from Python keep theirs."""
+    assert jit.bare_callees()
+    leaf, middle, outer = _chain("ballchain._probe_bare")
+    assert outer(np.array([1.0, 4.0])) == pytest.approx(2.0 * (2.0 + 3.0), rel=1e-15)
+    middle_j = _callee(outer, middle)
+    leaf_j = _callee(middle_j, leaf)
+    assert _wrapped(outer) == [True]
+    assert _wrapped(middle_j) == [False] and _wrapped(leaf_j) == [False]
+    # called from Python with the same types: compiled afresh, in full, wrappers included
+    assert middle_j(4.0) == 6.0 and leaf_j(9.0) == 4.0
+    assert _wrapped(middle_j) == [True] and _wrapped(leaf_j) == [True]
+    assert len(middle_j.signatures) == 1 and len(leaf_j.signatures) == 1
+    assert outer(np.array([4.0])) == 6.0
+    # an entry kernel keeps its wrappers wherever it is compiled, and so does code outside the package
+    leaf2, middle2, outer2 = _chain("ballchain._probe_bare", entry_middle=True)
+    assert outer2(np.array([4.0])) == 6.0
+    assert _wrapped(_callee(outer2, middle2)) == [True]
+    leaf3, middle3, outer3 = _chain("someone_else_bare")
+    assert outer3(np.array([4.0])) == 6.0
+    assert _wrapped(_callee(outer3, middle3)) == [True]

@@ -41,6 +41,16 @@ arguments instead (``_install_unliteral_calls``: one specialisation per plain si
 the branch on the constant taken at run time; results unchanged): RATTLE's cold compile
 went from 206 to 150 s of CPU, the others' by under 2%.
 
+numba also gives every specialisation it compiles two wrappers, one that Python calls
+(unboxing each argument: every array of every bundle a kernel takes) and one for C.  A
+kernel compiled only because another kernel of ours calls it (a nested compile of a
+function that is not an ``entry``) is compiled without them (``_install_bare_callees``):
+compiled code calls its body directly, so the machine code that runs is unchanged, and
+its library is cheap and never cached anyway.  Such a *bare* specialisation serves
+compiled callers only; a call from Python with its types compiles the kernel afresh, in
+full, wrappers included.  The wrappers were about a third of the event method's and the
+time-stepper's cold compile (their bundles have up to 80 arrays).
+
 The on-disk cache is keyed to every engine source, not only the kernel's own file:
 numba keys a cached kernel to a hash of the file that defines it, so a caller compiled
 against an old callee in another file would load stale machine code after an edit of
@@ -66,7 +76,16 @@ from numba.core import event as _event
 
 from .provenance import PACKAGE_DIR, engine_fingerprint
 
-__all__ = ["njit", "entry", "policy_active", "nested_depth", "cheap_libraries", "cache_keyed", "unliteral_calls"]
+__all__ = [
+    "njit",
+    "entry",
+    "policy_active",
+    "nested_depth",
+    "cheap_libraries",
+    "cache_keyed",
+    "unliteral_calls",
+    "bare_callees",
+]
 
 _PACKAGE = __name__.partition(".")[0]  # "ballchain"
 
@@ -249,8 +268,8 @@ def _install() -> bool:
             full(self)
 
     def _check_cachable(self, cres):
-        if _is_cheap(cres.library):
-            return False  # not self-contained: never loaded without its callees
+        if _is_cheap(cres.library) or getattr(cres.library, "_ballchain_bare", False):
+            return False  # not self-contained (or no wrapper): never loaded without its callees
         return check_cachable(self, cres)
 
     _optimize_final_module._ballchain_policy = True
@@ -268,6 +287,99 @@ _ACTIVE = _install()
 def policy_active() -> bool:
     """Is the compile policy of this module in force (module docstring)?"""
     return _ACTIVE
+
+
+def _bare(py_func) -> bool:
+    """Compile this function without its Python and C wrappers?  Yes for a kernel of
+    ours compiled only because another kernel of ours calls it (a nested compile of a
+    function that is not an ``entry``: its library gets the cheap pipeline and is never
+    cached, see ``_install``); only compiled code calls that specialisation."""
+    if _DEPTH.depth <= 1 or not _DEPTH.outer_is_ours or _DEPTH.stack[-1] is not py_func:
+        return False
+    module = getattr(py_func, "__module__", "") or ""
+    return py_func not in _ENTRIES and (module == _PACKAGE or module.startswith(_PACKAGE + "."))
+
+
+def _is_bare(cres) -> bool:
+    return getattr(cres.library, "_ballchain_bare", False)
+
+
+def _install_bare_callees() -> bool:
+    """numba's compile of a kernel called from compiled code, without the wrappers that
+    let Python call it (module docstring): the specialisation is kept for compiled
+    callers (``overloads``) but not offered to Python calls; a Python call with its
+    types compiles it afresh, in full, wrappers included."""
+    from numba.core import compiler as _compiler
+    from numba.core import dispatcher as _dispatcher
+    from numba.core import sigutils as _sigutils
+    from numba.core.compiler_lock import global_compiler_lock
+
+    fc = getattr(_dispatcher, "_FunctionCompiler", None)
+    disp = getattr(_dispatcher, "Dispatcher", None)
+    flags = getattr(_compiler, "Flags", None)
+    if (
+        not _ACTIVE
+        or fc is None
+        or disp is None
+        or not all(hasattr(flags, f) for f in ("no_cpython_wrapper", "no_cfunc_wrapper"))
+        or "_customize_flags" not in _names(fc, "_compile_core")
+        or not {"_insert", "overloads"} <= _names(disp, "add_overload")
+        or not {"overloads", "entry_point"} <= _names(disp, "compile")
+    ):
+        return False
+    if getattr(fc._compile_core, "_ballchain_bare", False):
+        return True  # installed already (the module was reloaded)
+    customize, compile_core, add_overload, compile_ = (
+        fc._customize_flags,
+        fc._compile_core,
+        disp.add_overload,
+        disp.compile,
+    )
+
+    def _customize_flags(self, flags):
+        flags = customize(self, flags)
+        if _bare(self.py_func):
+            flags.no_cpython_wrapper = True
+            flags.no_cfunc_wrapper = True
+        return flags
+
+    def _compile_core(self, args, return_type):
+        bare = _bare(self.py_func)  # (the compile stack is the same before and after)
+        cres = compile_core(self, args, return_type)
+        if bare:
+            cres.library._ballchain_bare = True
+        return cres
+
+    def _add_overload(self, cres):
+        if _is_bare(cres):  # for compiled callers only: no wrapper for Python to call
+            self.overloads[tuple(cres.signature.args)] = cres
+            return
+        add_overload(self, cres)
+
+    def _compile(self, sig):
+        with global_compiler_lock:
+            if _DEPTH.depth == 0:  # called from Python: a bare specialisation will not do
+                args, _ = _sigutils.normalize_signature(sig)
+                existing = self.overloads.get(tuple(args))
+                if existing is not None and _is_bare(existing):
+                    del self.overloads[tuple(args)]
+            return compile_(self, sig)
+
+    _compile_core._ballchain_bare = True
+    fc._customize_flags = _customize_flags
+    fc._compile_core = _compile_core
+    disp.add_overload = _add_overload
+    disp.compile = _compile
+    return True
+
+
+_BARE_CALLEES = _install_bare_callees()
+
+
+def bare_callees() -> bool:
+    """Are kernels compiled only for compiled callers compiled without wrappers (module
+    docstring)?"""
+    return _BARE_CALLEES
 
 
 def _ours(py_file) -> bool:
