@@ -352,13 +352,13 @@ def test_the_projection_leaves_the_round_off_of_a_long_pile_alone():
     method uses, ``projection_tol(N)`` (PROJ_ROUNDOFF b per segment): such a state is
     left exactly as it is and books no energy to the projection."""
     from ballchain.core.kinematics import PROJ_TOL, projection_tol
-    from ballchain.methods.timestep.stepper import _project
+    from ballchain.methods.timestep.stepper import _project, projection_scratch
 
     n = 16384
     model, chain, ws, sc, books, miss = _meander_on_the_floor(n, seed=3)
     assert PROJ_TOL < miss < projection_tol(n)  # round-off above the absolute tolerance, under the scaled one
     e0 = chain.Y[0].copy()
-    assert _project(model, chain, ws, sc, books) == 0
+    assert _project(model, chain, ws, projection_scratch(sc), books) == 0
     np.testing.assert_array_equal(chain.Y[0], e0)  # not moved at all (no projection ran)
     assert books.projected[0] == 0.0
 
@@ -370,7 +370,7 @@ def test_the_projection_removes_drift_above_the_round_off():
     tolerance, and its move is of the size of the drift."""
     from ballchain.core.impacts import hinge_gaps
     from ballchain.core.kinematics import point_positions, projection_tol
-    from ballchain.methods.timestep.stepper import _project
+    from ballchain.methods.timestep.stepper import _project, projection_scratch
 
     n = 16384
     model, chain, ws, sc, books, _ = _meander_on_the_floor(n, seed=3)
@@ -383,7 +383,7 @@ def test_the_projection_removes_drift_above_the_round_off():
     hinge_gaps(e, model.cos_alpha, sc.gaps)
     drift = np.nanmax(np.abs(sc.pv - chain.anchor_pos))
     assert drift > 100 * projection_tol(n)
-    _project(model, chain, ws, sc, books)
+    _project(model, chain, ws, projection_scratch(sc), books)
     point_positions(e, sc.pts)
     assert np.nanmax(np.abs(sc.pts - chain.anchor_pos)) <= projection_tol(n)
     assert 0.0 < np.abs(e - before).max() < 10 * drift
@@ -404,7 +404,7 @@ def test_a_frozen_block_whose_anchors_miss_does_not_move_the_chain_above_it():
     from ballchain.core.impacts import hinge_gaps
     from ballchain.core.kinematics import point_positions, project_state, projection_tol
     from ballchain.core.state import new_books, new_chain, new_model, new_work
-    from ballchain.methods.timestep.stepper import _project, new_scratch
+    from ballchain.methods.timestep.stepper import _project, new_scratch, projection_scratch
 
     n, top = 64, 40  # segments 40..63 landed (points 40..64 anchored), 0..39 hanging
     e = np.zeros((n, 3))
@@ -428,7 +428,7 @@ def test_a_frozen_block_whose_anchors_miss_does_not_move_the_chain_above_it():
     sc, books = new_scratch(n), new_books()
     hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)
     point_positions(chain.Y[0], sc.pv)
-    assert _project(model, chain, ws, sc, books) == 0
+    assert _project(model, chain, ws, projection_scratch(sc), books) == 0
     np.testing.assert_array_equal(chain.Y, before)
     assert books.projected[0] == 0.0
 
@@ -446,7 +446,7 @@ def test_a_loop_landed_past_its_limits_keeps_its_anchors():
     from ballchain.core.impacts import hinge_gaps
     from ballchain.core.kinematics import point_positions, projection_tol
     from ballchain.core.state import new_books, new_chain, new_model, new_work
-    from ballchain.methods.timestep.stepper import _project, new_scratch
+    from ballchain.methods.timestep.stepper import _project, new_scratch, projection_scratch
 
     n, loop = 12, 3  # segments 0..2 the loop (points 0 and 3 anchored), 3..11 landed along -x
     bend = math.radians(46.0)
@@ -469,7 +469,7 @@ def test_a_loop_landed_past_its_limits_keeps_its_anchors():
     gaps = sc.gaps.copy()
     assert gaps[0] < -0.01 and gaps[1] < -0.01  # both past the limit, by cos 45 - cos 46 = 0.0124
     point_positions(chain.Y[0], sc.pv)
-    _project(model, chain, ws, sc, books)
+    _project(model, chain, ws, projection_scratch(sc), books)
     point_positions(chain.Y[0], pts)
     assert np.abs(pts - chain.anchor_pos).max() <= projection_tol(n)  # the anchors kept
     hinge_gaps(chain.Y[0], model.cos_alpha, sc.gaps)

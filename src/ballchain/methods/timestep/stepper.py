@@ -171,6 +171,17 @@ FrameWork = namedtuple(
 )
 
 
+# What the projection (``_project``) works in: the run's scratch (``Scratch``) or a frame's
+# (``FrameWork``) hold these arrays; passed alone, its kernel compiles once for both.
+Projection = namedtuple("Projection", ["gaps", "pv", "pts", "vel", "was", "e_pred"])
+
+
+def projection_scratch(b) -> Projection:
+    """The projection's arrays of a ``Scratch`` or a ``FrameWork`` (from Python; compiled
+    code builds the bundle where it calls ``_project``)."""
+    return Projection(b.gaps, b.pv, b.pts, b.vel, b.was, b.e_pred)
+
+
 def new_frame_work(n: int) -> FrameWork:
     """The frames' workspace of an N-segment chain."""
     nh = max(n - 1, 0)
@@ -574,7 +585,7 @@ def _book(t, h, na, e_floor, chain, ws, sc, books, log):
 
 @njit(cache=True)
 def _project(model, chain, ws, sc, books):
-    """Part 6: the hinges found past their limit are put back on it, the anchors at
+    """Part 6 (``sc``: its scratch, ``Projection``): the hinges found past their limit are put back on it, the anchors at
     their points (positions only).  A projection that would move a point by more than
     PROJ_MOVE_MAX, or by more than PROJ_MOVE_RATIO times the largest residual it removes
     (an ill-conditioned set of rows: a fully folded pair standing on one anchor under
@@ -723,7 +734,7 @@ def _state_between(s, model, chain, sc, fw):
     for q in range(3):
         fb.floor_flow[q] = (1.0 - s) * a[3 + q] + s * b[3 + q]
         fb.floor_impulse[q] = 0.0
-    _project(model, fc, fw.ws, fw, fb)
+    _project(model, fc, fw.ws, Projection(fw.gaps, fw.pv, fw.pts, fw.vel, fw.was, fw.e_pred), fb)
     return (1.0 - s) * a[0] + s * b[0]
 
 
@@ -851,7 +862,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
     u0 = potential_energy(e)
     rotate_axes(e, sc.w_mid, h, anchored, e)
     books.work_error[0] += _kick_energy(h, anchored, sc.v_pre) + potential_energy(e) - u0
-    _project(model, chain, ws, sc, books)
+    _project(model, chain, ws, Projection(sc.gaps, sc.pv, sc.pts, sc.vel, sc.was, sc.e_pred), books)
     if model.e_floor > 0.0:
         _let_go(chain)
     t_end = t + h
