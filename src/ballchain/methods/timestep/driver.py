@@ -27,6 +27,7 @@ from .stepper import (
     TS_RETURN,
     TS_STOP,
     kinetic_energy_maximal,
+    new_frame_work,
     new_scratch,
     run_steps,
 )
@@ -66,19 +67,20 @@ def run(setup, progress, stop) -> RunOutput:
     )
     chain = new_chain(setup.e0, setup.w0, p.alpha)
     ws, sc, books = new_work(n), new_scratch(n, setup.w0, setup.e0), new_books()
+    fw = new_frame_work(n)
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
     h = step_size(setup)
 
     def advance(t):
-        code, t = run_steps(t, h, model, chain, ws, sc, books, frames.compiled, trace.compiled, log.compiled)
+        code, t = run_steps(t, h, model, chain, ws, sc, fw, books, frames.compiled, trace.compiled, log.compiled)
         where = f"at t/t_ff = {t / setup.t_ff:.6f}"
         if code == ERR_ENERGY:
             where = f"by {-sc.removed[0]:.3g} (units m g b) {where}"
         return loop_verdict(code, t, LOOP_CODES, ERROR_MESSAGES, where, o.max_steps)
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
-    state = {"chain": chain, "work": ws, "scratch": sc, "books": books}
+    state = {"chain": chain, "work": ws, "scratch": sc, "frame_work": fw, "books": books}
     out = drive(setup, progress, stop, advance, out, 4 * (3 * n + 8), state)
     out.kinetic = float(kinetic_energy_maximal(sc.vmax, chain.Y[1]))
     return out

@@ -145,11 +145,12 @@ Scratch = namedtuple(
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
-        "fw",  # the frames' own workspace (FrameWork)
     ],
 )
 
 # What fills the frames inside a step: its start, and a state of their own (the run's is never touched).
+# A bundle of its own beside ``Scratch``, passed only to the kernels that fill frames: the
+# kernels that take ``Scratch`` would otherwise each take its ~40 arrays as well (compile time).
 FrameWork = namedtuple(
     "FrameWork",
     [
@@ -202,7 +203,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64),
-        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n), new_frame_work(n),
+        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -739,7 +740,7 @@ def _state_between(s, model, chain, sc, fw):
 
 
 @njit(cache=True)
-def fill_frames(model, chain, sc, books, frames):
+def fill_frames(model, chain, sc, fw, books, frames):
     """The frames at times strictly inside the last step (t0, t0 + h), from the state at
     its start and at its end (one due at its end waits for the next step's start), as
     many as the buffers hold; False if some are left for when they have been emptied.
@@ -756,7 +757,6 @@ def fill_frames(model, chain, sc, books, frames):
       impulses change V by dV, a landing's);
     * anchors and locks: the step's end (its touches are made at its start);
     * the anchors' force and the pile's pull: the step's means."""
-    fw = sc.fw
     t0, h = fw.t0[0], fw.h[0]
     if h <= 0.0:
         return True
@@ -801,14 +801,13 @@ def _step_by_rule(dt, model, chain, sc):
 
 
 @njit(cache=True)
-def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
+def step(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
     """One Moreau-Jean step from t (module docstring, parts 1-6), of size dt at most.
     Returns (code, t + h): 0, or ERR_*."""
     e, w, anchored = chain.Y[0], chain.Y[1], chain.anchored
     if _frame_due(frames.next[0], t):
         record_frame(frames.next[0], kinetic_energy_maximal(sc.vmax, w), chain, sc, books, frames)
     h = min(_step_by_rule(dt, model, chain, sc), model.t_stop - t)
-    fw = sc.fw
     fw.h[0] = 0.0  # no frame inside this step unless one may be (cuts only shorten it)
     inside = frames.next[0] < t + h
     if inside:
@@ -886,7 +885,7 @@ def step(t, dt, model, chain, ws, sc, books, frames, trace, log):
 
 @entry
 @njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
-def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
+def run_steps(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
     """Steps until the fall ends, the stop time, full buffers or ``model.return_every``
     steps, each followed by the frames inside it (``fill_frames``; a return for full
     buffers fills the rest first on the next call).  Returns (code, t): TS_* or a
@@ -895,7 +894,7 @@ def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
     room = 3 * n + 8
     taken = 0
     while True:
-        if not fill_frames(model, chain, sc, books, frames):  # the last step's first
+        if not fill_frames(model, chain, sc, fw, books, frames):  # the last step's first
             return TS_BUFFER, t
         if all_anchored(chain.anchored):
             books.t_landed[0] = t
@@ -911,7 +910,7 @@ def run_steps(t, dt, model, chain, ws, sc, books, frames, trace, log):
             return TS_STOP, t
         if books.n_steps[0] >= model.max_steps:
             return TS_MAX_STEPS, t
-        code, t = step(t, dt, model, chain, ws, sc, books, frames, trace, log)
+        code, t = step(t, dt, model, chain, ws, sc, fw, books, frames, trace, log)
         if code < 0:
             return code, t
         taken += 1
