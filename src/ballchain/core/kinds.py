@@ -46,13 +46,11 @@ EVENT_MEANINGS = {
     "pin": "restitution at the floor: a point that lands and that Newton's law would bounce is anchored instead (on a "
     "frictionless floor: kept on it, sliding) by a fallback rule (its bounce would be too small to resolve: the accumulation limit of a series of bounces; or "
     "the impact's other contacts turned it back down); impulse and energy as a landing's",
+    "jam": "finite friction: a point held by a fallback rule where the law gives no outcome the step can take: a "
+    "landing or sliding point whose slide in the impact has no solution (Painleve's kind: the friction would press it "
+    "into the floor harder than it is pressed), or the sliding points near a row that the stages could not meet even "
+    "at their shortest step; no impulse given",
 }
-EVENT_MEANINGS["jam"] = (
-    "finite friction: a point held by a fallback rule where the law gives no outcome the step can take: a landing or "
-    "sliding point whose slide in the impact has no solution (Painleve's kind: the friction would press it into the "
-    "floor harder than it is pressed), or the sliding points near a row that the stages could not meet even at "
-    "their shortest step; no impulse given"
-)
 EVENT_CODES = {name: code for code, name in EVENT_KINDS.items()}
 LOG_LOCK, LOG_UNLOCK, LOG_LANDING, LOG_TOP = (EVENT_CODES[k] for k in ("lock", "unlock", "landing", "top"))
 LOG_IMPULSE, LOG_RELEASE, LOG_HOLD, LOG_ANCHOR = (EVENT_CODES[k] for k in ("impulse", "release", "hold", "anchor"))

@@ -398,7 +398,7 @@ def _hold_stretches(mo, lo, hi):
     n1 = mo.anchored.shape[0]
     marked = 0
     for i in range(lo, hi + 1):
-        if mo.anchored[i] != 0 or mo.touching[i] == 0 or mo.touching[i] == HELD or mo.touching[i] == JAMMED:
+        if mo.anchored[i] != 0 or mo.touching[i] == 0 or _marked(mo.touching[i]):
             continue
         a, b = i, i
         while a > 0 and mo.anchored[a - 1] == 0 and mo.touching[a - 1] != 0:
@@ -409,6 +409,12 @@ def _hold_stretches(mo, lo, hi):
             mo.touching[k] = JAMMED
             marked += 1
     return marked
+
+
+@njit(cache=True, inline="always")
+def _marked(touching):
+    """Is a point marked to be held at the next step's start (HELD or JAMMED)?"""
+    return touching == HELD or touching == JAMMED
 
 
 @njit(cache=True)
@@ -422,13 +428,13 @@ def hold_marked(mo, sc):
     n = mo.e.shape[0]
     held = 0
     for j in range(n + 1):
-        if (mo.touching[j] == HELD or mo.touching[j] == JAMMED) and mo.anchored[j] == 0:
+        if _marked(mo.touching[j]) and mo.anchored[j] == 0:
             held += 1
     if held == 0:
         return 0
     point_positions(mo.c, mo.e, sc.pts)
     for j in range(n + 1):
-        if mo.touching[j] == HELD or mo.touching[j] == JAMMED:
+        if _marked(mo.touching[j]):
             kind = LOG_JAM if mo.touching[j] == JAMMED else LOG_STICK
             mo.touching[j] = SLIDING
             if mo.anchored[j] == 0:
