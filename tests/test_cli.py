@@ -61,6 +61,7 @@ def fake_result(
         frame_floor_impulse=np.zeros((frames, 3)),
         frame_base=np.zeros((frames, 3)),
         frame_base_velocity=np.zeros((frames, 3)),
+        frame_lost_sliding=np.zeros(frames),
         event_t=np.array([0.1, 0.2, 0.3, 0.4]),
         event_kind=np.array([1, 1, 2, 3], np.int8),
         event_index=np.array([0, 1, 0, n], np.int64),

@@ -65,6 +65,7 @@ def make_result(
         frame_floor_impulse=np.cumsum(rng.normal(size=(frames, 3)), axis=0),
         frame_base=np.zeros((frames, 3)),
         frame_base_velocity=np.zeros((frames, 3)),
+        frame_lost_sliding=np.cumsum(rng.random(frames)),
         event_t=np.sort(rng.uniform(0, 3, size=events)),
         event_kind=rng.integers(1, 9, size=events).astype(np.int8),
         event_index=rng.integers(0, n + 1, size=events).astype(np.int64),
@@ -148,7 +149,7 @@ def test_file_is_self_describing(tmp_path):
     save_result(r, path)
     with h5py.File(path, "r") as f:
         assert f.attrs["format"] == FORMAT_NAME
-        assert int(f.attrs["format_version"]) == 4
+        assert int(f.attrs["format_version"]) == 5
         assert f.attrs["units"] == "SI"
         assert "created" in f.attrs and "package_version" in f.attrs
         assert set(f.attrs) == set(files.ROOT_ATTRS)  # the root's attributes are those documented
@@ -214,18 +215,25 @@ def test_version_2_file_loads_with_the_bottom_end_at_the_origin(tmp_path):
     np.testing.assert_array_equal(back.points(), r.points())
 
 
-def test_version_3_file_loads_with_nothing_lost_to_damping(tmp_path):
-    """A file written before the hinges' damping lacks its loss per frame: no smooth law
-    acted then, so it loads as zeros."""
+@pytest.mark.parametrize(
+    "version, name, kept",
+    [
+        (3, "frame_lost_damping", "frame_lost_landing"),  # (no smooth law acted before the hinges' damping)
+        (4, "frame_lost_sliding", "frame_lost_damping"),  # (the friction's work was then in lost_landing)
+    ],
+)
+def test_a_file_from_before_a_ledger_loads_with_nothing_booked_there(tmp_path, version, name, kept):
+    """A file written before a law had a ledger of its own lacks that ledger's loss per
+    frame: it loads as zeros, the other books as written."""
     r = make_result(n=6, frames=7, events=5)
-    path = tmp_path / "v3.h5"
+    path = tmp_path / f"v{version}.h5"
     save_result(r, path)
     with h5py.File(path, "r+") as f:
-        f.attrs["format_version"] = np.int64(3)
-        del f["frames/frame_lost_damping"]
+        f.attrs["format_version"] = np.int64(version)
+        del f[f"frames/{name}"]
     back = load_result(path)
-    assert back.frame_lost_damping.shape == (7,) and np.all(back.frame_lost_damping == 0.0)
-    np.testing.assert_array_equal(back.frame_lost_landing, r.frame_lost_landing)
+    assert getattr(back, name).shape == (7,) and np.all(getattr(back, name) == 0.0)
+    np.testing.assert_array_equal(getattr(back, kept), getattr(r, kept))
 
 
 def test_units_nondimensional():
@@ -385,7 +393,7 @@ def test_file_info(tmp_path):
     p = tmp_path / "run.h5"
     save_result(make_result(), p)
     info = files.file_info(p)
-    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 4
+    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 5
     assert info["units"] == "nondimensional" and info["status"] == "landed"
 
 

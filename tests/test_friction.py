@@ -9,6 +9,7 @@ is the default."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 
@@ -110,6 +111,7 @@ def check_frictionless_balances(r):
     np.testing.assert_allclose(record, p[:, 2] - p[0, 2] + M * ft, rtol=0, atol=1e-6 * M * ft[-1])
     assert abs(r.energy["imbalance"]) < 1e-3 * r.energy["initial"]
     assert r.max_depth < 1e-8
+    assert r.energy["lost_sliding"] == 0.0 and not np.any(r.frame_lost_sliding)  # (no friction force acts)
 
 
 def test_a_chain_on_a_frictionless_floor_keeps_its_horizontal_momentum_and_closes_its_books(sliding_fall):
@@ -134,6 +136,7 @@ def test_the_default_is_the_anchor_and_moves_nothing():
     assert a.t_fall == b.t_fall and a.energy == b.energy
     np.testing.assert_array_equal(a.frame_e, b.frame_e)
     assert np.all(np.asarray(a.frame_base) == 0.0) and np.all(np.asarray(a.frame_base_velocity) == 0.0)
+    assert a.energy["lost_sliding"] == 0.0 and not np.any(a.frame_lost_sliding)  # (nothing slides on the anchor)
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.5])
@@ -192,6 +195,7 @@ def test_the_parameter_in_the_json_the_file_and_the_sweep_table(tmp_path):
     assert sorted(str(p["friction"]) for p in json.loads(res.stdout)["points"]) == ["0.0", "None"]
 
 
+@functools.cache
 def _leaning_rod(mu, dt):
     """N = 1 on a floor with friction mu, its foot held at the origin, released at rest at
     THETA0 from the vertical; steps of dt t_ff/N (no energy bound: fixed steps)."""
@@ -350,11 +354,13 @@ def test_a_chain_on_a_floor_of_large_friction_lands_and_its_friction_creates_no_
     assert abs(r.energy["imbalance"]) < 1e-3 * e0
 
 
-def _rod_on_rough_floor(mu, t_end=10.0):
+def _rod_on_rough_floor(mu, t_end=10.0, work=None):
     """The transitions of a rod (N = 1, released at rest at THETA0 on its foot) on a floor of
     friction mu, from its own equations, integrated by scipy to 1e-12: [(kind, t)], kind
     "slip", "stick", "reverse" (the foot's sliding reverses through zero speed with the
-    force beyond the cone: no stick) or "landing" (the top end).  Lagrange's equations in
+    force beyond the cone: no stick) or "landing" (the top end).  ``work`` (a list): gets
+    what the friction force removed while the foot slid, its power -F x_f' = mu N |x_f'|
+    integrated as a fourth state (m g b).  Lagrange's equations in
     (x_f, theta), the foot on the floor, m = b = g = 1, I = 1/3 about the centre:
     sticking, theta'' = 3/4 sin(theta) and the floor's forces F = cos(theta) theta'' -
     sin(theta) theta'^2, N = 1 - cos(theta) theta'^2 - sin(theta) theta''; sliding at
@@ -377,7 +383,7 @@ def _rod_on_rough_floor(mu, t_end=10.0):
         return y[0] - 0.5 * math.pi
 
     landed.terminal = True
-    t, y, s, seq = 0.0, [THETA0, 0.0, 0.0], 0.0, []
+    t, y, s, seq = 0.0, [THETA0, 0.0, 0.0, 0.0], 0.0, []
     while t < t_end:
         if s == 0.0:
 
@@ -388,9 +394,9 @@ def _rod_on_rough_floor(mu, t_end=10.0):
             onset.terminal, onset.direction = True, 1
             sol = solve_ivp(lambda t, y: [y[1], stuck(y[0], y[1])[0]], (t, t_end), y[:2], events=[onset, landed],
                             rtol=1e-12, atol=1e-13)  # fmt: skip
-            t, y = sol.t[-1], [sol.y[0, -1], sol.y[1, -1], 0.0]
+            t, y = sol.t[-1], [sol.y[0, -1], sol.y[1, -1], 0.0, y[3]]
             if sol.t_events[1].size:
-                return seq + [("landing", t)]
+                return _ended(seq + [("landing", t)], y[3], work)
             s = -math.copysign(1.0, stuck(y[0], y[1])[1])
             seq.append(("slip", t))
             continue
@@ -399,12 +405,16 @@ def _rod_on_rough_floor(mu, t_end=10.0):
             return y[2]
 
         stop.terminal, stop.direction = True, -s
-        sol = solve_ivp(lambda t, y, s=s: [y[1], *sliding(y[0], y[1], s)[:2]], (t, t_end), y, events=[stop, landed],
-                        rtol=1e-12, atol=1e-13)  # fmt: skip
+
+        def rhs(t, y, s=s):
+            a, xdd, n = sliding(y[0], y[1], s)
+            return [y[1], a, xdd, mu * n * abs(y[2])]
+
+        sol = solve_ivp(rhs, (t, t_end), y, events=[stop, landed], rtol=1e-12, atol=1e-13)
         t, y = sol.t[-1], list(sol.y[:, -1])
         assert sliding(y[0], y[1], s)[2] > 0.0  # (the foot stays on the floor)
         if sol.t_events[1].size:
-            return seq + [("landing", t)]
+            return _ended(seq + [("landing", t)], y[3], work)
         _, f, n = stuck(y[0], y[1])
         if abs(f) <= mu * n:
             seq.append(("stick", t))
@@ -412,6 +422,12 @@ def _rod_on_rough_floor(mu, t_end=10.0):
         else:
             seq.append(("reverse", t))
             s = -s
+    return _ended(seq, y[3], work)
+
+
+def _ended(seq, w, work):
+    if work is not None:
+        work.append(w)
     return seq
 
 
@@ -439,6 +455,39 @@ def test_a_leaning_rods_slips_and_sticks_follow_its_motion_not_the_step(mu):
         late = np.asarray(rows.t) - np.asarray(times)
         bound = np.array([1.5 if k == "slip" else 8.0 for k in kinds]) * h
         assert np.all(late > 0.0) and np.all(late <= bound), (dt, late / h)
+
+
+@pytest.mark.parametrize(
+    "mu",
+    [
+        pytest.param(
+            0.3,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="after the foot's sliding reverses through zero speed RATTLE leaves it STOPPING, sliding "
+                "with no friction force: lost_sliding stalls at 0.0068 of the truth's 0.0117",
+            ),
+        ),
+        0.39,
+        0.45,
+        0.6,
+    ],
+)
+def test_the_friction_force_books_its_own_work_as_the_rods_equations_say(mu):
+    """``lost_sliding`` is the work of the friction force on the sliding foot, from the
+    force itself: against mu N |x_f'| integrated along the rod's own equations (slip,
+    stick, slip again at 0.39), to 5% at dt = 0.0025 and converging (its error at dt/4 at
+    most half its error at dt: the friction force lags a step).  Nothing else is booked
+    there: U + T plus the other losses close the books as before."""
+    work = []
+    _rod_on_rough_floor(mu, work=work)
+    errs = []
+    for dt in (0.01, 0.0025):
+        r = _leaning_rod(mu, dt)
+        assert r.status == "landed", r.message
+        errs.append(abs(r.energy["lost_sliding"] - work[0]) / work[0])
+        assert abs(r.energy["imbalance"]) < 1e-4 * r.energy["initial"]
+    assert errs[1] < 0.05 and errs[1] < 0.5 * errs[0], (work[0], errs)
 
 
 def test_a_point_let_go_in_the_step_that_held_it_keeps_its_last_anchor():

@@ -309,7 +309,7 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
     T_end = out.kinetic if out.kinetic is not None else kinetic_energy(e, w, np.zeros((n + 1, 3)), np.zeros((n, 3)))
     U_end = out.potential if out.potential is not None else potential_energy(e)
     lost_locking, lost_landing = float(books.lost_locking[0]), float(books.lost_landing[0])
-    lost_damping = float(books.lost_damping[0])
+    lost_damping, lost_sliding = float(books.lost_damping[0]), float(books.lost_sliding[0])
     energy = {
         "initial": setup.E0 * eu,
         "potential": U_end * eu,
@@ -317,7 +317,8 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         "lost_locking": lost_locking * eu,
         "lost_landing": lost_landing * eu,
         "lost_damping": lost_damping * eu,  # the smooth laws' (the hinges' damping): their power integrated
-        "imbalance": (setup.E0 - U_end - T_end - lost_locking - lost_landing - lost_damping) * eu,
+        "lost_sliding": lost_sliding * eu,  # Coulomb's friction force on sliding points: its work
+        "imbalance": (setup.E0 - U_end - T_end - lost_locking - lost_landing - lost_damping - lost_sliding) * eu,
         # what the projections onto the constraints changed U + T by (a part of -imbalance;
         # the integrator's own error is the rest): at event instants, after steps
         "projected_at_instants": float(books.projected[PROJECTED_AT_INSTANTS]) * eu,
@@ -353,6 +354,7 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         frame_lost_locking=fr["lost_locking"] * eu,
         frame_lost_landing=fr["lost_landing"] * eu,
         frame_lost_damping=fr["lost_damping"] * eu,
+        frame_lost_sliding=fr["lost_sliding"] * eu,
         frame_pile_pull=fr["pile_pull"] * fu,
         frame_scale_force=fr["scale_force"] * fu,
         frame_floor_impulse=fr["floor_impulse"] * iu,

@@ -108,6 +108,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
         + "".join(f", {k} {v}" for k, v in ev.items() if k not in ("lock", "unlock", "landing") and v)
         + _counted(s)
         + f"; first lock at t/t_ff = {_fmt(_div(s.get('first_lock_time'), s.get('t_ff')))}",
+        f"  energy lost        {_losses(en, u_e)}",
         f"  energy imbalance   {_fmt(imb, '.3g')} {u_e} (relative to initial energy: {_fmt(rel, '.3g')})",
     ]
     if fi:
@@ -145,6 +146,15 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     if output:
         lines.append(f"  output             {output}")
     return "\n".join(lines)
+
+
+def _losses(en: dict, unit: str) -> str:
+    """The energy books by law: locking and landing, and damping and sliding where they acted."""
+    parts = [f"locking {_fmt(en.get('lost_locking'), '.4g')}", f"landing {_fmt(en.get('lost_landing'), '.4g')}"]
+    for key in ("lost_damping", "lost_sliding"):
+        if en.get(key):
+            parts.append(f"{key[5:]} {_fmt(en[key], '.4g')}")
+    return ", ".join(parts) + f" {unit}"
 
 
 def _counted(s: dict) -> str:

@@ -11,11 +11,13 @@ PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS = 0, 1  # the slots of Books.projected
 @njit(cache=True)
 def fill_frame_books(frames, books):
     """Frames written since the last call (``frames.fill[0]`` .. ``frames.count[0]``) get
-    the energy lost at impacts and the floor's impulse at impacts as they stand now (no
+    the energy lost at impacts, the friction's work on sliding points (none in a method that
+    refuses finite friction) and the floor's impulse at impacts as they stand now (no
     impact happens between event instants, so they are constant over those frames)."""
     for f in range(frames.fill[0], frames.count[0]):
         frames.lost_locking[f] = books.lost_locking[0]
         frames.lost_landing[f] = books.lost_landing[0]
+        frames.lost_sliding[f] = books.lost_sliding[0]
         for q in range(3):
             frames.floor_impulse[f, q] += books.floor_impulse[q]
     frames.fill[0] = frames.count[0]

@@ -178,6 +178,7 @@ Books = namedtuple(
         "work_error",  # (1,): time-stepping: gravity's kick on T plus the position update's change of U,
         #   summed over the steps (m g b; zero in exact dynamics: part of -imbalance, reported)
         "lost_damping",  # (1,): energy the smooth laws removed, their power integrated (contacts.damping; m g b)
+        "lost_sliding",  # (1,): energy the friction force removed from sliding points, its work (contacts.coulomb; m g b)
     ],
 )
 
@@ -196,6 +197,7 @@ def new_books() -> Books:
         np.zeros(1, np.int64),
         np.zeros(1, np.int64),
         np.zeros(2),
+        np.zeros(1),
         np.zeros(1),
         np.zeros(1),
     )
@@ -224,6 +226,7 @@ Frames = namedtuple(
         "lost_damping",  # the smooth laws' loss to the frame's time (Books.lost_damping plus the step's part)
         "base",  # (3,): the position of point N (the bottom end): 0 unless it slides (a frictionless floor)
         "base_velocity",  # (3,): its velocity
+        "lost_sliding",  # the friction force's work on sliding points to the frame's time (Books.lost_sliding)
     ],
 )
 FRAME_FIELDS = Frames._fields[4:]  # the per-frame arrays, in the order of the fields
@@ -253,6 +256,7 @@ def new_frames(n: int, dt: float, cap: int) -> Frames:
         np.zeros(cap),
         np.zeros((cap, 3)),
         np.zeros((cap, 3)),
+        np.zeros(cap),
     )
 
 

@@ -38,7 +38,8 @@ def fall_figure(r: Result) -> Figure:
 
 
 def energy_figure(r: Result) -> Figure:
-    """Kinetic, potential, lost to locking, to landing (and to damping, where it acted), over the initial energy."""
+    """Kinetic, potential, lost to locking, to landing (and to damping and to sliding, where they acted), over the
+    initial energy."""
     fig, ax = plt.subplots(figsize=(5.5, 4))
     tau = np.asarray(r.frame_t) / r.t_ff
     e0 = r.energy["initial"]
@@ -48,9 +49,10 @@ def energy_figure(r: Result) -> Figure:
         ("frame_lost_locking", "lost to locking"),
         ("frame_lost_landing", "lost to landing"),
         ("frame_lost_damping", "lost to damping"),
+        ("frame_lost_sliding", "lost to sliding"),
     ):
-        if name == "frame_lost_damping" and not np.any(np.asarray(r.frame_lost_damping)):
-            continue  # (no smooth law acted)
+        if name in ("frame_lost_damping", "frame_lost_sliding") and not np.any(np.asarray(getattr(r, name))):
+            continue  # (the law did not act)
         ax.plot(tau, np.asarray(getattr(r, name)) / e0, label=label)
     ax.set(xlabel="t / t_ff", ylabel="energy / initial energy", title=run_title(r))
     ax.legend()

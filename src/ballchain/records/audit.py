@@ -159,7 +159,7 @@ def audit(result: Result) -> list[str]:
         kind = "created" if imbalance < 0 else "lost unaccounted"
         failed.append(
             f"the energy books do not close: {abs(imbalance) / e0:.3g} of E0 {kind} "
-            f"(E0 - U - T - E_lock - E_land = {imbalance:.6g}; tolerance {energy_rtol:g} of E0)"
+            f"(E0 - U - T - the losses booked = {imbalance:.6g}; tolerance {energy_rtol:g} of E0)"
             + _projection_share(e, e0)
         )
     if result.params.floor in WATCHES_EVERY_POINT and not depth <= depth_tol:

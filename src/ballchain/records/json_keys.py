@@ -29,8 +29,8 @@ RUN = {
     "landed_ratio": "t_landed / t_ff",
     "events": "rows of the event log by kind (lock, unlock, landing, top, impulse, release, hold, anchor)",
     "first_lock_time": "the time of the first lock (null if none)",
-    "energy": "initial, potential, kinetic, lost_locking, lost_landing, lost_damping, imbalance, and the parts of the "
-    "imbalance the method can name",
+    "energy": "initial, potential, kinetic, lost_locking, lost_landing, lost_damping, lost_sliding, imbalance, and the "
+    "parts of the imbalance the method can name",
     "max_depth": "the deepest airborne point below the floor (0 if none)",
     "floor_impulse": "the floor's impulse on the chain at impacts, (x, y, z)",
     "floor_impulse_total": "the floor's whole impulse from t = 0 to the end, (x, y, z)",

@@ -38,6 +38,7 @@ QUANTITY = {
     "frame_lost_locking": "energy",
     "frame_lost_landing": "energy",
     "frame_lost_damping": "energy",
+    "frame_lost_sliding": "energy",
     "frame_pile_pull": "force",
     "frame_scale_force": "force",
     "frame_floor_impulse": "impulse",
@@ -114,7 +115,9 @@ class Result:
     ``frame_floor_impulse`` (F, 3: the floor's whole impulse on the chain from t = 0,
     impacts included), energies ``frame_kinetic``, ``frame_potential``,
     ``frame_lost_locking``, ``frame_lost_landing``, ``frame_lost_damping`` (cumulative: the
-    hinges' viscous damping, a smooth law, removes energy between impacts), ``frame_base`` and
+    hinges' viscous damping, a smooth law, removes energy between impacts),
+    ``frame_lost_sliding`` (cumulative: the work of Coulomb's friction force on the points
+    sliding on the floor, finite friction only), ``frame_base`` and
     ``frame_base_velocity`` (F, 3: the position and velocity of point N, the bottom end:
     zero unless it slides, on a frictionless floor).  ``points()`` gives the positions of
     the points at every frame.
@@ -126,7 +129,7 @@ class Result:
     (position of the hinge, i.e. point k + 1, or of the point j).
     Anchors: ``anchor_t`` (N+1,) time each point was anchored (NaN: never; 0 for the
     pivot), ``anchor_pos`` (N+1, 3).
-    ``energy``: initial, potential, kinetic, lost_locking, lost_landing, lost_damping, imbalance
+    ``energy``: initial, potential, kinetic, lost_locking, lost_landing, lost_damping, lost_sliding, imbalance
     (initial - potential - kinetic - losses), at the end of the run; and what parts of
     the imbalance the method can name: ``projected_at_instants``, ``projected_in_steps``
     (U + T changed by the projections onto the constraints) and ``work_error_in_steps``
@@ -166,6 +169,7 @@ class Result:
     frame_floor_impulse: np.ndarray
     frame_base: np.ndarray
     frame_base_velocity: np.ndarray
+    frame_lost_sliding: np.ndarray
     event_t: np.ndarray
     event_kind: np.ndarray
     event_index: np.ndarray
@@ -250,7 +254,8 @@ class Result:
 
     def frames_table(self):
         """One row per output frame as a pandas DataFrame: t, z_top (the top end's
-        height), kinetic, potential, lost_locking, lost_landing, lost_damping (the energy books),
+        height), kinetic, potential, lost_locking, lost_landing, lost_damping, lost_sliding (the
+        energy books),
         floor_force_z, pile_pull_z, scale_force, floor_impulse_z, n_landed (segments
         with both ends anchored), n_locked (locked hinges).  Units in ``attrs["units"]``;
         the frames' axes and rates stay arrays (``frame_e``, ``points()``)."""
@@ -264,7 +269,7 @@ class Result:
             "z_top": pts[:, 0, 2],
             "kinetic": np.asarray(self.frame_kinetic), "potential": np.asarray(self.frame_potential),
             "lost_locking": np.asarray(self.frame_lost_locking), "lost_landing": np.asarray(self.frame_lost_landing),
-            "lost_damping": np.asarray(self.frame_lost_damping),
+            "lost_damping": np.asarray(self.frame_lost_damping), "lost_sliding": np.asarray(self.frame_lost_sliding),
             "floor_force_z": np.asarray(self.frame_floor_force)[:, 2],
             "pile_pull_z": np.asarray(self.frame_pile_pull)[:, 2],
             "scale_force": np.asarray(self.frame_scale_force),

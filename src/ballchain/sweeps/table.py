@@ -69,6 +69,11 @@ COLUMNS: dict[str, tuple[str, str]] = {
         "float64",
         "energy removed by the hinges' viscous damping, m g b (empty in tables written before the column: 0)",
     ),
+    "energy_lost_sliding": (
+        "float64",
+        "energy removed by Coulomb's friction force from sliding points, m g b (empty in tables written before the "
+        "column: 0, the friction's work then in energy_lost_landing)",
+    ),
     "energy_imbalance": ("float64", "initial - potential - kinetic - losses at the end, m g b"),
     "energy_work_error": (
         "float64",
@@ -217,7 +222,7 @@ def result_row(task, result, worker: str = "") -> dict:
             "n_instants": int(result.n_instants),
             **{
                 f"energy_{k}": _num(result.energy.get(k))
-                for k in ("initial", "lost_locking", "lost_landing", "lost_damping", "imbalance")
+                for k in ("initial", "lost_locking", "lost_landing", "lost_damping", "lost_sliding", "imbalance")
             },
             "energy_work_error": _num(result.energy.get("work_error_in_steps")),
             "floor_impulse_x": fi[0],

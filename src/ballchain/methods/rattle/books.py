@@ -225,6 +225,7 @@ def commit(t, h, na, model, mo, ws, sc, books, log):
     books.lost_locking[0] += lg.lost_locking[0]
     books.lost_landing[0] += lg.lost_landing[0]
     books.lost_damping[0] += lg.smooth_loss[0]
+    books.lost_sliding[0] += lg.friction_loss[0]
     account = books.floor_impulse if na > 0 else books.floor_flow
     for q in range(3):
         account[q] += lg.floor_impulse[q]

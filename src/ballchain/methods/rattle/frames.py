@@ -50,6 +50,7 @@ def record_frame(t, mo, fbk, frames):
     frames.lost_locking[k] = now.lost_locking[0]
     frames.lost_landing[k] = now.lost_landing[0]
     frames.lost_damping[k] = now.lost_damping[0]
+    frames.lost_sliding[k] = now.lost_sliding[0]
     frames.count[0] = k + 1
     frames.fill[0] = k + 1
     frames.next[0] += frames.dt
@@ -64,6 +65,7 @@ def books_now(books, fbk):
     for q in range(3):
         now.floor_impulse[q] = books.floor_impulse[q] + books.floor_flow[q]
     now.lost_damping[0] = books.lost_damping[0]
+    now.lost_sliding[0] = books.lost_sliding[0]
 
 
 @njit(cache=True)
@@ -74,6 +76,7 @@ def copy_tally(a, b):
     for q in range(3):
         b.floor_impulse[q] = a.floor_impulse[q]
     b.lost_damping[0] = a.lost_damping[0]
+    b.lost_sliding[0] = a.lost_sliding[0]
 
 
 @njit(cache=True)
@@ -82,6 +85,7 @@ def add_ledger(tally, lg):
     tally.lost_locking[0] += lg.lost_locking[0]
     tally.lost_landing[0] += lg.lost_landing[0]
     tally.lost_damping[0] += lg.smooth_loss[0]
+    tally.lost_sliding[0] += lg.friction_loss[0]
     for q in range(3):
         tally.floor_impulse[q] += lg.floor_impulse[q]
 

@@ -19,8 +19,8 @@ force that held it) and F_n the floor's normal force on it over the step before
 force lags a step (first order in it).  A point whose sliding velocity the friction
 reverses within a step stops: it is anchored there (``stops``), its tangential velocity
 taken by the anchor's impulse (booked at the floor).  What the friction force removes in
-a step, -F . (p(q+) - p(q)), is booked at the floor (``friction_work``, half a kick at a
-time); the floor's impulse record takes its impulse h F.  Where the friction force
+a step, -F . (p(q+) - p(q)), is booked as ``lost_sliding`` (``friction_work``, half a kick at
+a time); the floor's impulse record takes its impulse h F.  Where the friction force
 reverses a slow point within a step (it is then anchored), that work can come out
 negative: the explicit force overshoots by O(h).  Where it creates more than the step's
 energy bound (a step's friction impulse far beyond what stops the point: mu large, or a

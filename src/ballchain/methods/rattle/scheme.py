@@ -234,7 +234,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     ):  # (landed segments do not move: nothing else to settle)
         settle(model, mo)
         ws.valid[0] = 0  # landed segments: the columns of the factors are not the state's
-    fric = lg.friction_loss[0]  # (what the sliding points' friction removed: booked at the floor, not as error)
+    fric = lg.friction_loss[0]  # (what the sliding points' friction removed: booked as lost_sliding, not as error)
     if grip and landings and etol > 0.0 and fric < -etol and hold_reversed(mo, sc.start) > 0:
         return ERR_FRICTION, na  # (friction creates no energy: the points it reversed held, ``hold_reversed``)
     damp = lg.smooth_loss[0]  # (what the hinges' damping removed: booked as lost_damping)
@@ -250,7 +250,6 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
         _book_impact(lost, lock_work, land_work, lock_after, na + touched + ns, lg)
     elif etol > 0.0 and abs(lost) > etol:
         return ERR_STEP_ENERGY, na
-    lg.lost_landing[0] += fric
     if grip and landings:  # the sliding points' normal forces for the next step; anchors that let go
         normal_forces(h, mo, ws, sc)
         stop_rigid_stretches(mo)

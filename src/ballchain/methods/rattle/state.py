@@ -47,12 +47,13 @@ StepLedger = namedtuple(
     "StepLedger",
     [
         "lost_locking",  # (1,): energy the step's impacts dissipated at the hinges (m g b)
-        "lost_landing",  # (1,): ... at the landings, and what the sliding points' friction removed (m g b)
+        "lost_landing",  # (1,): ... at the landings (m g b)
         "floor_impulse",  # (3,): the anchors' and the floor's impulse on the chain in the step (m sqrt(g b))
         "pile_pull",  # (3,): the pile's impulse on the hanging chain in the step (m sqrt(g b))
         "energy_lost",  # (1,): U + T at the step's start minus at its end, less friction_loss and smooth_loss
         #   (m g b): what its impacts dissipated, else its error (the step control's measure)
-        "friction_loss",  # (1,): what the sliding points' friction force removed (``friction.friction_work``; m g b)
+        "friction_loss",  # (1,): what the sliding points' friction force removed (``friction.friction_work``; m g b):
+        #   booked as lost_sliding
         "smooth_loss",  # (1,): what the smooth laws removed (``smooth``: the hinges' damping; m g b)
         "impact",  # (1,) uint8: 1 if the step had an impact (a landing, a new lock, a touch of the floor)
         "new_anchors",  # (1,) int64: points anchored in the step
@@ -189,12 +190,13 @@ Tally = namedtuple(
         "lost_landing",  # (1,): ... at the landings (m g b)
         "floor_impulse",  # (3,): the floor's whole impulse on the chain so far (m sqrt(g b))
         "lost_damping",  # (1,): what the smooth laws removed so far (m g b)
+        "lost_sliding",  # (1,): what the friction force removed from sliding points so far (m g b)
     ],
 )
 
 
 def new_tally() -> Tally:
-    return Tally(np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(1))
+    return Tally(np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(1), np.zeros(1))
 
 
 # What the frames inside a step are taken with (``frames``): the books now and at the last

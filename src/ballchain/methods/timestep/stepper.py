@@ -157,8 +157,9 @@ FrameWork = namedtuple(
         "t0",  # (1,): the last step's start
         "h",  # (1,): its size (0: no frame inside it)
         "e0",  # (N, 3): the axes at its start
-        "start",  # (7,): T, the lost energies (locking, landing), the floor's impulse (3), lost to damping, at its start
-        "end",  # (7,): ... at its end
+        "start",  # (8,): T, the lost energies (locking, landing), the floor's impulse (3), lost to damping and to
+        #   sliding, at its start
+        "end",  # (8,): ... at its end
         "chain",  # the frame's state (state.Chain): axes, rates, anchors and locks
         "books",  # the frame's books (state.Books: losses, floor impulse; and its projection's ledger)
         "ws",  # the frame's projection's workspace (state.Work)
@@ -189,7 +190,7 @@ def new_frame_work(n: int) -> FrameWork:
     v3 = lambda m: np.zeros((m, 3))  # noqa: E731
     chain = new_chain(np.zeros((n, 3)), np.zeros((n, 3)), math.pi)
     return FrameWork(
-        np.zeros(1), np.zeros(1), v3(n), np.zeros(7), np.zeros(7), chain, new_books(),
+        np.zeros(1), np.zeros(1), v3(n), np.zeros(8), np.zeros(8), chain, new_books(),
         new_work(n), np.zeros(nh), v3(n + 1), v3(n + 1), v3(n), np.zeros(nh, np.uint8), v3(n),
     )  # fmt: skip
 
@@ -681,6 +682,7 @@ def record_frame(t, kinetic, chain, sc, books, frames):
     frames.lost_locking[k] = books.lost_locking[0]
     frames.lost_landing[k] = books.lost_landing[0]
     frames.lost_damping[k] = books.lost_damping[0]
+    frames.lost_sliding[k] = books.lost_sliding[0]
     frames.count[0] = k + 1
     frames.fill[0] = k + 1
     frames.next[0] += frames.dt
@@ -700,14 +702,15 @@ def _frame_due(tf, t):
 
 @njit(cache=True)
 def _energies(chain, sc, books, out):
-    """out: the run's T (of the velocities (V, w)), lost energies (locking, landing)
-    and floor impulse (3) now."""
+    """out: the run's T (of the velocities (V, w)), lost energies (locking, landing),
+    floor impulse (3), lost to damping and to sliding, now."""
     out[0] = kinetic_energy_maximal(sc.vmax, chain.Y[1])
     out[1] = books.lost_locking[0]
     out[2] = books.lost_landing[0]
     for q in range(3):
         out[3 + q] = books.floor_flow[q] + books.floor_impulse[q]
     out[6] = books.lost_damping[0]
+    out[7] = books.lost_sliding[0]
 
 
 @njit(cache=True)
@@ -732,6 +735,7 @@ def _state_between(s, model, chain, sc, fw):
     fb.lost_locking[0] = (1.0 - s) * a[1] + s * b[1]
     fb.lost_landing[0] = (1.0 - s) * a[2] + s * b[2]
     fb.lost_damping[0] = (1.0 - s) * a[6] + s * b[6]
+    fb.lost_sliding[0] = (1.0 - s) * a[7] + s * b[7]
     for q in range(3):
         fb.floor_flow[q] = (1.0 - s) * a[3 + q] + s * b[3 + q]
         fb.floor_impulse[q] = 0.0
