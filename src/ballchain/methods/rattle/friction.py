@@ -203,6 +203,8 @@ def landing_slips(mu, mo, ws, sc):
                 sc.grip_log[j, 0] = 0.0  # sliding reversed through zero speed, the force beyond the cone)
                 for q in range(3):  # (nor was it held there: its last anchor is still the one before)
                     mo.anchor_pos[j, q] = sc.start.anchor_pos[j, q]
+            if mo.touching[j] != 0:
+                _slides_on(j, mo, sc)
             sc.fsec[j, 0] = math.nan  # (no secant point yet)
             if pz > 0.0 and pt > 0.0:
                 mo.grip[j, 1], mo.grip[j, 2] = px / pt, py / pt
@@ -223,6 +225,18 @@ def landing_slips(mu, mo, ws, sc):
             _set_impact_friction(j, max(nxt, 0.0), mo, sc)
             changed = True
     return changed
+
+
+@njit(cache=True)
+def _slides_on(j, mo, sc):
+    """A sliding point that ``stops`` held and the cone let go slides on, the other way: its
+    friction is a force again from the next step (SLIDING, no longer STOPPING), against
+    the velocity it had at the step's start (its sliding had reversed: ``normal_forces``)."""
+    mo.touching[j] = SLIDING
+    vx, vy, _ = point_velocity(sc.start, j)
+    s = math.hypot(vx, vy)
+    if s > V_SLIP:
+        mo.grip[j, 1], mo.grip[j, 2] = -vx / s, -vy / s
 
 
 @njit(cache=True)
