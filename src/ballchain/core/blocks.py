@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..jit import njit
-from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, W_V, W_W
+from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_V, W_W
 from .rules import is_landed as _is_landed
 from .state import MAXR
 
@@ -236,12 +236,15 @@ def _lock_vector(e, j, nr):
 
 
 @njit(cache=True)
-def fits4(nrow):
+def fits4(kind, nrow):
     """Every point has 0, 3 or 4 rows (one end group and at most one lock row), or 6
-    (an anchor between two airborne segments, without a lock row)."""
+    (an anchor between two airborne segments, without a lock row); a sliding point's
+    height row (``rows.ROW_SLIDE_*``) needs the general path."""
     for j in range(nrow.shape[0]):
         r = nrow[j]
         if r != 0 and r != 3 and r != 4 and r != 6:
+            return False
+        if r == 4 and kind[j, 3] != ROW_LOCK:
             return False
     return True
 
@@ -657,15 +660,15 @@ def factor(e, anchored, J, kind, nrow, S, G, drop):
     """Factor J W J^T (the fixed-size path when every point has <= 4 rows, else the
     general one); returns the number of redundant rows dropped.  ``solve`` picks the
     same path."""
-    if fits4(nrow):
+    if fits4(kind, nrow):
         return factor4(e, anchored, kind, nrow, S, G, drop)
     return factor_general(anchored, J, nrow, S, G, drop)
 
 
 @njit(cache=True)
-def solve(nrow, S, G, drop, rhs, x):
-    """Solve (J W J^T) x = rhs with the factors from ``factor``."""
-    if fits4(nrow):
+def solve(kind, nrow, S, G, drop, rhs, x):
+    """Solve (J W J^T) x = rhs with the factors from ``factor`` (of the same rows)."""
+    if fits4(kind, nrow):
         solve4(nrow, S, G, rhs, x)
     else:
         solve_general(nrow, S, G, drop, rhs, x)

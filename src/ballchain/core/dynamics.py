@@ -24,7 +24,17 @@ import numpy as np
 from ..jit import entry, njit
 from .blocks import factor4, factor_general, generalized_forces, solve4, solve_general, torques4
 from .forces import any_smooth_law, smooth_torques, torque_rhs
-from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_LOCK, W_W, build_rows, rows_rhs4
+from .rows import (
+    ROW_ANCHOR_LOWER,
+    ROW_ANCHOR_UPPER,
+    ROW_LOCK,
+    ROW_SLIDE_LOWER,
+    ROW_SLIDE_UPPER,
+    W_W,
+    build_rows,
+    rows_rhs4,
+)
+from .rules import is_held
 from .rules import is_landed as _is_landed
 
 
@@ -92,7 +102,8 @@ def lock_multipliers(kind, nrow, x, lam):
 
 @njit(cache=True)
 def anchor_forces(kind, nrow, x, out):
-    """out[j] = force of the anchor at point j on the non-landed chain."""
+    """out[j] = force of the anchor at point j on the non-landed chain (of the floor on a
+    sliding point: its height row, vertical)."""
     for j in range(out.shape[0]):
         out[j, 0] = 0.0
         out[j, 1] = 0.0
@@ -101,12 +112,15 @@ def anchor_forces(kind, nrow, x, out):
             k = kind[j, r]
             if k == ROW_ANCHOR_LOWER or k == ROW_ANCHOR_UPPER:
                 out[j, r % 3] += x[j, r]
+            elif k == ROW_SLIDE_LOWER or k == ROW_SLIDE_UPPER:
+                out[j, 2] += x[j, r]
 
 
 @njit(cache=True)
 def anchor_force_total(kind, nrow, x, out):
     """out = sum_j F_j, the continuous force of all anchors on the airborne chain
-    (the multipliers of the anchor rows; landed segments, at rest, are not included)."""
+    (the multipliers of the anchor rows, and of the sliding points' height rows; landed
+    segments, at rest, are not included)."""
     out[0] = 0.0
     out[1] = 0.0
     out[2] = 0.0
@@ -115,6 +129,8 @@ def anchor_force_total(kind, nrow, x, out):
             k = kind[j, r]
             if k == ROW_ANCHOR_LOWER or k == ROW_ANCHOR_UPPER:
                 out[r % 3] += x[j, r]
+            elif k == ROW_SLIDE_LOWER or k == ROW_SLIDE_UPPER:
+                out[2] += x[j, r]
 
 
 @njit(cache=True)
@@ -126,7 +142,7 @@ def pile_pull(anchored, kind, nrow, x, out):
     out[1] = 0.0
     out[2] = 0.0
     for j in range(anchored.shape[0]):
-        if anchored[j] != 0:
+        if is_held(anchored, j):
             if j > 0 and nrow[j] >= 3 and kind[j, 0] == ROW_ANCHOR_LOWER:
                 for q in range(3):
                     out[q] = x[j, q]

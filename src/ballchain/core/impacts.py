@@ -36,7 +36,7 @@ from .dynamics import accelerations
 from .kinematics import apply_impulses, constraint_rates4, constraint_velocities, kinetic_energy, torque_jump
 from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
 from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_W, build_rows, constraint_rows
-from .rules import RATE_TOL, unit_hinge_gap
+from .rules import RATE_TOL, landed_or_landing, unit_hinge_gap
 from .state import MAXR
 
 MULT_TOL = 1e-11  # absolute floor of the complementarity tolerances
@@ -172,12 +172,12 @@ def _delassus(e, w, anchored, base, idx, c, ws, wt, col, M, dref):
         ny = e[k, 2] * e[k + 1, 0] - e[k, 0] * e[k + 1, 2]
         nz = e[k, 0] * e[k + 1, 1] - e[k, 1] * e[k + 1, 0]
         dref[jj] = 0.0
-        if not (anchored[k] != 0 and anchored[k + 1] != 0):
+        if not landed_or_landing(anchored, k):
             dref[jj] += W_W * (nx * nx + ny * ny + nz * nz)
             wt[k, 0] = W_W * nx
             wt[k, 1] = W_W * ny
             wt[k, 2] = W_W * nz
-        if not (anchored[k + 1] != 0 and anchored[k + 2] != 0):
+        if not landed_or_landing(anchored, k + 1):
             dref[jj] += W_W * (nx * nx + ny * ny + nz * nz)
             wt[k + 1, 0] = -W_W * nx
             wt[k + 1, 1] = -W_W * ny
@@ -193,7 +193,7 @@ def _delassus(e, w, anchored, base, idx, c, ws, wt, col, M, dref):
                     for q in range(3):
                         acc += J[j, r, 9 + q] * wt[j, q]
                 rhs[j, r] = -acc
-        solve(nrow, ws.S, ws.G, ws.drop, rhs, x)
+        solve(kind, nrow, ws.S, ws.G, ws.drop, rhs, x)
         apply_impulses(e, wt, anchored, J, nrow, x, ws.gf, 1.0)
         hinge_rates(e, wt, col)
         for ii in range(c):
@@ -281,7 +281,7 @@ def _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw):
             else:
                 rhs[j, r] = _row_target(kind[j, r], j, r, iw) - jv_minus[j, r]
     factor(e, anchored, J, kind, nrow, ws.S, ws.G, ws.drop)
-    solve(nrow, ws.S, ws.G, ws.drop, rhs, x)
+    solve(kind, nrow, ws.S, ws.G, ws.drop, rhs, x)
     if fits:
         torques4(e, kind, nrow, x, gf)
         torque_jump(e, w_plus, anchored, gf, 1.0)

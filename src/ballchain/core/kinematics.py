@@ -8,7 +8,16 @@ import math
 
 from ..jit import entry, njit
 from .blocks import factor, generalized_forces, solve, torques4
-from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_W, constraint_rows
+from .rows import (
+    ROW_ANCHOR_LOWER,
+    ROW_ANCHOR_UPPER,
+    ROW_HINGE,
+    ROW_LOCK,
+    ROW_SLIDE_LOWER,
+    ROW_SLIDE_UPPER,
+    W_W,
+    constraint_rows,
+)
 from .rules import is_landed as _is_landed
 
 PROJ_TOL = 1e-12  # constraint drift tolerated before projection (b; at least)
@@ -203,6 +212,8 @@ def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pt
             elif k == ROW_LOCK:
                 a = j - 1
                 out[j, r] = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - lock_cos[a]
+            elif k == ROW_SLIDE_LOWER or k == ROW_SLIDE_UPPER:
+                out[j, r] = pts[j, 2]  # (its height: the floor's is 0, point N's height taken as the floor's)
             elif removable:
                 out[j, r] = pts[j, r % 3] - anchor_pos[j, r % 3]
             else:
@@ -280,7 +291,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
         _axis_rates(e, w, vel)  # de_i/dt, kept through the move (the points' velocities)
     while res > tol and it < iters:
         factor(e, anchored, J, kind, nrow, S, G, drop)
-        solve(nrow, S, G, drop, rhs, x)
+        solve(kind, nrow, S, G, drop, rhs, x)
         if fits:
             torques4(e, kind, nrow, x, gf)
         else:
@@ -307,7 +318,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
             vres = max(vres, abs(rhs[j, r]))
     if vres > tol:
         factor(e, anchored, J, kind, nrow, S, G, drop)
-        solve(nrow, S, G, drop, rhs, x)
+        solve(kind, nrow, S, G, drop, rhs, x)
         if fits:
             torques4(e, kind, nrow, x, gf)
             torque_jump(e, w, anchored, gf, -1.0)

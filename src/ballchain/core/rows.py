@@ -13,6 +13,12 @@ above the point (``a = j-1``, columns 0:6) and the one below (``c = j``, columns
   kind 1  anchor, lower (3):   lower end of a = 0          (point j anchored)
   kind 2  anchor, upper (3):   upper end of c = 0          (point j anchored)
   kind 3  lock (1 row):        d/dt (e_a . e_c) = w_a.(e_a x e_c) + w_c.(e_c x e_a) = 0
+  kind 4  slide, lower (1):    height of the lower end of a = 0   (point j sliding: ``rules.SLIDING``)
+  kind 5  slide, upper (1):    height of the upper end of c = 0   (... the top end, point 0)
+
+A sliding point (on a frictionless floor) keeps its hinge rows and takes one height row,
+on the segment above it (the segment below for the top end): the floor holds it up and
+nothing holds it along the floor.
 
 The velocity of the lower end of segment i is v_i + e_i x w_i, of its upper end
 v_i - e_i x w_i.  ``build_rows`` writes them in general (J, 12 columns a row),
@@ -25,9 +31,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
+from .rules import SLIDING
 from .rules import is_landed as _is_landed
 
 ROW_HINGE, ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_LOCK = 0, 1, 2, 3
+ROW_SLIDE_LOWER, ROW_SLIDE_UPPER = 4, 5
 W_V, W_W = 1.0, 3.0  # inverse mass and inverse moment of inertia, nondimensional
 
 
@@ -51,6 +59,17 @@ def _end_rows(J, j, r0, col, e, i, sv, sw):
 
 
 @njit(cache=True, inline="always")
+def _end_row_z(J, j, r, col, e, i, sv, sw):
+    """Row r of point j: the height of an end of segment i, sv * v_i,z + sw * (e_i x w_i)_z
+    (the third row of ``_end_rows``), nothing on the other segment."""
+    for q in range(12):
+        J[j, r, q] = 0.0
+    J[j, r, col + 2] = sv
+    J[j, r, col + 3] = -e[i, 1] * sw
+    J[j, r, col + 4] = e[i, 0] * sw
+
+
+@njit(cache=True, inline="always")
 def _zero_cols(J, j, r0, nr, col):
     for r in range(r0, r0 + nr):
         for q in range(6):
@@ -68,7 +87,7 @@ def build_rows(e, w, anchored, locked, J, kind, nrow, rhs, with_acc_rhs):
         a_air = a >= 0 and not _is_landed(anchored, a)
         c_air = c < n and not _is_landed(anchored, c)
         r = 0
-        if anchored[j] == 0:
+        if anchored[j] == 0 or anchored[j] == SLIDING:
             if a_air and c_air:
                 _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
                 _end_rows(J, j, 0, 6, e, c, -1.0, 1.0)
@@ -80,6 +99,8 @@ def build_rows(e, w, anchored, locked, J, kind, nrow, rhs, with_acc_rhs):
                     for q in range(3):
                         rhs[j, q] = -(wa2 * e[a, q] + wc2 * e[c, q])
                 r = 3
+            if anchored[j] == SLIDING:
+                r = _slide_row(e, w, j, r, a_air, J, kind, rhs, with_acc_rhs)
         else:
             if a_air:
                 _end_rows(J, j, 0, 0, e, a, 1.0, 1.0)
@@ -137,6 +158,27 @@ def build_rows(e, w, anchored, locked, J, kind, nrow, rhs, with_acc_rhs):
         nrow[j] = r
 
 
+@njit(cache=True, inline="always")
+def _slide_row(e, w, j, r, a_air, J, kind, rhs, with_acc_rhs):
+    """Row r of a sliding point j: its height held at the floor's, on the lower end of
+    segment a = j - 1 (or, for the top end, the upper end of c = j); the acceleration's
+    right-hand side as the anchor's vertical row.  Returns the row count."""
+    if a_air:
+        i = j - 1
+        _end_row_z(J, j, r, 0, e, i, 1.0, 1.0)
+        kind[j, r] = ROW_SLIDE_LOWER
+        sign = -1.0
+    else:
+        i = j
+        _end_row_z(J, j, r, 6, e, i, 1.0, -1.0)
+        kind[j, r] = ROW_SLIDE_UPPER
+        sign = 1.0
+    if with_acc_rhs:
+        w2 = w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2
+        rhs[j, r] = sign * w2 * e[i, 2] + 1.0  # (gravity: -(J W f) = +1)
+    return r + 1
+
+
 @njit(cache=True)
 def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
     """``build_rows`` without J, for the fixed-size path, in one pass that carries each
@@ -159,6 +201,8 @@ def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
             dc1 = w2 * e0 - w0 * e2
             dc2 = w0 * e1 - w1 * e0
         r = 0
+        if anchored[j] == SLIDING:
+            fits = False  # (its height row: the general path, ``build_rows``)
         if anchored[j] == 0:
             if a_air and c_air:
                 kind[j, 0] = kind[j, 1] = kind[j, 2] = ROW_HINGE

@@ -49,6 +49,10 @@ from .kinds import (  # noqa: F401  (the event kinds are rules too; stated in a 
 GAP_TOL = 1e-9  # |g| below this: the hinge is at its limit
 RATE_TOL = 1e-8  # |dg/dt| below this (sqrt(g/b)): a touch, not an impact
 Z_TOL = 1e-9  # a free point below this height (b) touches the floor
+# the marks of Chain.anchored: 0 free, 1 held by the floor (anchored), 2 being anchored in the
+# current impact, SLIDING on a frictionless floor: held at the floor's height only, free along
+# it (rows.ROW_SLIDE_*; no segment between sliding points has landed)
+SLIDING = 3
 COINCIDE_TOL = 1e-8  # a point touching the floor this close (b) to an anchored point is held there
 COINCIDE_DEPTHS = 10.0  # ... plus this many times its depth at the touch (its error along the floor)
 # Accumulation (Zeno) limit: a hinge released at an instant (it was locked or took an
@@ -87,6 +91,13 @@ def arm_state(f):
 
 
 @njit(cache=True, inline="always")
+def is_held(anchored, j):
+    """Point j is held where it is by the floor (anchored, or being anchored in the current
+    impact): not free, not sliding.  Branch-free, as ``is_landed``."""
+    return (anchored[j] != 0) & (anchored[j] != SLIDING)
+
+
+@njit(cache=True, inline="always")
 def is_landed(anchored, i):
     """Segment i has landed: both its ends are anchored (an anchor marked 2 is being made
     in the current impact: the segments next to it still move until the impulse has
@@ -109,7 +120,7 @@ def landed_count(anchored):
 def landed_or_landing(anchored, i):
     """Segment i has landed or lands in the current impact (both ends anchored or
     being anchored).  Branch-free, as ``is_landed``."""
-    return (anchored[i] != 0) & (anchored[i + 1] != 0)
+    return is_held(anchored, i) & is_held(anchored, i + 1)
 
 
 @njit(cache=True, inline="always")
@@ -146,7 +157,7 @@ def point_height(e, j):
 def all_anchored(anchored):
     """Every point anchored: the fall is over (t_landed)."""
     for j in range(anchored.shape[0]):
-        if anchored[j] == 0:
+        if anchored[j] == 0 or anchored[j] == SLIDING:
             return False
     return True
 
@@ -196,7 +207,7 @@ def limit_in_force(anchored, k, cone, alpha):
     la = landed_or_landing(anchored, k)
     lc = landed_or_landing(anchored, k + 1)
     if not la and not lc:
-        return not (anchored[k] != 0 and anchored[k + 2] != 0)
+        return not (is_held(anchored, k) and is_held(anchored, k + 2))
     return cone and (la != lc)
 
 
@@ -205,7 +216,7 @@ def bottom_airborne(anchored):
     """Index of the lowest segment that has not landed (-1 if all have)."""
     n = anchored.shape[0] - 1
     for i in range(n - 1, -1, -1):
-        if not (anchored[i] != 0 and anchored[i + 1] != 0):
+        if not landed_or_landing(anchored, i):
             return i
     return -1
 
@@ -230,7 +241,7 @@ def hold_at(chain, j, pts):
     * else where it touched."""
     anchored, anchor_pos = chain.anchored, chain.anchor_pos
     n1 = anchored.shape[0]
-    beside = (j + 1 < n1 and anchored[j + 1] != 0) or (j >= 1 and anchored[j - 1] != 0)  # (2: in this instant)
+    beside = (j + 1 < n1 and is_held(anchored, j + 1)) or (j >= 1 and is_held(anchored, j - 1))  # (2: in this instant)
     if not beside:
         tol = COINCIDE_TOL + COINCIDE_DEPTHS * max(0.0, -pts[j, 2])
         for i in range(n1):

@@ -490,7 +490,7 @@ def _solve(model, chain, ws, sc):
             it = velocity_impact(e, w, anchored, sc.cand, sc.forced, sc.active, 0.0, ws, iw)
         if it < 0:
             return ERR_IMPACT
-        if fits4(ws.nrow):
+        if fits4(ws.kind, ws.nrow):
             forces4(ws.kind, ws.nrow, ws.x, ws.gf)
         else:
             generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
