@@ -95,17 +95,16 @@ def _step_forces(h, lg, fbk):
 
 
 @njit(cache=True)
-def _frame_state(t, hf, model, fall):
-    """The frame work's motion <- the state hf after the last step's start, and the frame
-    books' ``now`` its books: one step of hf, or, where that fails, 2, 4, ... equal steps
-    (at most 2^(CUTS_MAX + extra_cuts)).  Returns the length of the last of them (the
-    frame's forces are its means), or the failure's code."""
-    sc, fw, fbk = fall.scratch, fall.frame_work, fall.frame_books
+def _frame_state(t, hf, model, start, fw, extra_cuts, fbk):
+    """The frame work fw's motion <- the state hf after the last step's start (``start``),
+    and the frame books fbk's ``now`` its books: one step of hf, or, where that fails, 2,
+    4, ... equal steps (at most 2^(CUTS_MAX + extra_cuts)).  Returns the length of the
+    last of them (the frame's forces are its means), or the failure's code."""
     fm, fws, fsc = fw.motion, fw.ws, fw.sc
-    cuts_max = CUTS_MAX + fall.control.extra_cuts[0]
+    cuts_max = CUTS_MAX + extra_cuts
     for cuts in range(cuts_max + 1):
         m = 2**cuts
-        copy_motion(sc.start, fm)
+        copy_motion(start, fm)
         fws.valid[0] = 0
         fsc.h_last[0] = 0.0
         copy_tally(fbk.at_start, fbk.now)
@@ -124,13 +123,14 @@ def _frame_state(t, hf, model, fall):
 
 
 @njit(cache=True)
-def frame_substeps(model, fall, frames):
-    """The frames due strictly inside the last step (the frame books' step_t, step_h):
-    each from a step of its own from the step's start (in the scratch) to the frame's
-    time, on the frame work's copy (the fall itself is not touched), with the books at
-    the step's start plus that step's.  Returns 0, RT_BUFFER (full: frames_due stays 1,
-    the rest are taken on the next call) or the code of a sub-step that failed."""
-    fbk = fall.frame_books
+def frame_substeps(model, start, ledger, fw, extra_cuts, fbk, frames):
+    """The frames due strictly inside the last step (the frame books fbk's step_t, step_h):
+    each from a step of its own from the step's start (``start``, the fall's scratch's) to
+    the frame's time, on the frame work fw's copy (the fall itself is not touched), with
+    the books at the step's start plus that step's (its ``ledger``; ``extra_cuts``: the
+    step control's).  Returns 0, RT_BUFFER (full: frames_due stays 1, the rest are taken
+    on the next call) or the code of a sub-step that failed.  (The fall's parts, not the
+    ``state.Fall`` bundle: not its rows, scratch and motion, ~80 arrays.)"""
     if fbk.frames_due[0] == 0:
         return 0
     t, h = fbk.step_t[0], fbk.step_h[0]
@@ -138,13 +138,13 @@ def frame_substeps(model, fall, frames):
         if frames.count[0] >= frames.t.shape[0] - 1:
             return RT_BUFFER
         hf = frames.next[0] - t
-        last = _frame_state(t, hf, model, fall)
+        last = _frame_state(t, hf, model, start, fw, extra_cuts, fbk)
         if last < 0.0:
             return int(last)
-        _step_forces(last, fall.frame_work.sc.ledger, fbk)
-        record_frame(frames.next[0], fall.frame_work.motion, fbk, frames)
+        _step_forces(last, fw.sc.ledger, fbk)
+        record_frame(frames.next[0], fw.motion, fbk, frames)
     fbk.frames_due[0] = 0
-    _books_after_step(h, fall.scratch.ledger, fbk)
+    _books_after_step(h, ledger, fbk)
     return 0
 
 

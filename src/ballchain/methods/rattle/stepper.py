@@ -202,24 +202,25 @@ def _retake(mo, ws, sc, books):
 
 
 @njit(cache=True)
-def _frames_from(t, h, fall, books):
-    """After an accepted step from t of h: the frame books at its start and end, the frames
-    inside it pending (``frames.frame_substeps``)."""
-    fbk = fall.frame_books
+def _frames_from(t, h, fbk, books):
+    """After an accepted step from t of h: the frame books fbk at its start and end, the
+    frames inside it pending (``frames.frame_substeps``)."""
     books_now(books, fbk)
     copy_tally(fbk.now, fbk.at_start)
     fbk.step_t[0], fbk.step_h[0], fbk.frames_due[0] = t, h, 1
 
 
 @njit(cache=True)
-def step(t, h, model, fall, books, frames, trace, log):
-    """One step from t (h at most: cut at the stop time) with its books, log and trace;
-    the frames inside it are left pending (the frame books' frames_due).  Returns (code, t + h)."""
-    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+def step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log):
+    """One step from t (h at most: cut at the stop time) of the fall's motion mo, rows ws,
+    scratch sc and step control, with its books, log and trace; the frames inside it are
+    left pending (the frame books fbk's frames_due).  Returns (code, t + h).  (The fall's
+    parts, not the ``state.Fall`` bundle: not its frame work, which a step does not use,
+    ~90 arrays that every call would pass.)"""
     lg = sc.ledger
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
-        books_now(books, fall.frame_books)
-        record_frame(t, mo, fall.frame_books, frames)
+        books_now(books, fbk)
+        record_frame(t, mo, fbk, frames)
     extra = control.extra_cuts[0]
     cuts_max, split_cuts = CUTS_MAX + extra, SPLIT_CUTS + extra  # (a longer --dt halves more: ``extra_cuts``)
     level = _level(h, mo, control, cuts_max)
@@ -255,7 +256,7 @@ def step(t, h, model, fall, books, frames, trace, log):
         control.touch_cut[0], control.touch_how[0] = cut, how
         _retake(mo, ws, sc, books)
         return 0, t
-    return _accept(t, h, h == whole, level, na, model, fall, books, trace, log)
+    return _accept(t, h, h == whole, level, na, model, mo, ws, sc, control, fbk, books, trace, log)
 
 
 @njit(cache=True)
@@ -273,11 +274,10 @@ def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
 
 
 @njit(cache=True)
-def _accept(t, h, grow, level, na, model, fall, books, trace, log):
+def _accept(t, h, grow, level, na, model, mo, ws, sc, control, fbk, books, trace, log):
     """A step from t of h accepted: its warm start kept, the control's next level (as its
     change of U + T asks, if it was not cut at a touch: ``grow``; ``level``: its own), its
-    frames left pending, its books, log and trace.  Returns (code, t + h)."""
-    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+    frames left pending (the frame books fbk), its books, log and trace.  Returns (code, t + h)."""
     lg = sc.ledger
     if control.touch_how[0] != 2:  # (a landing's own short step: its impact impulse, scaled up to the
         keep_warm_start(h, ws, sc)  # next step's size, is no guess; the step's before it is)
@@ -287,7 +287,7 @@ def _accept(t, h, grow, level, na, model, fall, books, trace, log):
         control.level[0] = max(
             0.0, level - _growth(lg.energy_lost[0], lg.impact[0], etol, control, grips(model.friction))
         )
-    _frames_from(t, h, fall, books)
+    _frames_from(t, h, fbk, books)
     commit(t, h, na, model, mo, ws, sc, books, log)
     kt = trace.count[0]
     z_end = mo.c[0, 2] + mo.e[0, 2]
@@ -304,12 +304,13 @@ def _accept(t, h, grow, level, na, model, fall, books, trace, log):
 def run_steps(t, h, model, fall, books, frames, trace, log):
     """Steps of size h until the fall ends, the stop time, full buffers or
     ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""
-    mo = fall.motion
+    mo, ws, sc, fw, control, fbk = fall
     n = mo.e.shape[0]
     room = 4 * n + 8  # (log rows a step can write at most: locks, unlocks, landings, the floor's hold)
     taken = 0
     while True:
-        code = frame_substeps(model, fall, frames)  # the last step's, if pending
+        # the last step's frames, if pending
+        code = frame_substeps(model, sc.start, sc.ledger, fw, control.extra_cuts[0], fbk, frames)
         if code != 0:
             return code, t
         if fall_over(mo.anchored, mo.anchor_t, mo.touching, model.friction, model.e_floor):
@@ -324,7 +325,7 @@ def run_steps(t, h, model, fall, books, frames, trace, log):
             return RT_STOP, t
         if books.n_steps[0] >= model.max_steps:
             return RT_MAX_STEPS, t
-        code, t = step(t, h, model, fall, books, frames, trace, log)
+        code, t = step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log)
         if code < 0:
             return code, t
         taken += 1
