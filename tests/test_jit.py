@@ -294,6 +294,10 @@ def test_callees_compile_bare_and_python_calls_compile_them_in_full():
     leaf_j = _callee(middle_j, leaf)
     assert _wrapped(outer) == [True]
     assert _wrapped(middle_j) == [False] and _wrapped(leaf_j) == [False]
+    # ... and no machine code of their own in the JIT engine: the outer kernel's runs
+    for bare in (middle_j, leaf_j):
+        assert [getattr(c.library, "_ballchain_unemitted", False) for c in bare.overloads.values()] == [True]
+    assert not getattr(next(iter(outer.overloads.values())).library, "_ballchain_unemitted", False)
     # called from Python with the same types: compiled afresh, in full, wrappers included
     assert middle_j(4.0) == 6.0 and leaf_j(9.0) == 4.0
     assert _wrapped(middle_j) == [True] and _wrapped(leaf_j) == [True]

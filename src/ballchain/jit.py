@@ -51,6 +51,13 @@ compiled callers only; a call from Python with its types compiles the kernel afr
 full, wrappers included.  The wrappers were about a third of the event method's and the
 time-stepper's cold compile (their bundles have up to 80 arrays).
 
+Nor is a bare kernel's library given machine code: only the machine code of the full
+libraries runs (each with its own copy of every function of its call tree, linked in), so
+the JIT engine is handed a copy of a bare kernel's module (and of the subroutines' compiled
+for it) whose functions are ``available_externally`` (LLVM emits no code for them), its
+globals as they were (the environment that numba's ``set_env`` fills).  LLVM's code
+generation for those libraries was about 9 of RATTLE's 136 s of CPU.
+
 The on-disk cache is keyed to every engine source, not only the kernel's own file:
 numba keys a cached kernel to a hash of the file that defines it, so a caller compiled
 against an old callee in another file would load stale machine code after an edit of
@@ -223,7 +230,7 @@ def _shape_known() -> bool:
             "_finalize_final_module",
         }
         <= _names(lib, "finalize")
-        and "_verify_declare_only_symbols" in _names(lib, "_finalize_final_module")
+        and {"_verify_declare_only_symbols", "_add_module", "_final_module"} <= _names(lib, "_finalize_final_module")
         and "check_cachable" in _names(cache, "_save_overload")
         and hasattr(impl, "check_cachable")
         and hasattr(_codegen, "remove_redundant_nrt_refct")
@@ -240,10 +247,12 @@ def _install() -> bool:
         return False
     full = lib._optimize_final_module
     finalize = lib.finalize
+    finalize_final = lib._finalize_final_module
     check_cachable = _caching.CompileResultCacheImpl.check_cachable
 
     def _finalize(self):
         self._ballchain_cheap = not _DEPTH.optimise_in_full(self)
+        self._ballchain_unemitted = self._ballchain_cheap and _DEPTH.depth > 0 and _bare(_DEPTH.stack[-1])
         linking = self._linking_libraries
         if self._ballchain_cheap:
             # nothing linked in: calls to the callees are resolved in the JIT engine,
@@ -272,10 +281,30 @@ def _install() -> bool:
             return False  # not self-contained (or no wrapper): never loaded without its callees
         return check_cachable(self, cres)
 
+    def _finalize_final_module(self):
+        if not getattr(self, "_ballchain_unemitted", False):
+            return finalize_final(self)
+        # a bare kernel's cheap library (or a subroutine's, compiled for it): only the full
+        # callers' machine code runs, each with its own copy of the library's functions
+        # (linked in), so the JIT engine is given its globals (the environments that
+        # ``set_env`` fills) and its functions as available_externally: no machine code
+        # (module docstring); the library keeps its module as it was, for linking
+        own = self._final_module
+        shown = own.clone()
+        for fn in shown.functions:
+            if not fn.is_declaration:
+                fn.linkage = "available_externally"
+        self._final_module = shown
+        try:
+            finalize_final(self)
+        finally:
+            self._final_module = own
+
     _optimize_final_module._ballchain_policy = True
     _optimize_final_module.__doc__ = full.__doc__
     lib._optimize_final_module = _optimize_final_module
     lib.finalize = _finalize
+    lib._finalize_final_module = _finalize_final_module
     _caching.CompileResultCacheImpl.check_cachable = _check_cachable
     _event.register("numba:compile", _DEPTH)
     return True
