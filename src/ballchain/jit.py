@@ -58,6 +58,18 @@ for it) whose functions are ``available_externally`` (LLVM emits no code for the
 globals as they were (the environment that numba's ``set_env`` fills).  LLVM's code
 generation for those libraries was about 9 of RATTLE's 136 s of CPU.
 
+Kernels compiled with ``_nrt=False`` (numba's option; RATTLE's, ``methods/rattle``) take
+no reference counts: no incref and decref of every array of every bundle on each use,
+entry and exit, which numba lowers and LLVM must then optimise away (RATTLE's bundles hold
+up to ~190 arrays).  They borrow the arrays their caller passes (which the caller holds
+for the call), so such a kernel may neither allocate (numba refuses to compile it), nor
+return an array, nor take one that a call returns (a view its callee made: the reference
+would never be released): the kernels that make views (``scheme.motion_view`` ...) and
+their callers keep numba's reference counts, ``_nrt=True`` written out (numba's callee
+inherits its caller's setting where it states none).  ``borrowing_problems`` lists the
+kernels of a process that break the rule (``tests/test_jit.py`` runs it after a cold
+compile of RATTLE).  The machine code computes the same numbers.
+
 The on-disk cache is keyed to every engine source, not only the kernel's own file:
 numba keys a cached kernel to a hash of the file that defines it, so a caller compiled
 against an old callee in another file would load stale machine code after an edit of
@@ -92,6 +104,7 @@ __all__ = [
     "cache_keyed",
     "unliteral_calls",
     "bare_callees",
+    "borrowing_problems",
 ]
 
 _PACKAGE = __name__.partition(".")[0]  # "ballchain"
@@ -520,3 +533,43 @@ def unliteral_calls() -> bool:
 def cache_keyed() -> bool:
     """Are the package's cached kernels keyed to every engine source (module docstring)?"""
     return _CACHE_KEYED
+
+
+def _holds_references(ty) -> bool:
+    """Does a value of this numba type hold reference-counted memory (an array, a bundle
+    of them, a list, a string)?"""
+    from numba.core import types
+
+    if isinstance(ty, types.BaseTuple):
+        return any(_holds_references(t) for t in ty.types)
+    if isinstance(ty, types.Optional):
+        return _holds_references(ty.type)
+    return isinstance(ty, (types.Array, types.List, types.ListType, types.DictType, types.UnicodeType))
+
+
+def borrowing_problems() -> list:
+    """The package's kernels compiled in this process without reference counts
+    (``_nrt=False``, module docstring) that return reference-counted values or take them
+    from a call (each a line; empty: none).  A kernel loaded from the cache is not seen
+    (its callees were linked into it): run it after a cold compile."""
+    import sys
+
+    from numba.core.registry import CPUDispatcher
+
+    problems = []
+    for name, module in list(sys.modules.items()):
+        if name.partition(".")[0] != _PACKAGE:
+            continue
+        for attr, disp in list(vars(module).items()):
+            if not isinstance(disp, CPUDispatcher) or disp.py_func.__module__ != name:
+                continue
+            for cres in list(disp.overloads.values()):
+                if cres.target_context.enable_nrt:
+                    continue
+                where = f"{name}.{attr}"
+                if _holds_references(cres.signature.return_type):
+                    problems.append(f"{where} returns {cres.signature.return_type}")
+                for expr, sig in (cres.fndesc.calltypes or {}).items():
+                    if getattr(expr, "op", None) == "call" and sig is not None and _holds_references(sig.return_type):
+                        problems.append(f"{where} takes {sig.return_type} from a call ({expr.loc.short()})")
+    return problems

@@ -15,7 +15,7 @@ from .scheme import CUTS_MAX, _budget, keep_warm_start, rattle_step
 from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def record_frame(t, mo, fbk, frames):
     """Frame frames.count[0] at time t of the state mo, with the books fbk.now and the forces in fbk."""
     k = frames.count[0]
@@ -55,7 +55,7 @@ def record_frame(t, mo, fbk, frames):
     frames.next[0] += frames.dt
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def books_now(books, fbk):
     """fbk.now <- the run's books."""
     now = fbk.now
@@ -66,7 +66,7 @@ def books_now(books, fbk):
     now.lost_damping[0] = books.lost_damping[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_tally(a, b):
     """b <- a."""
     b.lost_locking[0] = a.lost_locking[0]
@@ -76,7 +76,7 @@ def copy_tally(a, b):
     b.lost_damping[0] = a.lost_damping[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def add_ledger(tally, lg):
     """tally += what a step booked (its ledger lg)."""
     tally.lost_locking[0] += lg.lost_locking[0]
@@ -86,7 +86,7 @@ def add_ledger(tally, lg):
         tally.floor_impulse[q] += lg.floor_impulse[q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _step_forces(h, lg, fbk):
     """fbk's forces <- the anchors' mean force and the pile's pull over a step of size h (its ledger lg)."""
     for q in range(3):
@@ -94,7 +94,7 @@ def _step_forces(h, lg, fbk):
         fbk.pile_pull[q] = lg.pile_pull[q] / h
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _frame_state(t, hf, model, start, fw, extra_cuts, fbk):
     """The frame work fw's motion <- the state hf after the last step's start (``start``),
     and the frame books fbk's ``now`` its books: one step of hf, or, where that fails, 2,
@@ -122,7 +122,7 @@ def _frame_state(t, hf, model, start, fw, extra_cuts, fbk):
     return code
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def frame_substeps(model, start, ledger, fw, extra_cuts, fbk, frames):
     """The frames due strictly inside the last step (the frame books fbk's step_t, step_h):
     each from a step of its own from the step's start (``start``, the fall's scratch's) to
@@ -148,7 +148,7 @@ def frame_substeps(model, start, ledger, fw, extra_cuts, fbk, frames):
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _books_after_step(h, lg, fbk):
     """The frame books back to the books after the last step (at its start plus its ledger lg), and its forces."""
     copy_tally(fbk.at_start, fbk.now)

@@ -46,7 +46,7 @@ TOUCH_AFTER = 1.02  # ... to end this many times the touch's time after its star
 TOUCH_SHORTEST = 1.0 / 1024.0  # ... but not shorter than this fraction of the step
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _fastest_turn(ve):
     """max_i |e_i'| = max_i |w_i| (rad per sqrt(b/g))."""
     m = 0.0
@@ -64,7 +64,7 @@ def gravity_touch(z, vz):
     return 2.0 * z / root if root > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def touch_time(model, start, new_anchor, na):
     """The earliest ``gravity_touch`` of the points a step anchored (new_anchor[:na]) that
     the floor watched at its start (not those that landed with them: ``floor_cascade``),
@@ -78,7 +78,7 @@ def touch_time(model, start, new_anchor, na):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def landing_cut(s, h, after):
     """The rule of landing step "cut" for a step h in which a point touches the floor at s:
     (length, how).  A step taken whole resolves a landing at its end: its point stopped with
@@ -104,7 +104,7 @@ def _cuts_landings(model, control):
     return control.landing_cut[0] != 0 and model.e_floor == 0.0 and anchors(model.friction)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def touch_ahead(h, model, mo, control):
     """Landing step "cut", ahead of the step: (length, how) of ``landing_cut`` for the
     earliest ``gravity_touch`` of the free points moving down, from the state now; the
@@ -123,7 +123,7 @@ def touch_ahead(h, model, mo, control):
     return landing_cut(s, h, control.last_how[0] == 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cut_at_touch(h, na, model, sc, control):
     """Landing step "cut", after a step h that anchored points (na) and was not cut
     (control.touch_cut = 0): (length, how) of ``landing_cut`` for the earliest touch of the points it
@@ -135,7 +135,7 @@ def cut_at_touch(h, na, model, sc, control):
     return landing_cut(touch_time(model, sc.start, sc.new_anchor, na), h, True)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _cut(code, change, etol):
     """How many halvings (log2, not only whole) a refused step is shortened by: for a step
     that changed U + T by ``change`` beyond etol, the local error of a second-order step
@@ -145,7 +145,7 @@ def _cut(code, change, etol):
     return max(math.log2(SHRINK_MIN), math.log2(abs(change) / (SAFETY * etol)) / 3.0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _growth(change, impact, etol, control, grip):
     """How many halvings (log2) the next step is lengthened by after one accepted: with the
     energy bound, the smooth step's change of U + T brought to SAFETY etol (h^3), by a
@@ -164,7 +164,7 @@ def _growth(change, impact, etol, control, grip):
     return _count_up(control)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _count_up(control):
     """One halving undone after GROW_AFTER accepted steps at a size (control.steps_at_level counts them)."""
     control.steps_at_level[0] += 1
@@ -174,14 +174,14 @@ def _count_up(control):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _stuck(code, model):
     """Finite friction: a stage that failed even at the shortest step holds the sliding
     stretch where it failed (``friction.hold_stuck_stretch``) rather than end the run."""
     return grips(model.friction) and (code == ERR_NEWTON or code == ERR_ACTIVE_SET)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _level(h, mo, control, cuts_max):
     """The level of the next step (control.level), raised so that it turns no segment
     further than TURN_MAX (the landed segments, past the active points, are at rest)."""
@@ -193,7 +193,7 @@ def _level(h, mo, control, cuts_max):
     return level
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _retake(mo, ws, sc, books):
     """A step refused: the state back to its start, its factorisations counted."""
     undo_step(mo, sc)
@@ -201,7 +201,7 @@ def _retake(mo, ws, sc, books):
     books.n_evals[0] += sc.ledger.factorisations[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _frames_from(t, h, fbk, books):
     """After an accepted step from t of h: the frame books fbk at its start and end, the
     frames inside it pending (``frames.frame_substeps``)."""
@@ -210,7 +210,7 @@ def _frames_from(t, h, fbk, books):
     fbk.step_t[0], fbk.step_h[0], fbk.frames_due[0] = t, h, 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log):
     """One step from t (h at most: cut at the stop time) of the fall's motion mo, rows ws,
     scratch sc and step control, with its books, log and trace; the frames inside it are
@@ -259,7 +259,7 @@ def step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log):
     return _accept(t, h, h == whole, level, na, model, mo, ws, sc, control, fbk, books, trace, log)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
     """The fall's ``rattle_step``; one whose impacts by Newton's law created energy
     (ERR_REBOUND) is taken again with its impacts inelastic.  Returns (code, new anchors)."""
@@ -273,7 +273,7 @@ def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
     return code, na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _accept(t, h, grow, level, na, model, mo, ws, sc, control, fbk, books, trace, log):
     """A step from t of h accepted: its warm start kept, the control's next level (as its
     change of U + T asks, if it was not cut at a touch: ``grow``; ``level``: its own), its
