@@ -265,7 +265,10 @@ def _install() -> bool:
 
     def _finalize(self):
         self._ballchain_cheap = not _DEPTH.optimise_in_full(self)
-        self._ballchain_unemitted = self._ballchain_cheap and _DEPTH.depth > 0 and _bare(_DEPTH.stack[-1])
+        # (bare: compiled without wrappers, ``_install_bare_callees``; nothing asks for its code)
+        self._ballchain_unemitted = (
+            self._ballchain_cheap and _BARE_CALLEES and _DEPTH.depth > 0 and _bare(_DEPTH.stack[-1])
+        )
         linking = self._linking_libraries
         if self._ballchain_cheap:
             # nothing linked in: calls to the callees are resolved in the JIT engine,
