@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -294,6 +295,10 @@ def test_callees_compile_bare_and_python_calls_compile_them_in_full():
     leaf_j = _callee(middle_j, leaf)
     assert _wrapped(outer) == [True]
     assert _wrapped(middle_j) == [False] and _wrapped(leaf_j) == [False]
+    # ... and no machine code of their own in the JIT engine: the outer kernel's runs
+    for bare in (middle_j, leaf_j):
+        assert [getattr(c.library, "_ballchain_unemitted", False) for c in bare.overloads.values()] == [True]
+    assert not getattr(next(iter(outer.overloads.values())).library, "_ballchain_unemitted", False)
     # called from Python with the same types: compiled afresh, in full, wrappers included
     assert middle_j(4.0) == 6.0 and leaf_j(9.0) == 4.0
     assert _wrapped(middle_j) == [True] and _wrapped(leaf_j) == [True]
@@ -306,3 +311,53 @@ def test_callees_compile_bare_and_python_calls_compile_them_in_full():
     leaf3, middle3, outer3 = _chain("someone_else_bare")
     assert outer3(np.array([4.0])) == 6.0
     assert _wrapped(_callee(outer3, middle3)) == [True]
+
+
+def test_kernels_without_reference_counts_that_return_or_take_arrays_are_listed(monkeypatch):
+    """A kernel compiled with ``_nrt=False`` borrows its arrays: one that returns an array,
+    or takes one from a call (a view its callee made), would leave a reference count wrong
+    (``jit.borrowing_problems``)."""
+
+    def same(a):
+        return a
+
+    def view(a):
+        return a[:2]
+
+    def total(a):
+        s = 0.0
+        for v in view_j(a):
+            s += v
+        return s + same_j(a)[0]
+
+    def fine(a):
+        return a[0] + 1.0
+
+    probe = types.ModuleType("ballchain._probe_borrow")  # (the checker reads the kernels of the modules)
+    for f in (same, view, total, fine):
+        f.__module__ = probe.__name__
+    same_j = probe.same = jit.njit(_nrt=False)(same)
+    view_j = probe.view = jit.njit(_nrt=True)(view)
+    total_j = probe.total = jit.njit(_nrt=False)(total)
+    fine_j = probe.fine = jit.njit(_nrt=False)(fine)
+    monkeypatch.setitem(sys.modules, probe.__name__, probe)
+    a = np.array([1.0, 2.0, 3.0])
+    assert total_j(a) == 4.0 and fine_j(a) == 2.0
+    problems = [p for p in jit.borrowing_problems() if "_probe_borrow" in p]
+    assert any(p.startswith("ballchain._probe_borrow.same returns") for p in problems)
+    assert sum(p.startswith("ballchain._probe_borrow.total takes") for p in problems) == 2
+    assert not any(".fine " in p or ".view " in p for p in problems)
+
+
+@pytest.mark.slow
+def test_rattle_kernels_without_reference_counts_borrow_only(tmp_path):
+    """RATTLE's kernels compiled with ``_nrt=False`` neither return arrays nor take them from
+    calls (a cold compile in a fresh process, its own cache)."""
+    code = (
+        "from ballchain import engine, jit; engine.load_kernels('rattle'); "
+        "p = jit.borrowing_problems(); print('\\n'.join(p) or 'none')"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "none", out.stdout

@@ -51,6 +51,25 @@ compiled callers only; a call from Python with its types compiles the kernel afr
 full, wrappers included.  The wrappers were about a third of the event method's and the
 time-stepper's cold compile (their bundles have up to 80 arrays).
 
+Nor is a bare kernel's library given machine code: only the machine code of the full
+libraries runs (each with its own copy of every function of its call tree, linked in), so
+the JIT engine is handed a copy of a bare kernel's module (and of the subroutines' compiled
+for it) whose functions are ``available_externally`` (LLVM emits no code for them), its
+globals as they were (the environment that numba's ``set_env`` fills).  LLVM's code
+generation for those libraries was about 9 of RATTLE's 136 s of CPU.
+
+Kernels compiled with ``_nrt=False`` (numba's option; RATTLE's, ``methods/rattle``) take
+no reference counts: no incref and decref of every array of every bundle on each use,
+entry and exit, which numba lowers and LLVM must then optimise away (RATTLE's bundles hold
+up to ~190 arrays).  They borrow the arrays their caller passes (which the caller holds
+for the call), so such a kernel may neither allocate (numba refuses to compile it), nor
+return an array, nor take one that a call returns (a view its callee made: the reference
+would never be released): the kernels that make views (``scheme.motion_view`` ...) and
+their callers keep numba's reference counts, ``_nrt=True`` written out (numba's callee
+inherits its caller's setting where it states none).  ``borrowing_problems`` lists the
+kernels of a process that break the rule (``tests/test_jit.py`` runs it after a cold
+compile of RATTLE).  The machine code computes the same numbers.
+
 The on-disk cache is keyed to every engine source, not only the kernel's own file:
 numba keys a cached kernel to a hash of the file that defines it, so a caller compiled
 against an old callee in another file would load stale machine code after an edit of
@@ -85,6 +104,7 @@ __all__ = [
     "cache_keyed",
     "unliteral_calls",
     "bare_callees",
+    "borrowing_problems",
 ]
 
 _PACKAGE = __name__.partition(".")[0]  # "ballchain"
@@ -223,7 +243,7 @@ def _shape_known() -> bool:
             "_finalize_final_module",
         }
         <= _names(lib, "finalize")
-        and "_verify_declare_only_symbols" in _names(lib, "_finalize_final_module")
+        and {"_verify_declare_only_symbols", "_add_module", "_final_module"} <= _names(lib, "_finalize_final_module")
         and "check_cachable" in _names(cache, "_save_overload")
         and hasattr(impl, "check_cachable")
         and hasattr(_codegen, "remove_redundant_nrt_refct")
@@ -240,10 +260,15 @@ def _install() -> bool:
         return False
     full = lib._optimize_final_module
     finalize = lib.finalize
+    finalize_final = lib._finalize_final_module
     check_cachable = _caching.CompileResultCacheImpl.check_cachable
 
     def _finalize(self):
         self._ballchain_cheap = not _DEPTH.optimise_in_full(self)
+        # (bare: compiled without wrappers, ``_install_bare_callees``; nothing asks for its code)
+        self._ballchain_unemitted = (
+            self._ballchain_cheap and _BARE_CALLEES and _DEPTH.depth > 0 and _bare(_DEPTH.stack[-1])
+        )
         linking = self._linking_libraries
         if self._ballchain_cheap:
             # nothing linked in: calls to the callees are resolved in the JIT engine,
@@ -272,10 +297,30 @@ def _install() -> bool:
             return False  # not self-contained (or no wrapper): never loaded without its callees
         return check_cachable(self, cres)
 
+    def _finalize_final_module(self):
+        if not getattr(self, "_ballchain_unemitted", False):
+            return finalize_final(self)
+        # a bare kernel's cheap library (or a subroutine's, compiled for it): only the full
+        # callers' machine code runs, each with its own copy of the library's functions
+        # (linked in), so the JIT engine is given its globals (the environments that
+        # ``set_env`` fills) and its functions as available_externally: no machine code
+        # (module docstring); the library keeps its module as it was, for linking
+        own = self._final_module
+        shown = own.clone()
+        for fn in shown.functions:
+            if not fn.is_declaration:
+                fn.linkage = "available_externally"
+        self._final_module = shown
+        try:
+            finalize_final(self)
+        finally:
+            self._final_module = own
+
     _optimize_final_module._ballchain_policy = True
     _optimize_final_module.__doc__ = full.__doc__
     lib._optimize_final_module = _optimize_final_module
     lib.finalize = _finalize
+    lib._finalize_final_module = _finalize_final_module
     _caching.CompileResultCacheImpl.check_cachable = _check_cachable
     _event.register("numba:compile", _DEPTH)
     return True
@@ -491,3 +536,43 @@ def unliteral_calls() -> bool:
 def cache_keyed() -> bool:
     """Are the package's cached kernels keyed to every engine source (module docstring)?"""
     return _CACHE_KEYED
+
+
+def _holds_references(ty) -> bool:
+    """Does a value of this numba type hold reference-counted memory (an array, a bundle
+    of them, a list, a string)?"""
+    from numba.core import types
+
+    if isinstance(ty, types.BaseTuple):
+        return any(_holds_references(t) for t in ty.types)
+    if isinstance(ty, types.Optional):
+        return _holds_references(ty.type)
+    return isinstance(ty, (types.Array, types.List, types.ListType, types.DictType, types.UnicodeType))
+
+
+def borrowing_problems() -> list:
+    """The package's kernels compiled in this process without reference counts
+    (``_nrt=False``, module docstring) that return reference-counted values or take them
+    from a call (each a line; empty: none).  A kernel loaded from the cache is not seen
+    (its callees were linked into it): run it after a cold compile."""
+    import sys
+
+    from numba.core.registry import CPUDispatcher
+
+    problems = []
+    for name, module in list(sys.modules.items()):
+        if name.partition(".")[0] != _PACKAGE:
+            continue
+        for attr, disp in list(vars(module).items()):
+            if not isinstance(disp, CPUDispatcher) or disp.py_func.__module__ != name:
+                continue
+            for cres in list(disp.overloads.values()):
+                if cres.target_context.enable_nrt:
+                    continue
+                where = f"{name}.{attr}"
+                if _holds_references(cres.signature.return_type):
+                    problems.append(f"{where} returns {cres.signature.return_type}")
+                for expr, sig in (cres.fndesc.calltypes or {}).items():
+                    if getattr(expr, "op", None) == "call" and sig is not None and _holds_references(sig.return_type):
+                        problems.append(f"{where} takes {sig.return_type} from a call ({expr.loc.short()})")
+    return problems

@@ -69,7 +69,7 @@ def new_factors(points: int, rmax: int) -> Factors:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def factors_view(F, p):
     """The factors of the first p points: views (the blocks' arrays and ``d0`` whole: the
     offsets are the whole chain's, and a view's points come first)."""
@@ -120,7 +120,7 @@ def _entry(J1, J0, kind, j1, r, j0, s, b1, b0, wv, ww):
     return _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
     """Block LU of J1 W J0^T into F (rows of the kinds ``kind``: ``_entry``), from point
     j_from on: F holds the factors of the points before it, whose rows (and those of point
@@ -254,7 +254,7 @@ def _free_point_coupling(J1, J0, nn, j, o, X, cv, cw):
         X[_u(o + 3 * nn + s)] = cw * (e11 * J0[j + 1, s, 3] + e12 * J0[j + 1, s, 4] + e13 * J0[j + 1, s, 5])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
     """``factor_blocks`` at the free points with their 4 rows only (joints, the axis
     below) from j0 on, as long as they last: the blocks of ``_free_point_blocks`` and
@@ -343,7 +343,7 @@ def _lu_solve_columns(D, o, nr, X, nn):
             X[o + k * nn + s] *= inv
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_blocks(nrow, F, b, x):
     """x = A^{-1} b with the factors of ``factor_blocks`` (dropped rows: x = 0):
     z_j = D'_j^{-1} b_j - M_j z_{j-1} down the chain (only the product with z_{j-1} waits

@@ -37,7 +37,7 @@ from .rows import (
 from .state import HELD, PINNED, active_points, base_at_origin, point_vz, point_z
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _work(kind, nrow, x, before, after, which):
     """sum over the rows of kind ``which`` (K_BEND, K_FLOOR: both floor kinds; -1: anchor rows) of
     P (rate before + rate after) / 2: what their impulses did to T."""
@@ -54,7 +54,7 @@ def _work(kind, nrow, x, before, after, which):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _new_anchor_work(anchored, kind, nrow, x, before, after):
     """What the anchor rows of the anchors made in this step (marked 2), and of the points
     bouncing off the floor in it (anchor rows at a free point: ``rows.BOUNCE``), did to T."""
@@ -69,7 +69,7 @@ def _new_anchor_work(anchored, kind, nrow, x, before, after):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _anchor_impulse(kind, nrow, x, impulse):
     """impulse (3,) += the anchors' and the floor's impulse on the chain (rows' P)."""
     for j in range(nrow.shape[0]):
@@ -81,7 +81,7 @@ def _anchor_impulse(kind, nrow, x, impulse):
                 impulse[2] += x[j, r]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _pile_impulse(anchored, kind, nrow, x, pull):
     """pull += the impulse of the first anchored point from the top on the segment above
     it (its lower-anchor rows): the pile's pull on the hanging chain."""
@@ -95,7 +95,7 @@ def _pile_impulse(anchored, kind, nrow, x, pull):
             return
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _new_lock(locked0, kind1, nrow1, x1):
     """Did a hinge not locked at the step's start take impulse in stage 1 (an impact)?"""
     for j in range(nrow1.shape[0]):
@@ -105,7 +105,7 @@ def _new_lock(locked0, kind1, nrow1, x1):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def lock_loss_after_landing(mo, ws, sc):
     """What a step's new locks dissipated after its landings, the impacts taken in the
     exact method's order: the landings first (with the locks held from the step's start),
@@ -162,7 +162,7 @@ def lock_loss_after_landing(mo, ws, sc):
     return loss
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _book_impact(lost, lock_work, land_work, lock_after, na, lg):
     """A step with an impact (a new lock, a landing): what it removed from U + T (``lost``)
     is what the impact dissipated.  With a landing and a new lock, the locks take what
@@ -183,7 +183,7 @@ def _book_impact(lost, lock_work, land_work, lock_after, na, lg):
     lg.lost_landing[0] = lost - lg.lost_locking[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _hinge_impulse(k, kind1, nrow1, x1, rb1, ra1, kind2, nrow2, x2, rb2, ra2):
     """(impulse, energy lost) at hinge k over the step: its bend rows in both stages."""
     j = k + 1
@@ -199,7 +199,7 @@ def _hinge_impulse(k, kind1, nrow1, x1, rb1, ra1, kind2, nrow2, x2, rb2, ra2):
     return p, lost
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _held_by_fallback(k, e_lock, sc):
     """With restitution at the limit, did hinge k lock in the step although Newton's law would
     rebound it (``rules`` ``hold`` row)?  It was closing at the step's start faster than
@@ -215,7 +215,7 @@ def _held_by_fallback(k, e_lock, sc):
     return rate < -RATE_TOL
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def commit(t, h, na, model, mo, ws, sc, books, log):
     """The step's books and log: energy lost at hinges and landings, the floor's impulse
     (a step with a landing: the impacts' account, else the flow), the landed segments'
@@ -284,7 +284,7 @@ def ballistic_touch(zs, vz, h):
     return min(max(s, 0.0), 1.0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _top_reached(t, h, mo, sc, books, log):
     """A floor model whose top end's height is an event of its own (``top_event``): the
     fall ends where z_0 crosses 0 within the step, z_0(t + s h) = z_s + s (z_f - z_s); if
@@ -302,7 +302,7 @@ def _top_reached(t, h, mo, sc, books, log):
         log_row(log, books.t_fall[0], LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, sc.pts, 0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _top_touched(na, anchored, sc):
     """Did the top end reach the floor in this step (anchored, or, on a frictionless floor,
     a new contact: listed in sc.new_anchor)?"""

@@ -15,7 +15,7 @@ from .scheme import CUTS_MAX, _budget, keep_warm_start, rattle_step
 from .state import base_at_origin, copy_motion, kinetic_energy_rattle
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def record_frame(t, mo, fbk, frames):
     """Frame frames.count[0] at time t of the state mo, with the books fbk.now and the forces in fbk."""
     k = frames.count[0]
@@ -56,7 +56,7 @@ def record_frame(t, mo, fbk, frames):
     frames.next[0] += frames.dt
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def books_now(books, fbk):
     """fbk.now <- the run's books."""
     now = fbk.now
@@ -68,7 +68,7 @@ def books_now(books, fbk):
     now.lost_sliding[0] = books.lost_sliding[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_tally(a, b):
     """b <- a."""
     b.lost_locking[0] = a.lost_locking[0]
@@ -79,7 +79,7 @@ def copy_tally(a, b):
     b.lost_sliding[0] = a.lost_sliding[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def add_ledger(tally, lg):
     """tally += what a step booked (its ledger lg)."""
     tally.lost_locking[0] += lg.lost_locking[0]
@@ -90,7 +90,7 @@ def add_ledger(tally, lg):
         tally.floor_impulse[q] += lg.floor_impulse[q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _step_forces(h, lg, fbk):
     """fbk's forces <- the anchors' mean force and the pile's pull over a step of size h (its ledger lg)."""
     for q in range(3):
@@ -98,18 +98,17 @@ def _step_forces(h, lg, fbk):
         fbk.pile_pull[q] = lg.pile_pull[q] / h
 
 
-@njit(cache=True)
-def _frame_state(t, hf, model, fall):
-    """The frame work's motion <- the state hf after the last step's start, and the frame
-    books' ``now`` its books: one step of hf, or, where that fails, 2, 4, ... equal steps
-    (at most 2^(CUTS_MAX + extra_cuts)).  Returns the length of the last of them (the
-    frame's forces are its means), or the failure's code."""
-    sc, fw, fbk = fall.scratch, fall.frame_work, fall.frame_books
+@njit(cache=True, _nrt=False)
+def _frame_state(t, hf, model, start, fw, extra_cuts, fbk):
+    """The frame work fw's motion <- the state hf after the last step's start (``start``),
+    and the frame books fbk's ``now`` its books: one step of hf, or, where that fails, 2,
+    4, ... equal steps (at most 2^(CUTS_MAX + extra_cuts)).  Returns the length of the
+    last of them (the frame's forces are its means), or the failure's code."""
     fm, fws, fsc = fw.motion, fw.ws, fw.sc
-    cuts_max = CUTS_MAX + fall.control.extra_cuts[0]
+    cuts_max = CUTS_MAX + extra_cuts
     for cuts in range(cuts_max + 1):
         m = 2**cuts
-        copy_motion(sc.start, fm)
+        copy_motion(start, fm)
         fws.valid[0] = 0
         fsc.h_last[0] = 0.0
         copy_tally(fbk.at_start, fbk.now)
@@ -127,14 +126,15 @@ def _frame_state(t, hf, model, fall):
     return code
 
 
-@njit(cache=True)
-def frame_substeps(model, fall, frames):
-    """The frames due strictly inside the last step (the frame books' step_t, step_h):
-    each from a step of its own from the step's start (in the scratch) to the frame's
-    time, on the frame work's copy (the fall itself is not touched), with the books at
-    the step's start plus that step's.  Returns 0, RT_BUFFER (full: frames_due stays 1,
-    the rest are taken on the next call) or the code of a sub-step that failed."""
-    fbk = fall.frame_books
+@njit(cache=True, _nrt=False)
+def frame_substeps(model, start, ledger, fw, extra_cuts, fbk, frames):
+    """The frames due strictly inside the last step (the frame books fbk's step_t, step_h):
+    each from a step of its own from the step's start (``start``, the fall's scratch's) to
+    the frame's time, on the frame work fw's copy (the fall itself is not touched), with
+    the books at the step's start plus that step's (its ``ledger``; ``extra_cuts``: the
+    step control's).  Returns 0, RT_BUFFER (full: frames_due stays 1, the rest are taken
+    on the next call) or the code of a sub-step that failed.  (The fall's parts, not the
+    ``state.Fall`` bundle: not its rows, scratch and motion, ~80 arrays.)"""
     if fbk.frames_due[0] == 0:
         return 0
     t, h = fbk.step_t[0], fbk.step_h[0]
@@ -142,17 +142,17 @@ def frame_substeps(model, fall, frames):
         if frames.count[0] >= frames.t.shape[0] - 1:
             return RT_BUFFER
         hf = frames.next[0] - t
-        last = _frame_state(t, hf, model, fall)
+        last = _frame_state(t, hf, model, start, fw, extra_cuts, fbk)
         if last < 0.0:
             return int(last)
-        _step_forces(last, fall.frame_work.sc.ledger, fbk)
-        record_frame(frames.next[0], fall.frame_work.motion, fbk, frames)
+        _step_forces(last, fw.sc.ledger, fbk)
+        record_frame(frames.next[0], fw.motion, fbk, frames)
     fbk.frames_due[0] = 0
-    _books_after_step(h, fall.scratch.ledger, fbk)
+    _books_after_step(h, ledger, fbk)
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _books_after_step(h, lg, fbk):
     """The frame books back to the books after the last step (at its start plus its ledger lg), and its forces."""
     copy_tally(fbk.at_start, fbk.now)

@@ -81,7 +81,7 @@ def point_kick(px, py, pz, j, ukc, uke):
     uke[i, 2] += s * pz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def friction_directions(mo):
     """At a step's start: the friction force at a sliding point opposes its sliding
     velocity, d = -v_t / |v_t| (kept where |v_t| < V_SLIP: the direction it started to
@@ -95,7 +95,7 @@ def friction_directions(mo):
                 mo.grip[j, 2] = -vy / s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def friction_kick(h, mu, mo, ukc, uke):
     """The sliding points' friction force over half a step: u += h/2 W Q_j^T F_j,
     F_j = mu F_n d (``Motion.grip``)."""
@@ -105,7 +105,7 @@ def friction_kick(h, mu, mo, ukc, uke):
             point_kick(f * mo.grip[j, 1], f * mo.grip[j, 2], 0.0, j, ukc, uke)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def friction_work(h, mu, mo, start, lg):
     """The books of one half kick of the sliding points' friction force (``friction_kick``,
     after stage 1 for its own and at stage 2's start for the second), into the step's
@@ -125,7 +125,7 @@ def friction_work(h, mu, mo, start, lg):
     lg.friction_loss[0] += loss
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hold_reversed(mo, start):
     """After a step whose friction created energy: the points sliding at its start that moved
     along their friction force over it (d . (p(q+) - p(q)) > 0, d the step's, in ``mo``: the
@@ -142,7 +142,7 @@ def hold_reversed(mo, start):
     return marked
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stops(mo, j):
     """Does the sliding point j stop (to be anchored in this step, ``stage2.land``)? It
     reversed in the last stage 2 (STOPPING), or its velocity after stage 1 runs along
@@ -173,7 +173,7 @@ def _impulse_at(j, kind, nrow, x, floor):
     return px, py, pz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def landing_slips(mu, mo, ws, sc):
     """After a round of stage 2: a point anchored in this step (mark 2) whose anchor
     impulse P leaves the cone (P_n <= 0, or |P_t| > mu P_n) is let go: it gets a floor
@@ -227,7 +227,7 @@ def landing_slips(mu, mo, ws, sc):
     return changed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _slides_on(j, mo, sc):
     """A sliding point that ``stops`` held and the cone let go slides on, the other way: its
     friction is a force again from the next step (SLIDING, no longer STOPPING), against
@@ -239,7 +239,7 @@ def _slides_on(j, mo, sc):
         mo.grip[j, 1], mo.grip[j, 2] = -vx / s, -vy / s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def jam(mo, sc):
     """Where the landings' friction impulses did not settle (sliding has no solution: an
     impact of Painleve's kind, where the friction would press the point harder into the
@@ -250,7 +250,7 @@ def jam(mo, sc):
             _hold(j, mo, sc, LOG_JAM)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _hold(j, mo, sc, kind):
     """The landing j, let go in this stage 2, is held again (anchored, marked: not let go
     again in it), its friction impulse withdrawn; a sliding point (one that ``stops`` held
@@ -268,7 +268,7 @@ def _hold(j, mo, sc, kind):
     sc.fcand[j] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _set_impact_friction(j, p, mo, sc):
     """sc.fimp[j] <- (p d, p) (d: mo.grip[j, 1:3]; p the impulse's magnitude, its mark),
     its change kicked into sc.ukc, sc.uke."""
@@ -277,7 +277,7 @@ def _set_impact_friction(j, p, mo, sc):
     sc.fimp[j, 0], sc.fimp[j, 1], sc.fimp[j, 2] = fx, fy, max(p, 1e-300)  # (> 0: slides)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def clear_impact_friction(sc):
     """No landing has slipped yet in this stage 2."""
     for j in range(sc.fimp.shape[0]):
@@ -286,7 +286,7 @@ def clear_impact_friction(sc):
         sc.fimp[j, 2] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def impact_friction_impulse(sc):
     """The landings' friction impulses of the step into the floor's (the ledger's floor_impulse, x, y)."""
     impulse = sc.ledger.floor_impulse
@@ -295,7 +295,7 @@ def impact_friction_impulse(sc):
         impulse[1] += sc.fimp[j, 1]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def normal_forces(h, mo, ws, sc):
     """After an accepted step: each sliding point's normal force over it, F_n = (P1 + P2)
     / h of its floor rows (Motion.grip[:, 0]: the next step's friction is mu F_n); 0 for a
@@ -315,7 +315,7 @@ def normal_forces(h, mo, ws, sc):
             mo.touching[j] = STOPPING
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stop_rigid_stretches(mo):
     """After an accepted step: the sliding points of a stretch lying between two held points
     whose hinges are all at their limits (or of two segments: a fold between two anchors)
@@ -347,7 +347,7 @@ def stop_rigid_stretches(mo):
             a = -1  # (a point off the floor: the stretch is not lying on it)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def let_go(h, mu, mo, ws, sc):
     """After an accepted step: an anchored point (not anchored in it) whose anchor force
     F = (P1 + P2) / h, plus m g / 2 for each landed segment beside it, leaves the cone
@@ -385,7 +385,7 @@ def let_go(h, mu, mo, ws, sc):
     return changed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hold_stuck_stretch(mo, j):
     """A stage failed even at its shortest step on a row at point j (``Scratch.unmet``):
     the sliding points there are held (JAMMED, anchored at the step's start when it is taken
@@ -405,7 +405,7 @@ def hold_stuck_stretch(mo, j):
     return marked if marked > 0 else _hold_stretches(mo, 0, n1 - 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _hold_stretches(mo, lo, hi):
     """Mark JAMMED each whole stretch of consecutive sliding points that has a point in
     lo..hi; returns how many points."""
@@ -431,7 +431,7 @@ def _marked(touching):
     return touching == HELD or touching == JAMMED
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hold_marked(mo, sc):
     """At a step's start: the points marked HELD or JAMMED are anchored where they are
     (``rules.hold_at``), their stop logged (``stick``, or ``jam`` for a fallback rule's

@@ -36,7 +36,7 @@ def _is_new_contact(k, locked0, mark, p):
     return (bend or (is_floor(k) and mark == 0)) and p > 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def impact_rates(h, model, mo, ws, sc):
     """After stage 1, with restitution: the rate at which each new contact reached its
     limit (``_is_new_contact``), into sc.hrebound (hinges) and sc.rebound (points); 0
@@ -120,7 +120,7 @@ def _bounce_row(anchored, j, k):
     return anchored[j] == 0 and (k == K_ANCHOR_UPPER + 2 or k == K_ANCHOR_LOWER + 2)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rebound_targets(anchored, ws, sc):
     """Stage 2's right-hand side with restitution: a rebounding hinge's row and a bouncing
     point's vertical row (on a frictionless floor: its height row) aim at the rate they
@@ -134,7 +134,7 @@ def rebound_targets(anchored, ws, sc):
                 ws.rhs[j, r] += sc.rebound[j]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rebound_energy(anchored, ws, sc):
     """(1/2) sum P2 v over the rows that rebound in stage 2 (v their target rate): about the
     kinetic energy the rebounds carry away from their limits."""
@@ -149,7 +149,7 @@ def rebound_energy(anchored, ws, sc):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def leave_limits(mo, sc):
     """After stage 2 with restitution: a hinge that took its impulse and rebounds is not
     locked (sc.hrebound stays its rate: ``commit`` logs its impact as a lock's); one that

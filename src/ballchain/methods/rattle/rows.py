@@ -48,7 +48,7 @@ def is_floor(k):
     return k == K_FLOOR or k == K_FLOOR_LOWER
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def layout(anchored, bend, floor_on, kind, nrow):
     """The rows of every point (kind, nrow): joints at free points, anchors at anchored
     points (the ends of airborne segments), an axis row per airborne segment, a bend row
@@ -115,7 +115,7 @@ def has_columns(k, below):
     return below  # an upper anchor, the axis, the floor: on the segment below only
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def row_values(c, e, anchor_pos, cos_alpha, floor, kind, nrow, out):
     """out[j, r] = the constraint function of row r of point j at (c, e); returns the
     largest |value| (inf if one is not a number).  A floor row's is z_j less the height at
@@ -148,7 +148,7 @@ def row_values(c, e, anchor_pos, cos_alpha, floor, kind, nrow, out):
     return worst
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def row_gradients(e, kind, nrow, J, j_from):
     """J[j, r] = the gradient of row r of point j at axes e, over (c_a, e_a, c_c, e_c), for
     the points from j_from on."""
@@ -187,13 +187,13 @@ def row_gradients(e, kind, nrow, J, j_from):
                 J[j, r, 5] = -1.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def row_rates(J, kind, nrow, vc, ve, out):
     """out[j, r] = J[j, r] . u, the rate of row r of point j at velocities (vc, ve)."""
     _rates(J, kind, nrow, nrow, vc, ve, out, False)  # (every row: no marks read; nrow stands in)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def booked_rates(J, kind, nrow, anchored, vc, ve, out):
     """``row_rates`` of the rows whose work the books take: the bend and floor rows, and
     every row of a point being anchored (marked 2) or bouncing (anchor rows at a free
@@ -201,7 +201,7 @@ def booked_rates(J, kind, nrow, anchored, vc, ve, out):
     _rates(J, kind, nrow, anchored, vc, ve, out, True)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _rates(J, kind, nrow, anchored, vc, ve, out, booked):
     """out[j, r] = J[j, r] . u at velocities (vc, ve), of every row, or (``booked``) of
     those ``booked_rates`` names (anchored: the points' marks).  An end row's rate is its
@@ -288,7 +288,7 @@ def segment_force(J, kind, nrow, x, i):
     return a0 + b0, a1 + b1, a2 + b2, a3 + b3, a4 + b4, a5 + b5
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def row_forces(J, kind, nrow, x, gf):
     """gf[i] = (J^T x) on segment i (``segment_force``): what impulses x on the rows do to
     each segment."""
@@ -296,7 +296,7 @@ def row_forces(J, kind, nrow, x, gf):
         gf[i, 0], gf[i, 1], gf[i, 2], gf[i, 3], gf[i, 4], gf[i, 5] = segment_force(J, kind, nrow, x, i)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def carry_over(kind_old, nrow_old, x_old, kind, nrow, x):
     """x of the new layout (kind, nrow) from x_old of the old one, row by row of the same
     kind at the same point (0 for a row that is new)."""
@@ -309,7 +309,7 @@ def carry_over(kind_old, nrow_old, x_old, kind, nrow, x):
             x[j, r] = v
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_layout(kind, nrow, x, kind_to, nrow_to, x_to):
     """kind_to, nrow_to, x_to <- kind, nrow, x (the rows in use)."""
     for j in range(nrow.shape[0]):

@@ -89,7 +89,7 @@ SPLIT_REACH = 16  # ... "beside": the hinge's point within this many points of t
 ROOT_TURN = 0.5  # rad: a stage 1 that turns a segment further (5 turn limits) found another root of its equations
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def keep_warm_start(h, ws, sc):
     """After a step of size h is accepted: its stage 2's layout and impulses are the next
     stage 1's warm start (scaled to that step).  Not after a step that is refused: its
@@ -100,7 +100,7 @@ def keep_warm_start(h, ws, sc):
     sc.h_last[0] = h
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
     """One step of size h from t (stages 1-4 of the module docstring) on the state mo;
     what the books need is left in sc (its ledger, new_anchor, stage 1's layout and
@@ -127,7 +127,7 @@ def rattle_step(t, h, model, mo, ws, sc, etol, landings, split, budget):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _no_rows_from(p, last, ws, sc):
     """No point from p on has rows (their last rows, from before the segments there
     landed, are not the layouts'): those of points p to last - 1 are cleared (a step
@@ -139,7 +139,7 @@ def _no_rows_from(p, last, ws, sc):
         sc.nrow_w[j] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def motion_view(mo, p):
     """The state of the chain's first p points (p - 1 segments): views."""
     s = p - 1
@@ -149,7 +149,7 @@ def motion_view(mo, p):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def rows_view(ws, p):
     """The rows of the first p points and their factors: views."""
     return Rows(
@@ -158,7 +158,7 @@ def rows_view(ws, p):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def scratch_view(sc, p):
     """A step's scratch for the first p points: views (the counters whole)."""
     s, k = p - 1, max(p - 2, 0)
@@ -172,7 +172,7 @@ def scratch_view(sc, p):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     """``rattle_step`` on the points of the views (sc.start holds the step's start)."""
     grip = grips(model.friction)
@@ -258,7 +258,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     return 0, na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _lock_beside_landing(locked0, locked, kind1, nrow1, x1, new_anchor, na):
     """Did a hinge not locked at the step's start, its point within SPLIT_REACH points of a
     point anchored in this step, lock in it (impulse in stage 1, or locked after stage 2)?
@@ -279,7 +279,7 @@ def _lock_beside_landing(locked0, locked, kind1, nrow1, x1, new_anchor, na):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _largest_turn(e0, e1):
     """max_i |e1_i - e0_i|: how far a step turned its most turned segment (about the angle, rad)."""
     m = 0.0
@@ -300,7 +300,7 @@ def extra_cuts(dt: float) -> int:
     return max(0, math.ceil(math.log2(dt / DEFAULT_DT) - 1e-12))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _budget(level, cuts_max):
     """Stage 1's Newton iterations at most in a step at this level: ITER_BUDGET while it
     may still be halved (level < cuts_max, the run's most halvings), else every round's."""

@@ -18,7 +18,7 @@ from ...jit import njit
 W_AXIS = 3.0  # the axes' inverse mass (W = diag(1, 3): rods, m b^2 / 3)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _kick(h, anchored, f, uke):
     """uke += h/2 W f on the segments not landed."""
     for i in range(f.shape[0]):
@@ -27,7 +27,7 @@ def _kick(h, anchored, f, uke):
                 uke[i, q] += 0.5 * h * W_AXIS * f[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _work(anchored, f, e, e0):
     """What a half kick of f removed over the step's displacement: -f . (e - e0) / 2 on the
     segments not landed."""
@@ -39,20 +39,20 @@ def _work(anchored, f, e, e0):
     return loss
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def first_smooth_kick(h, model, mo, sc):
     """Stage 1's half kick of the smooth laws' force at the step's start (sc.fdamp keeps it)."""
     smooth_axis_forces(model, mo.e, mo.ve, sc.fdamp)
     _kick(h, mo.anchored, sc.fdamp, sc.uke)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def first_smooth_work(mo, sc):
     """After stage 1 (mo at q+): what the first half kick removed, into the ledger's smooth_loss."""
     sc.ledger.smooth_loss[0] += _work(sc.start.anchored, sc.fdamp, mo.e, sc.start.e)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def second_smooth_kick(h, model, mo, sc):
     """Stage 2's half kick at q+ with the rates 2 u_half - u (mo.ve: u_half), and its work into the ledger's smooth_loss."""
     v = sc.vdamp

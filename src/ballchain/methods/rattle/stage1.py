@@ -63,14 +63,14 @@ EARLY_RES = 1e-6  # ... and the whole complementarity checked once the residual 
 #   after round: 8% of the steps at N = 256 took 5 rounds or more, 1% with the margin)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def position_tol(n):
     """What stage 1 meets each row to (b): POS_TOL plus the round-off of heights up to 2n
     (n: the segments a step works on, ``active_points``: the rest lie on the floor)."""
     return POS_TOL + POS_ROUNDOFF * 2.0 * n
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def half_kick(h, anchored, vc, ve, ukc, uke):
     """u + h/2 W f: gravity's half kick on the centres of the segments not landed."""
     for i in range(vc.shape[0]):
@@ -82,7 +82,7 @@ def half_kick(h, anchored, vc, ve, ukc, uke):
             ukc[i, 2] -= 0.5 * h
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def add_impulses(h, mo, ws, sc, move):
     """u = u_kick + W J^T x on the segments not landed, W = diag(1, 3) (u_kick: sc.ukc,
     sc.uke; the forces of ws's rows and impulses gathered per segment,
@@ -105,7 +105,7 @@ def add_impulses(h, mo, ws, sc, move):
                 e[i, q] = e0[i, q] + h * ve[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _switch_stage1(model, mo, kind, nrow, x, floor_on, tol):
     """The complementarity of stage 1 at q+ (rows ``kind``, ``nrow``, impulses ``x``): a
     bend or floor row whose impulse pulls is switched off; a hinge in force or a free
@@ -126,7 +126,7 @@ def _switch_stage1(model, mo, kind, nrow, x, floor_on, tol):
     return switch_on_violated(model, mo, floor_on, tol) or changed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def switch_on_violated(model, mo, floor_on, margin):
     """A hinge in force past its limit, or a free point below the floor, by more than
     ``margin`` is switched on.  Inside stage 1's Newton iteration the margin is far beyond
@@ -156,7 +156,7 @@ def floor_gap(model, mo, j):
     return point_z(mo, j) - floor_level(model.floor, mo.anchor_pos, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _factor(anchored, locked, floor_on, kind_old, nrow_old, lg, ws, e, reuse, factor, keep):
     """The rows of the current layout at axes e, and (with ``factor``) the factors of
     J W J^T; with ``reuse``, those of the last stage 2 (at these axes, ws.valid) if its
@@ -183,7 +183,7 @@ def _factor(anchored, locked, floor_on, kind_old, nrow_old, lg, ws, e, reuse, fa
     return factor, j0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _factor_symmetric(anchored, ws, lg, j0):
     """The factors of J W J^T for the rows in ws (ws.sym), its redundant rows dropped, from
     point j0 on (``blocks.factor_blocks``); the step's ledger lg counts it."""
@@ -191,7 +191,7 @@ def _factor_symmetric(anchored, ws, lg, j0):
     lg.factorisations[0] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _factor_newton(mo, ws, j0):
     """The factors of stage 1's Newton matrix J(q+) W J(q)^T (ws.newt), from point j0 on:
     the rows at q+ (J1) taken there, the rows that ws.sym drops dropped; False if it is
@@ -200,7 +200,7 @@ def _factor_newton(mo, ws, j0):
     return factor_blocks(mo.anchored, ws.J1, ws.J, ws.kind, ws.nrow, ws.sym.drop, ws.newt, False, j0) >= 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _refactor_newton(mo, ws, sc, j0, have_sym):
     """Stage 1's Newton matrix A factored at this q+ from point j0 on; if it is singular
     and J W J^T's factors are not at hand, those (its redundant rows dropped) and A again
@@ -216,7 +216,7 @@ def _refactor_newton(mo, ws, sc, j0, have_sym):
     return exact, have_sym
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _kept_above_turning(mo, ws, sc, sym_upto):
     """The step's first factors of A: J W J^T's (ws.sym, made for the current rows at the
     step's start before point sym_upto) copied to ws.newt above the part of the chain
@@ -226,7 +226,7 @@ def _kept_above_turning(mo, ws, sc, sym_upto):
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def newton_split(e, e0, npts, upto):
     """The first point (at most ``upto``) at which a segment has turned in the step,
     |e - e0|, by more than TURN_SPLIT of the most any has: A = J(q+) W J(q)^T differs from
@@ -245,7 +245,7 @@ def newton_split(e, e0, npts, upto):
     return min(n, upto)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_factors(src, dst, nrow, k):
     """dst's factors of the points before k <- src's (their blocks, dropped rows and places)."""
     m = src.off[k]
@@ -260,7 +260,7 @@ def copy_factors(src, dst, nrow, k):
             dst.drop[j, r] = src.drop[j, r]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def first_change(kind_a, nrow_a, kind_b, nrow_b):
     """The first point whose rows differ between two layouts (the number of points if none)."""
     for j in range(nrow_a.shape[0]):
@@ -272,7 +272,7 @@ def first_change(kind_a, nrow_a, kind_b, nrow_b):
     return nrow_a.shape[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stage1(h, model, mo, ws, sc, budget):
     """Stage 1 (module docstring): q+ and u_half in mo, the impulses P1 in ws.x, their
     layout kept in sc (kind1, nrow1, x1) with the rates before and after of the rows the
@@ -375,7 +375,7 @@ def stage1(h, model, mo, ws, sc, budget):
     return ERR_ACTIVE_SET
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _record_unsettled(model, mo, ws, sc, tol):
     """Where stage 1's active set did not settle (sc.unmet): the first bend or floor row
     whose impulse pulls, or else the first limit or free point past its bound by more
@@ -398,7 +398,7 @@ def _record_unsettled(model, mo, ws, sc, tol):
             return
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _first_guess(h, rnd, ws, sc):
     """Stage 1's impulses to start a round from (ws.x): in the first, the last accepted
     step's stage 2 impulses (h/2 times the forces at this step's start), scaled to this
@@ -414,7 +414,7 @@ def _first_guess(h, rnd, ws, sc):
             ws.x[j, r] = ws.x[j, r] * scale if abs(ws.x[j, r]) < 1e30 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _record_unmet(ws, sc):
     """sc.unmet <- the row of stage 1 furthest from being met (sc.val): point, kind, value
     (a non-finite value first)."""
@@ -430,7 +430,7 @@ def _record_unmet(ws, sc):
                 sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, ws.kind[j, r], sc.val[j, r]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _release_unmet_bend(mo, ws, sc, grip):
     """Stage 1's Newton did not meet its rows: the active set is likely wrong, not the
     step.  The bend rows whose impulses pull are switched off, or else, if the row furthest
@@ -450,7 +450,7 @@ def _release_unmet_bend(mo, ws, sc, grip):
     return released
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _release_nearest_lock(mo, j):
     """With finite friction: the locked hinge nearest to point j (within UNMET_REACH points)
     is released.  A stretch of m segments lying on the floor between two anchors, its

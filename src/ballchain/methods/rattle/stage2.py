@@ -44,7 +44,7 @@ FIXED_POINT_MAX = 40  # finite friction: stage 2 solved again at most this many 
 #   size and 600 000 bounces a point)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def land(t, h, model, mo, sc, landings):
     """Step 2: the points that stage 1 stopped at the floor are anchored there, for good
     (marked 2 while stage 2 solves their impact; where: ``rules.hold_at``).  Returns
@@ -123,7 +123,7 @@ def land(t, h, model, mo, sc, landings):
     return na, ns
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _cascade(t, model, mo, sc, na):
     """The points that land with the step's touches (``floors.dispatch.floor_cascade``: on
     the floor "pivot", the segments above the one that landed that lie flat or point below
@@ -137,7 +137,7 @@ def _cascade(t, model, mo, sc, na):
     return na + k
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _switch_stage2(mo, ws, sc, slide):
     """The impact law of stage 2: a hinge whose impulse pulls is released; a candidate
     released that closes (dg/dt < -RATE_TOL), or with restitution separates slower than its
@@ -180,7 +180,7 @@ def _flipped(sc, j, kind, value):
     sc.unmet[0], sc.unmet[1], sc.unmet[2] = j, kind, value
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stage2(h, model, mo, ws, sc):
     """Stage 2 (module docstring): u+ in mo, P2 in ws.x, the rows' rates before (sc.val)
     and after (sc.rate: the rows the books take, ``booked_rates``).  The candidates (hinges in force active in stage 1 or at their
@@ -244,7 +244,7 @@ def stage2(h, model, mo, ws, sc):
     return ERR_ACTIVE_SET  # (not reached: the last round returns)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def settle(model, mo):
     """Step 4: the new anchors made (2 -> 1), a lock whose limit is no longer in force
     dropped, a landed segment put on its anchors (c = (p_j + p_{j+1}) / 2,

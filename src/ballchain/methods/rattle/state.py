@@ -71,7 +71,7 @@ def new_step_ledger() -> StepLedger:
     return StepLedger(f(), f(), f(3), f(3), f(), f(), f(), np.zeros(1, np.uint8), i(), i(), i(), i(), i())
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def clear_ledger(lg):
     """lg <- empty (an attempt's start)."""
     for a in (lg.lost_locking, lg.lost_landing, lg.energy_lost, lg.friction_loss, lg.smooth_loss):
@@ -246,7 +246,7 @@ def new_motion(n: int) -> Motion:
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def maximal_state(e, w, c, vc, ve):
     """Centres c, their velocities vc and the axes' velocities ve = w x e of the chain
     with axes e and rates w standing on point N at the origin."""
@@ -264,7 +264,7 @@ def maximal_state(e, w, c, vc, ve):
         ux, uy, uz = ux + 2.0 * dx, uy + 2.0 * dy, uz + 2.0 * dz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def kinetic_energy_rattle(vc, ve):
     """T = sum 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
     tc, te = 0.0, 0.0
@@ -274,7 +274,7 @@ def kinetic_energy_rattle(vc, ve):
     return 0.5 * tc + te / 6.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _copy(src, dst, m):
     """dst[:m] <- src[:m] (rows of a 2-D array)."""
     for i in range(min(m, src.shape[0])):
@@ -282,13 +282,13 @@ def _copy(src, dst, m):
             dst[i, q] = src[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_motion(a, b):
     """b <- a (every array of a Motion)."""
     copy_motion_points(a, b, a.anchored.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_motion_points(a, b, p):
     """b <- a on the chain's first p points: the points, the segments between them (p - 1)
     and the hinges between those (p - 2)."""
@@ -324,7 +324,7 @@ def point_vz(mo, j):
     return mo.vc[j - 1, 2] - mo.ve[j - 1, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def point_positions(c, e, pts):
     """pts[j] <- p_j: the upper end of segment j (c + e), the last point the lower end of the
     last segment (c - e)."""
@@ -336,7 +336,7 @@ def point_positions(c, e, pts):
         pts[n, q] = c[n - 1, q] - e[n - 1, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def mechanical_energy(c, vc, ve):
     """U + T in maximal coordinates: sum c_i,z + 1/2 |c_i'|^2 + 1/6 |e_i'|^2 (m g b)."""
     u = 0.0
@@ -355,7 +355,7 @@ def base_at_origin(mo):
     return mo.anchored[n] != 0 and p[n, 0] == 0.0 and p[n, 1] == 0.0 and p[n, 2] == 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def active_points(anchored):
     """How many points, from the top, a step works on: down to the lower end of the segment
     below the lowest one not landed (the hinge between them may bear a limit: the anchor
@@ -364,7 +364,7 @@ def active_points(anchored):
     return min(bottom_airborne(anchored) + 3, n + 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def undo_step(mo, sc):
     """mo <- the step's start (sc.start): a step changes only its own points (``active_points``
     of its start)."""

@@ -46,7 +46,7 @@ TOUCH_AFTER = 1.02  # ... to end this many times the touch's time after its star
 TOUCH_SHORTEST = 1.0 / 1024.0  # ... but not shorter than this fraction of the step
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _fastest_turn(ve):
     """max_i |e_i'| = max_i |w_i| (rad per sqrt(b/g))."""
     m = 0.0
@@ -64,7 +64,7 @@ def gravity_touch(z, vz):
     return 2.0 * z / root if root > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def touch_time(model, start, new_anchor, na):
     """The earliest ``gravity_touch`` of the points a step anchored (new_anchor[:na]) that
     the floor watched at its start (not those that landed with them: ``floor_cascade``),
@@ -78,7 +78,7 @@ def touch_time(model, start, new_anchor, na):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def landing_cut(s, h, after):
     """The rule of landing step "cut" for a step h in which a point touches the floor at s:
     (length, how).  A step taken whole resolves a landing at its end: its point stopped with
@@ -104,7 +104,7 @@ def _cuts_landings(model, control):
     return control.landing_cut[0] != 0 and model.e_floor == 0.0 and anchors(model.friction)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def touch_ahead(h, model, mo, control):
     """Landing step "cut", ahead of the step: (length, how) of ``landing_cut`` for the
     earliest ``gravity_touch`` of the free points moving down, from the state now; the
@@ -123,7 +123,7 @@ def touch_ahead(h, model, mo, control):
     return landing_cut(s, h, control.last_how[0] == 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cut_at_touch(h, na, model, sc, control):
     """Landing step "cut", after a step h that anchored points (na) and was not cut
     (control.touch_cut = 0): (length, how) of ``landing_cut`` for the earliest touch of the points it
@@ -135,7 +135,7 @@ def cut_at_touch(h, na, model, sc, control):
     return landing_cut(touch_time(model, sc.start, sc.new_anchor, na), h, True)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _cut(code, change, etol):
     """How many halvings (log2, not only whole) a refused step is shortened by: for a step
     that changed U + T by ``change`` beyond etol, the local error of a second-order step
@@ -145,7 +145,7 @@ def _cut(code, change, etol):
     return max(math.log2(SHRINK_MIN), math.log2(abs(change) / (SAFETY * etol)) / 3.0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _growth(change, impact, etol, control, grip):
     """How many halvings (log2) the next step is lengthened by after one accepted: with the
     energy bound, the smooth step's change of U + T brought to SAFETY etol (h^3), by a
@@ -164,7 +164,7 @@ def _growth(change, impact, etol, control, grip):
     return _count_up(control)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _count_up(control):
     """One halving undone after GROW_AFTER accepted steps at a size (control.steps_at_level counts them)."""
     control.steps_at_level[0] += 1
@@ -174,14 +174,14 @@ def _count_up(control):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _stuck(code, model):
     """Finite friction: a stage that failed even at the shortest step holds the sliding
     stretch where it failed (``friction.hold_stuck_stretch``) rather than end the run."""
     return grips(model.friction) and (code == ERR_NEWTON or code == ERR_ACTIVE_SET)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _level(h, mo, control, cuts_max):
     """The level of the next step (control.level), raised so that it turns no segment
     further than TURN_MAX (the landed segments, past the active points, are at rest)."""
@@ -193,7 +193,7 @@ def _level(h, mo, control, cuts_max):
     return level
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _retake(mo, ws, sc, books):
     """A step refused: the state back to its start, its factorisations counted."""
     undo_step(mo, sc)
@@ -201,25 +201,26 @@ def _retake(mo, ws, sc, books):
     books.n_evals[0] += sc.ledger.factorisations[0]
 
 
-@njit(cache=True)
-def _frames_from(t, h, fall, books):
-    """After an accepted step from t of h: the frame books at its start and end, the frames
-    inside it pending (``frames.frame_substeps``)."""
-    fbk = fall.frame_books
+@njit(cache=True, _nrt=False)
+def _frames_from(t, h, fbk, books):
+    """After an accepted step from t of h: the frame books fbk at its start and end, the
+    frames inside it pending (``frames.frame_substeps``)."""
     books_now(books, fbk)
     copy_tally(fbk.now, fbk.at_start)
     fbk.step_t[0], fbk.step_h[0], fbk.frames_due[0] = t, h, 1
 
 
-@njit(cache=True)
-def step(t, h, model, fall, books, frames, trace, log):
-    """One step from t (h at most: cut at the stop time) with its books, log and trace;
-    the frames inside it are left pending (the frame books' frames_due).  Returns (code, t + h)."""
-    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+@njit(cache=True, _nrt=False)
+def step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log):
+    """One step from t (h at most: cut at the stop time) of the fall's motion mo, rows ws,
+    scratch sc and step control, with its books, log and trace; the frames inside it are
+    left pending (the frame books fbk's frames_due).  Returns (code, t + h).  (The fall's
+    parts, not the ``state.Fall`` bundle: not its frame work, which a step does not use,
+    ~90 arrays that every call would pass.)"""
     lg = sc.ledger
     if frames.next[0] <= t * (1.0 + 1e-12) + 1e-12:
-        books_now(books, fall.frame_books)
-        record_frame(t, mo, fall.frame_books, frames)
+        books_now(books, fbk)
+        record_frame(t, mo, fbk, frames)
     extra = control.extra_cuts[0]
     cuts_max, split_cuts = CUTS_MAX + extra, SPLIT_CUTS + extra  # (a longer --dt halves more: ``extra_cuts``)
     level = _level(h, mo, control, cuts_max)
@@ -255,10 +256,10 @@ def step(t, h, model, fall, books, frames, trace, log):
         control.touch_cut[0], control.touch_how[0] = cut, how
         _retake(mo, ws, sc, books)
         return 0, t
-    return _accept(t, h, h == whole, level, na, model, fall, books, trace, log)
+    return _accept(t, h, h == whole, level, na, model, mo, ws, sc, control, fbk, books, trace, log)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
     """The fall's ``rattle_step``; one whose impacts by Newton's law created energy
     (ERR_REBOUND) is taken again with its impacts inelastic.  Returns (code, new anchors)."""
@@ -272,12 +273,11 @@ def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
     return code, na
 
 
-@njit(cache=True)
-def _accept(t, h, grow, level, na, model, fall, books, trace, log):
+@njit(cache=True, _nrt=False)
+def _accept(t, h, grow, level, na, model, mo, ws, sc, control, fbk, books, trace, log):
     """A step from t of h accepted: its warm start kept, the control's next level (as its
     change of U + T asks, if it was not cut at a touch: ``grow``; ``level``: its own), its
-    frames left pending, its books, log and trace.  Returns (code, t + h)."""
-    mo, ws, sc, control = fall.motion, fall.rows, fall.scratch, fall.control
+    frames left pending (the frame books fbk), its books, log and trace.  Returns (code, t + h)."""
     lg = sc.ledger
     if control.touch_how[0] != 2:  # (a landing's own short step: its impact impulse, scaled up to the
         keep_warm_start(h, ws, sc)  # next step's size, is no guess; the step's before it is)
@@ -287,7 +287,7 @@ def _accept(t, h, grow, level, na, model, fall, books, trace, log):
         control.level[0] = max(
             0.0, level - _growth(lg.energy_lost[0], lg.impact[0], etol, control, grips(model.friction))
         )
-    _frames_from(t, h, fall, books)
+    _frames_from(t, h, fbk, books)
     commit(t, h, na, model, mo, ws, sc, books, log)
     kt = trace.count[0]
     z_end = mo.c[0, 2] + mo.e[0, 2]
@@ -304,12 +304,13 @@ def _accept(t, h, grow, level, na, model, fall, books, trace, log):
 def run_steps(t, h, model, fall, books, frames, trace, log):
     """Steps of size h until the fall ends, the stop time, full buffers or
     ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""
-    mo = fall.motion
+    mo, ws, sc, fw, control, fbk = fall
     n = mo.e.shape[0]
     room = 4 * n + 8  # (log rows a step can write at most: locks, unlocks, landings, the floor's hold)
     taken = 0
     while True:
-        code = frame_substeps(model, fall, frames)  # the last step's, if pending
+        # the last step's frames, if pending
+        code = frame_substeps(model, sc.start, sc.ledger, fw, control.extra_cuts[0], fbk, frames)
         if code != 0:
             return code, t
         if fall_over(mo.anchored, mo.anchor_t, mo.touching, model.friction, model.e_floor):
@@ -324,7 +325,7 @@ def run_steps(t, h, model, fall, books, frames, trace, log):
             return RT_STOP, t
         if books.n_steps[0] >= model.max_steps:
             return RT_MAX_STEPS, t
-        code, t = step(t, h, model, fall, books, frames, trace, log)
+        code, t = step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log)
         if code < 0:
             return code, t
         taken += 1
