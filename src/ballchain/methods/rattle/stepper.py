@@ -256,7 +256,9 @@ def step(t, h, model, mo, ws, sc, control, fbk, books, frames, trace, log):
         control.touch_cut[0], control.touch_how[0] = cut, how
         _retake(mo, ws, sc, books)
         return 0, t
-    return _accept(t, h, h == whole, level, na, model, mo, ws, sc, control, fbk, books, trace, log)
+    _frames_from(t, h, fbk, books)
+    _accept(t, h, h == whole, level, na, model, mo, ws, sc, control, books, log)
+    return _trace_step(t + h, mo, trace)
 
 
 @njit(cache=True, _nrt=False)
@@ -274,10 +276,10 @@ def _attempt(t, h, model, mo, ws, sc, etol, split, budget):
 
 
 @njit(cache=True, _nrt=False)
-def _accept(t, h, grow, level, na, model, mo, ws, sc, control, fbk, books, trace, log):
+def _accept(t, h, grow, level, na, model, mo, ws, sc, control, books, log):
     """A step from t of h accepted: its warm start kept, the control's next level (as its
     change of U + T asks, if it was not cut at a touch: ``grow``; ``level``: its own), its
-    frames left pending (the frame books fbk), its books, log and trace.  Returns (code, t + h)."""
+    books and log (its frames are left pending by the caller: ``_frames_from``)."""
     lg = sc.ledger
     if control.touch_how[0] != 2:  # (a landing's own short step: its impact impulse, scaled up to the
         keep_warm_start(h, ws, sc)  # next step's size, is no guess; the step's before it is)
@@ -287,16 +289,21 @@ def _accept(t, h, grow, level, na, model, mo, ws, sc, control, fbk, books, trace
         control.level[0] = max(
             0.0, level - _growth(lg.energy_lost[0], lg.impact[0], etol, control, grips(model.friction))
         )
-    _frames_from(t, h, fbk, books)
     commit(t, h, na, model, mo, ws, sc, books, log)
+
+
+@njit(cache=True, _nrt=False)
+def _trace_step(t_end, mo, trace):
+    """The top end's height at an accepted step's end into the trace.  Returns (code, t_end):
+    ERR_NAN if it is not finite."""
     kt = trace.count[0]
     z_end = mo.c[0, 2] + mo.e[0, 2]
-    trace.t[kt] = t + h
+    trace.t[kt] = t_end
     trace.z[kt] = z_end
     trace.count[0] = kt + 1
     if not math.isfinite(z_end):  # (the velocities: U + T was finite, ``rattle_step``)
-        return ERR_NAN, t + h
-    return 0, t + h
+        return ERR_NAN, t_end
+    return 0, t_end
 
 
 @entry
