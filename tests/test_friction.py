@@ -314,6 +314,60 @@ def test_a_stuck_stretch_is_held_where_it_lies():
     assert [j for j in range(n + 1) if mo.touching[j] == JAMMED] == [7]
 
 
+def _bend(a, b, c):
+    """The bend angle at b between the segments a-b and b-c (rad)."""
+    u, v = b - a, c - b
+    return math.acos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1.0, 1.0))
+
+
+def test_a_flat_fold_between_held_points_is_held_where_no_sliding_point_is_near():
+    """A free point lying on the floor between two held points, in an arc whose bends are all
+    at their limit: its one freedom (turning about the line through its neighbours) changes
+    the bends beside it only to second order, so the bend rows cannot hold it and no active
+    set of them settles (a fall at mu = 0.5, N = 1024 ended so).  Where a stage fails there
+    and no sliding point is near, that point is held (``friction.hold_stuck_stretch``: a
+    ``jam`` row), not a point standing in the air, nor one beyond the reach."""
+    from ballchain.methods.rattle.friction import JAMMED, hold_stuck_stretch
+    from ballchain.methods.rattle.state import new_motion
+
+    n, alpha = 12, math.pi / 4
+    turn = np.cumsum(np.full(n, alpha)) - alpha  # (an arc on the floor: every bend at alpha)
+    pts = np.zeros((n + 1, 3))
+    for j in range(n):
+        pts[j + 1] = pts[j] + 2.0 * np.array([math.cos(turn[j]), math.sin(turn[j]), 0.0])
+    assert all(abs(_bend(*pts[k - 1 : k + 2]) - alpha) < 1e-12 for k in range(1, n))
+    # the fold's freedom: point 4 turned by phi about the line through points 3 and 5
+    axis = (pts[5] - pts[3]) / np.linalg.norm(pts[5] - pts[3])
+    arm = pts[4] - pts[3] - ((pts[4] - pts[3]) @ axis) * axis
+    foot = pts[4] - arm
+
+    def bends_turned(phi):
+        p = pts.copy()
+        p[4] = foot + math.cos(phi) * arm + math.sin(phi) * np.linalg.norm(arm) * np.array([0.0, 0.0, 1.0])
+        return np.array([_bend(*p[k - 1 : k + 2]) for k in (3, 4, 5)])
+
+    for phi in (1e-2, 1e-3):  # second order: the bends beside it move by O(phi^2), the fold's own not at all
+        d = bends_turned(phi) - alpha
+        assert abs(d[1]) < 1e-12 and 0.0 < d[0] < phi**2 and 0.0 < d[2] < phi**2
+
+    def fold(lift):
+        p = pts.copy()
+        p[4, 2] = lift
+        mo = new_motion(n)
+        mo.c[:] = 0.5 * (p[:-1] + p[1:])
+        mo.e[:] = 0.5 * (p[:-1] - p[1:])
+        #                    points 0  1  2  3  4  5  6  7  8  9 10 11 12
+        mo.anchored[:] = np.array([0, 0, 1, 1, 0, 1, 1, 0, 0, 0, 0, 0, 0], np.uint8)
+        return mo
+
+    mo = fold(0.0)
+    assert hold_stuck_stretch(mo, 5) == 1
+    assert [j for j in range(n + 1) if mo.touching[j] == JAMMED] == [4]
+    assert hold_stuck_stretch(fold(0.0), 0) == 1  # (0 +- 4 reaches it)
+    assert hold_stuck_stretch(fold(0.0), 9) == 0  # (9 +- 4 does not; nothing slides: nothing is held)
+    assert hold_stuck_stretch(fold(2e-6), 4) == 0  # (standing 2e-6 b in the air: its bends see its turn)
+
+
 @pytest.mark.parametrize("mu", [1e3, 1e6])
 def test_a_leaning_rod_on_a_floor_of_large_friction_pivots_and_lands_when_the_pivots_quadrature_says(mu):
     """Pivoting on its foot from THETA0 the rod asks of the floor a vertical force that stays

@@ -45,6 +45,9 @@ SLIDING, STOPPING, HELD, JAMMED = 1, 2, 3, 4  # Motion.touching at finite fricti
 #   stage 2 (anchored next); reversed by its friction in a step that created energy (``hold_reversed``: held at the
 #   step's start, a stick); in a stretch that a stage could not move (``hold_stuck_stretch``: held at the next
 #   step's start by a fallback rule, a jam)
+FLAT_FOLD = (
+    1e-6  # b: a free point this near the floor between two held points lies in a flat fold (``hold_stuck_stretch``)
+)
 STUCK_REACH = 4  # points: a stage that fails on a row at point j holds the sliding stretches this near it
 
 
@@ -64,6 +67,14 @@ def _point_xy(c, e, j):
     if j < n:
         return c[j, 0] + e[j, 0], c[j, 1] + e[j, 1]
     return c[n - 1, 0] - e[n - 1, 0], c[n - 1, 1] - e[n - 1, 1]
+
+
+@njit(cache=True, inline="always")
+def _point_height(mo, j):
+    n = mo.e.shape[0]
+    if j < n:
+        return 0.0, 0.0, mo.c[j, 2] + mo.e[j, 2]
+    return 0.0, 0.0, mo.c[n - 1, 2] - mo.e[n - 1, 2]
 
 
 @njit(cache=True, inline="always")
@@ -401,8 +412,29 @@ def hold_stuck_stretch(mo, j):
     n1 = mo.anchored.shape[0]
     if j < 0 or j >= n1:
         return 0
-    marked = _hold_stretches(mo, max(j - STUCK_REACH, 0), min(j + STUCK_REACH, n1 - 1))
+    lo, hi = max(j - STUCK_REACH, 0), min(j + STUCK_REACH, n1 - 1)
+    marked = _hold_stretches(mo, lo, hi)
+    if marked == 0:
+        marked = _hold_flat_folds(mo, lo, hi)
     return marked if marked > 0 else _hold_stretches(mo, 0, n1 - 1)
+
+
+@njit(cache=True, _nrt=False)
+def _hold_flat_folds(mo, lo, hi):
+    """Mark JAMMED each free point in lo..hi that lies on the floor (within FLAT_FOLD b)
+    between two held points: a fold lying flat, whose only freedom (turning about the line
+    through its neighbours) the bend rows beside it do not see at first order (their
+    gradient vanishes there), so that no active set of them settles.  Returns how many."""
+    n1 = mo.anchored.shape[0]
+    marked = 0
+    for i in range(max(lo, 1), min(hi, n1 - 2) + 1):
+        if mo.anchored[i] != 0 or mo.touching[i] != 0 or mo.anchored[i - 1] == 0 or mo.anchored[i + 1] == 0:
+            continue
+        _, _, z = _point_height(mo, i)
+        if z < FLAT_FOLD:
+            mo.touching[i] = JAMMED
+            marked += 1
+    return marked
 
 
 @njit(cache=True, _nrt=False)
