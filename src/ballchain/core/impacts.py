@@ -35,7 +35,17 @@ from .blocks import factor, solve, torques4
 from .dynamics import accelerations
 from .kinematics import apply_impulses, constraint_rates4, constraint_velocities, kinetic_energy, torque_jump
 from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
-from .rows import ROW_ANCHOR_LOWER, ROW_ANCHOR_UPPER, ROW_HINGE, ROW_LOCK, W_W, build_rows, constraint_rows
+from .rows import (
+    ROW_ANCHOR_LOWER,
+    ROW_ANCHOR_UPPER,
+    ROW_HINGE,
+    ROW_LOCK,
+    ROW_SLIDE_LOWER,
+    ROW_SLIDE_UPPER,
+    W_W,
+    build_rows,
+    constraint_rows,
+)
 from .rules import RATE_TOL, landed_or_landing, unit_hinge_gap
 from .state import MAXR
 
@@ -111,7 +121,9 @@ def new_impact_work(n: int) -> ImpactWork:
 @njit(cache=True, inline="always")
 def _row_target(kind, j, r, iw):
     """The rate an anchor row of point j leaves the impact with: the point's rebound on
-    its vertical rows (r % 3 == 2), else 0 (at rest)."""
+    its vertical rows (r % 3 == 2) and on a sliding point's height row, else 0 (at rest)."""
+    if kind == ROW_SLIDE_LOWER or kind == ROW_SLIDE_UPPER:
+        return iw.rebound[j]
     return iw.rebound[j] if (kind == ROW_ANCHOR_LOWER or kind == ROW_ANCHOR_UPPER) and r % 3 == 2 else 0.0
 
 
@@ -336,7 +348,7 @@ def _impact_books(w, ws, iw):
             kd = kind[j, r]
             if kd == ROW_LOCK:
                 lost_lock += -0.5 * x[j, r] * (jv_minus[j, r] + iw.rates_after[j - 1])
-            elif kd == ROW_ANCHOR_LOWER or kd == ROW_ANCHOR_UPPER:
+            elif kd == ROW_ANCHOR_LOWER or kd == ROW_ANCHOR_UPPER or kd == ROW_SLIDE_LOWER or kd == ROW_SLIDE_UPPER:
                 lost_land += -0.5 * x[j, r] * (jv_minus[j, r] + _row_target(kd, j, r, iw))
     anchor_impulse = iw.anchor_impulse
     for j in range(anchor_impulse.shape[0]):
@@ -346,6 +358,8 @@ def _impact_books(w, ws, iw):
             kd = kind[j, r]
             if kd == ROW_ANCHOR_LOWER or kd == ROW_ANCHOR_UPPER:
                 anchor_impulse[j, r % 3] += x[j, r]
+            elif kd == ROW_SLIDE_LOWER or kd == ROW_SLIDE_UPPER:
+                anchor_impulse[j, 2] += x[j, r]
     iw.split[0] = lost_lock
     iw.split[1] = lost_land
     for i in range(w.shape[0]):
