@@ -49,12 +49,12 @@ def test_floor_model_agrees_with_its_reference(name):
         np.testing.assert_array_equal(watched, ref.watched(anchored))
         j0, j1 = dispatch.floor_watched_range(code, anchored)
         assert not watched[:j0].any() and not watched[j1:].any()
-        vals = dispatch.floor_values(code, e, anchored, np.zeros(n + 1))
+        vals = dispatch.floor_values(code, e, anchored, 0.0, np.zeros(n + 1))
         want = ref.values(e, anchored)
         np.testing.assert_allclose(vals[np.isfinite(want)], want[np.isfinite(want)], rtol=0, atol=1e-12)
         assert np.all(np.isinf(vals[~np.isfinite(want)]))
         for j in np.flatnonzero(np.isfinite(want)):
-            assert dispatch.floor_value(code, e, j) == pytest.approx(want[j], abs=1e-12)
+            assert dispatch.floor_value(code, e, anchored, 0.0, j) == pytest.approx(want[j], abs=1e-12)
         pts = np.zeros((n + 1, 3))
         pts[:, 2] = heights(e)
         for landing in (False, True):

@@ -23,26 +23,11 @@ and every point and centre moves by p and u (``Base``: X0, Z0 in cm0, V, W0 in v
 
 from __future__ import annotations
 
-from collections import namedtuple
-
 import numpy as np
 
 from ..jit import njit
 from .kinematics import point_positions, velocities
-
-Base = namedtuple(
-    "Base",
-    [
-        "cm0",  # (3,): the centre of mass at t0 (its height used in flight only)
-        "vcm0",  # (3,): its velocity at t0 (the horizontal part for the whole run)
-        "t0",  # (1,): when cm0, vcm0 were taken (the last lift-off of the whole chain, or the start)
-    ],
-)
-
-
-def new_base() -> Base:
-    """A chain whose centre of mass is at the origin at rest at t = 0 (``set_base`` sets it)."""
-    return Base(np.zeros(3), np.zeros(3), np.zeros(1))
+from .state import Base, new_base  # noqa: F401  (the bundle, allocated beside its kin)
 
 
 @njit(cache=True)
@@ -52,6 +37,50 @@ def held_point(anchored):
         if anchored[j] != 0:
             return j
     return -1
+
+
+@njit(cache=True)
+def floor_z(e, anchored, base, t):
+    """The floor's height in the chain's frame (positions summed from point N at the
+    origin): 0 while point N is held (always, but on a frictionless floor); the height of
+    the held point of largest index while another holds the chain; in flight, -p_z(t),
+    point N's height from the centre of mass's free fall (module docstring)."""
+    n = e.shape[0]
+    if anchored[n] != 0:
+        return 0.0
+    z = 0.0
+    csum = 0.0  # sum of the centres' heights relative to point N
+    for j in range(n - 1, -1, -1):
+        csum += z + e[j, 2]
+        z += 2.0 * e[j, 2]
+        if anchored[j] != 0:
+            return z
+    s = t - base.t0[0]
+    return csum / n - (base.cm0[2] + base.vcm0[2] * s - 0.5 * s * s)
+
+
+@njit(cache=True)
+def floor_z_rates(e, w, de, dw, anchored, base, t):
+    """The floor's vertical rate and acceleration in the chain's frame (``floor_z``'s), for
+    the rates w, de = w x e and accelerations dw of the axes: 0, 0 while point N is held;
+    a held point's relative ones; in flight the centre of mass's less the mean relative
+    centre's (its acceleration -g)."""
+    n = e.shape[0]
+    if anchored[n] != 0:
+        return 0.0, 0.0
+    v, a = 0.0, 0.0  # point j's relative vertical rate and acceleration
+    vs, as_ = 0.0, 0.0  # sums over the centres below
+    for j in range(n - 1, -1, -1):
+        dv = w[j, 0] * e[j, 1] - w[j, 1] * e[j, 0]  # (w x e)_z
+        da = dw[j, 0] * e[j, 1] - dw[j, 1] * e[j, 0] + w[j, 0] * de[j, 1] - w[j, 1] * de[j, 0]
+        vs += v + dv
+        as_ += a + da
+        v += 2.0 * dv
+        a += 2.0 * da
+        if anchored[j] != 0:
+            return v, a
+    s = t - base.t0[0]
+    return vs / n - (base.vcm0[2] - s), as_ / n + 1.0
 
 
 @njit(cache=True)
@@ -102,21 +131,30 @@ def set_base(e, w, anchored, base, t, pts, pv, vel, p, u):
         base.cm0[q] = p[q] + mean[0, q]
         base.vcm0[q] = u[q] + mean[1, q]
     base.t0[0] = t
+    base.flying[0] = 1 if held_point(anchored) < 0 else 0
+
+
+@njit(cache=True)
+def energies_moved(e, w, pts, vel, pu, out):
+    """out[0] = U, out[1] = T (m g b) of the chain whose point N is at pu[0] moving at pu[1],
+    from its positions pts and centres' velocities vel relative to point N: sum_i (z_i^rel
+    + p_z) and sum_i |v_i^rel + u|^2 / 2 + |w_i|^2 / 6."""
+    u = 0.0
+    tk = 0.0
+    for i in range(e.shape[0]):
+        u += pts[i + 1, 2] + e[i, 2] + pu[0, 2]
+        for q in range(3):
+            v = vel[i, q] + pu[1, q]
+            tk += 0.5 * v * v + w[i, q] * w[i, q] / 6.0
+    out[0] = u
+    out[1] = tk
 
 
 @njit(cache=True)
 def energy_on_floor(e, w, anchored, base, t, pts, pv, vel):
-    """U + T of the chain whose point N is where ``base_point`` puts it (m g b): the
-    relative energies plus N p_z (potential), u . sum_i v_i^rel + N |u|^2 / 2 (kinetic)."""
-    n = e.shape[0]
+    """U + T of the chain whose point N is where ``base_point`` puts it (m g b)."""
     pu = np.empty((2, 3))
     base_point(e, w, anchored, base, t, pts, pv, vel, pu)
-    u = 0.0
-    tk = 0.0
-    for i in range(n):
-        u += pts[i + 1, 2] + e[i, 2] + pu[0, 2]
-        for q in range(3):
-            v = vel[i, q] + pu[1, q]
-            tk += 0.5 * v * v
-            tk += w[i, q] * w[i, q] / 6.0
-    return u + tk
+    out = np.empty(2)
+    energies_moved(e, w, pts, vel, pu, out)
+    return out[0] + out[1]

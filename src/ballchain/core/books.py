@@ -36,6 +36,23 @@ def lowest_point(e, lowest):
         lowest[0] = zlow
 
 
+@njit(cache=True)
+def lowest_above_floor(e, anchored, zf, lowest):
+    """``lowest_point`` with the heights measured from the floor, at zf in the chain's frame
+    (0, but where a frictionless floor has let point N leave it: ``base.floor_z``)."""
+    if anchored[e.shape[0]] != 0:
+        lowest_point(e, lowest)
+        return
+    zlow = -zf
+    zacc = 0.0
+    for j in range(e.shape[0] - 1, -1, -1):
+        zacc += 2.0 * e[j, 2]
+        if zacc - zf < zlow:
+            zlow = zacc - zf
+    if zlow < lowest[0]:
+        lowest[0] = zlow
+
+
 @njit(cache=True, inline="always")
 def log_row(log, t, kind, index, i0, i1, i2, energy, pts, j):
     """One row of the event log (``state.Log``): t, kind, index, impulse (i0, i1, i2),

@@ -195,6 +195,34 @@ def drift_removable(anchored, j):
     return j < anchored.shape[0] - 1 and not _is_landed(anchored, j)
 
 
+@njit(cache=True, inline="always")
+def _floor_z(anchored, pts):
+    """The floor's height in the chain's frame (``rules.floor_height``) from the points'
+    positions or velocities ``pts``: 0 while point N is held, else that of the held point
+    of largest index (a frictionless floor that point N has left)."""
+    n1 = anchored.shape[0]
+    if anchored[n1 - 1] != 0:
+        return 0.0
+    for j in range(n1 - 2, -1, -1):
+        if anchored[j] != 0:
+            return pts[j, 2]
+    return 0.0
+
+
+@njit(cache=True)
+def slide_rates_from_floor(anchored, kind, nrow, pv, out):
+    """The sliding points' height rows' rates (``out``, from velocities with point N at
+    rest, ``pv``) made the rates relative to the floor: minus the held reference's vertical
+    rate (``_floor_z`` of the velocities; nothing while point N is held)."""
+    vz = _floor_z(anchored, pv)
+    if vz == 0.0:
+        return
+    for j in range(nrow.shape[0]):
+        for r in range(nrow[j]):
+            if kind[j, r] == ROW_SLIDE_LOWER or kind[j, r] == ROW_SLIDE_UPPER:
+                out[j, r] -= vz
+
+
 @njit(cache=True)
 def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, out):
     """Residual of every row at the position level: anchors (point - anchor, where
@@ -202,6 +230,7 @@ def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pt
     hinge locked, cos(alpha) to within the event tolerance), hinges 0 (positions are
     built from e).  Returns max |.|."""
     point_positions(e, pts)
+    zf = _floor_z(anchored, pts)
     worst = 0.0
     for j in range(nrow.shape[0]):
         removable = drift_removable(anchored, j)
@@ -213,7 +242,7 @@ def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pt
                 a = j - 1
                 out[j, r] = e[a, 0] * e[j, 0] + e[a, 1] * e[j, 1] + e[a, 2] * e[j, 2] - lock_cos[a]
             elif k == ROW_SLIDE_LOWER or k == ROW_SLIDE_UPPER:
-                out[j, r] = pts[j, 2]  # (its height: the floor's is 0, point N's height taken as the floor's)
+                out[j, r] = pts[j, 2] - zf  # (its height above the floor: ``_floor_z``)
             elif removable:
                 out[j, r] = pts[j, r % 3] - anchor_pos[j, r % 3]
             else:
@@ -312,6 +341,7 @@ def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
         constraint_rates4(e, w, anchored, kind, nrow, pts, vel, rhs)
     else:
         constraint_velocities(e, w, J, nrow, pts, vel, rhs)
+        slide_rates_from_floor(anchored, kind, nrow, pts, rhs)
     vres = 0.0
     for j in range(nrow.shape[0]):
         for r in range(nrow[j]):

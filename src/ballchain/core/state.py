@@ -89,6 +89,15 @@ def new_model(alpha, floor, cone, options, t_stop, zeno_window, return_every, dt
     )
 
 
+Base = namedtuple(
+    "Base",
+    [
+        "cm0",  # (3,): the centre of mass at t0 (its height used in flight only)
+        "vcm0",  # (3,): its velocity at t0 (the horizontal part for the whole run)
+        "t0",  # (1,): when cm0, vcm0 were taken (the start, or the whole chain leaving the floor)
+        "flying",  # (1,) int64: 1 while the whole chain is off the floor and cm0, vcm0, t0 describe its flight
+    ],
+)
 Chain = namedtuple(
     "Chain",
     [
@@ -98,8 +107,14 @@ Chain = namedtuple(
         "lock_cos",  # (N-1,): the cosine each lock holds (cos_alpha to within the event tolerance)
         "anchor_pos",  # (N+1, 3): where each anchored point is held (NaN: free)
         "anchor_t",  # (N+1,): when it was anchored (NaN: free)
+        "base",  # Base: where point N is on a frictionless floor (``core.base``; unused on the others)
     ],
 )
+
+
+def new_base() -> Base:
+    """A chain whose centre of mass is at the origin at rest at t = 0 (``base.set_base`` sets it)."""
+    return Base(np.zeros(3), np.zeros(3), np.zeros(1), np.zeros(1, np.int64))
 
 
 def new_chain(e0: np.ndarray, w0: np.ndarray, alpha: float) -> Chain:
@@ -115,7 +130,7 @@ def new_chain(e0: np.ndarray, w0: np.ndarray, alpha: float) -> Chain:
     anchor_pos[n] = 0.0
     anchor_t = np.full(n + 1, np.nan)
     anchor_t[n] = 0.0
-    return Chain(Y, anchored, np.zeros(nh, np.uint8), np.full(nh, math.cos(alpha)), anchor_pos, anchor_t)
+    return Chain(Y, anchored, np.zeros(nh, np.uint8), np.full(nh, math.cos(alpha)), anchor_pos, anchor_t, new_base())
 
 
 # The smooth laws' constants (``core.forces`` reads them; ``Model`` has the same fields)

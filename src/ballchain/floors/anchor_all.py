@@ -29,20 +29,28 @@ def watched_range(anchored):
 
 
 @njit(cache=True)
-def value(e, j):
-    """The height of point j."""
-    return point_height(e, j)
+def value(e, anchored, zf, j):
+    """The height of point j above the floor, which is at zf in the chain's frame (0, but
+    where a frictionless floor has let point N leave it: ``core.base.floor_z``)."""
+    if anchored[e.shape[0]] != 0:
+        return point_height(e, j)
+    return point_height(e, j) - zf
 
 
 @njit(cache=True)
-def values(e, anchored, out):
-    """out[j] = the height of every free point j (others: inf), in O(N)."""
+def values(e, anchored, zf, out):
+    """out[j] = the height above the floor of every free point j (others: inf), in O(N)."""
     n = e.shape[0]
     z = 0.0
     out[n] = math.inf
     for j in range(n - 1, -1, -1):
         z += 2.0 * e[j, 2]
         out[j] = math.inf if anchored[j] != 0 else z
+    if anchored[n] == 0:  # (point N off the floor, a frictionless floor's: heights from the floor's)
+        out[n] = -zf
+        for j in range(n):
+            if anchored[j] == 0:
+                out[j] -= zf
     return out
 
 
@@ -51,7 +59,7 @@ def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     """Every free point at z <= ztol (``Z_TOL`` at an event instant) that is not moving
     up (dz/dt <= RATE_TOL); their number (indices in out)."""
     na = 0
-    for j in range(e.shape[0]):
+    for j in range(e.shape[0] + 1):  # (point N too: a frictionless floor lets it leave)
         if anchored[j] == 0 and pts[j, 2] <= ztol and pv[j, 2] <= RATE_TOL:
             out[na] = j
             na += 1

@@ -33,19 +33,20 @@ def floor_watched_range(floor, anchored):
 
 
 @njit(cache=True)
-def floor_value(floor, e, j):
-    """Floor event function j of axes e (need not be unit length)."""
+def floor_value(floor, e, anchored, zf, j):
+    """Floor event function j of axes e (need not be unit length); zf: the floor's height in
+    the chain's frame (``core.base.floor_z``: 0 but on a frictionless floor point N has left)."""
     if floor == FLOOR_ALL:
-        return anchor_all.value(e, j)
-    return pivot.value(e, j)
+        return anchor_all.value(e, anchored, zf, j)
+    return pivot.value(e, anchored, zf, j)
 
 
 @njit(cache=True)
-def floor_values(floor, e, anchored, out):
-    """out[j] = floor_value(floor, e, j) for every watched j (others: inf), in O(N)."""
+def floor_values(floor, e, anchored, zf, out):
+    """out[j] = floor_value(floor, e, anchored, zf, j) for every watched j (others: inf), in O(N)."""
     if floor == FLOOR_ALL:
-        return anchor_all.values(e, anchored, out)
-    return pivot.values(e, anchored, out)
+        return anchor_all.values(e, anchored, zf, out)
+    return pivot.values(e, anchored, zf, out)
 
 
 @njit(cache=True)

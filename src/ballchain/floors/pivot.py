@@ -36,19 +36,19 @@ def watched_range(anchored):
 
 
 @njit(cache=True)
-def value(e, j):
+def value(e, anchored, zf, j):
     """e_j,z / |e_j| of the segment whose upper end is point j (e need not be unit)."""
     return e[j, 2] / math.sqrt(e[j, 0] ** 2 + e[j, 1] ** 2 + e[j, 2] ** 2)
 
 
 @njit(cache=True)
-def values(e, anchored, out):
+def values(e, anchored, zf, out):
     """out[j] = value(e, j) for the watched point (others: inf)."""
     m = bottom_airborne(anchored)
     for j in range(out.shape[0]):
         out[j] = math.inf
     if m >= 0 and anchored[m] == 0:
-        out[m] = value(e, m)
+        out[m] = value(e, anchored, 0.0, m)
     return out
 
 
@@ -67,7 +67,7 @@ def cascade(e, anchored, ztol, out):
     instant, from the bottom up; their upper ends in out, their number."""
     na = 0
     m = bottom_airborne(anchored)
-    while m >= 0 and value(e, m) <= ztol:
+    while m >= 0 and value(e, anchored, 0.0, m) <= ztol:
         out[na] = m
         na += 1
         m -= 1

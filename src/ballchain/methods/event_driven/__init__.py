@@ -19,6 +19,11 @@ from ..bounds import AuditBounds
 AUDIT = AuditBounds(energy_rtol=1e-8, depth_tol=1e-8, hinge_tol=1e-7)
 # the contact laws' parameters it honours away from their defaults (contacts.registry)
 CONTACTS = ("restitution_lock", "restitution_floor", "hinge_damping")
+# ... and why it refuses the others (``methods.check_contacts`` names the reason)
+CONTACT_REFUSALS = {
+    "friction": "its frictionless floor is built but not offered yet: a point that grazes the floor leaves it "
+    "and lands again thousands of times (a chain of 32 had not landed after 15 minutes); --method rattle takes it",
+}
 
 # what a run's summary line of events counts beside them (the command line's): its event instants
 SUMMARY_COUNT = ("n_instants", "instants")

@@ -9,8 +9,13 @@ import math
 
 import numpy as np
 
+from ...contacts.coulomb import slides
+from ...core.base import set_base
+from ...core.dynamics import accelerations
 from ...core.impacts import hinge_gaps
+from ...core.rules import SLIDING
 from ...core.state import new_books, new_chain, new_model, new_work
+from ...core.unilateral import vertical_multipliers
 from ...floors.registry import FLOOR_CODES
 from ..outputs import (
     FLUSH,
@@ -38,6 +43,7 @@ from .events import (
     run_events,
 )
 from .integrator import ADV_BUFFER, ADV_FAIL_NAN, ADV_FAIL_STEP, ADV_MAX_STEPS, ADV_STOP, new_stepper
+from .slides import energies
 from .watch import arm_functions, new_watch
 
 LOOSE_RTOL = 1e-7  # an impact that fails above this tolerance gets a hint to tighten it
@@ -79,18 +85,36 @@ def _failure(code: int, t: float, h: float, t_ff: float, options) -> str | None:
     return None
 
 
-def _arm(model, chain, watch, sc, books) -> None:
-    """Arm the event functions of the starting state."""
+def _arm(model, chain, watch, ws, sc, books) -> None:
+    """Arm the event functions of the starting state (on a frictionless floor the floor's
+    force on the sliding bottom end too)."""
     hinge_gaps(chain.Y[0], model.cos_alpha, sc.hs.gaps)
+    pz = np.zeros(chain.anchored.shape[0])
+    if slides(model.friction):
+        n = chain.Y.shape[1]
+        accelerations(chain.Y[0], chain.Y[1], chain.anchored, chain.locked, ws, np.zeros((n, 3)), np.zeros((n, 3)))
+        vertical_multipliers(ws.kind, ws.nrow, ws.x, pz)
     arm_functions(
         model,
         chain,
         watch,
         sc.hs.gaps,
         np.zeros_like(sc.acc.lam),
+        pz,
+        0.0,
         not math.isnan(books.t_fall[0]),
         np.zeros(chain.anchored.shape[0]),
     )
+
+
+def _on_the_floor(chain, sc) -> None:
+    """A frictionless floor: the bottom end slides (``rules.SLIDING``, not anchored), the
+    chain's centre of mass moves as the state's (point N at the origin, at rest)."""
+    n = chain.Y.shape[1]
+    chain.anchored[n] = SLIDING
+    chain.anchor_pos[n] = np.nan
+    pt = sc.pt
+    set_base(chain.Y[0], chain.Y[1], chain.anchored, chain.base, 0.0, pt.pts, pt.pv, pt.vel, np.zeros(3), np.zeros(3))
 
 
 def run(setup, progress, stop) -> RunOutput:
@@ -112,7 +136,9 @@ def run(setup, progress, stop) -> RunOutput:
     watch, ws, st, sc, books = new_watch(n), new_work(n, model), new_stepper(n), new_instant(n), new_books()
     frames = FrameBuffer(n, setup.t_ff / o.frames_per_tff, setup.t_stop * o.frames_per_tff / setup.t_ff)
     trace, log = TraceBuffer(setup.z0), LogBuffer()
-    _arm(model, chain, watch, sc, books)
+    if slides(model.friction):
+        _on_the_floor(chain, sc)
+    _arm(model, chain, watch, ws, sc, books)
     h = np.array([H0])  # the step size carried from one call of the compiled loop to the next
 
     def advance(t):
@@ -134,4 +160,9 @@ def run(setup, progress, stop) -> RunOutput:
 
     out = RunOutput("landed", "", 0.0, chain, books, frames, trace, log)
     state = {"chain": chain, "watch": watch, "work": ws, "stepper": st, "instant": sc, "books": books, "h": h}
-    return drive(setup, progress, stop, advance, out, 4 * log_room(n), state)
+    out = drive(setup, progress, stop, advance, out, 4 * log_room(n), state)
+    if slides(model.friction):  # (the energies at the end where point N is)
+        en = np.zeros(2)
+        energies(out.t, chain, sc.pt.pts, sc.pt.pv, sc.pt.vel, np.zeros((2, 3)), en)
+        out.potential, out.kinetic = float(en[0]), float(en[1])
+    return out

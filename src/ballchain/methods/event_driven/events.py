@@ -34,7 +34,9 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...contacts.coulomb import slides
 from ...contacts.newton import floor_rebound, rebounds
+from ...core.base import floor_z, floor_z_rates
 from ...core.blocks import reuse_factors
 from ...core.books import PROJECTED_AT_INSTANTS, fill_frame_books, log_row, mechanical_energy
 from ...core.impacts import hinge_gaps, hinge_rates, lock_set, new_impact_work, velocity_impact
@@ -46,24 +48,38 @@ from ...core.rules import (
     LOG_HOLD,
     LOG_IMPULSE,
     LOG_LANDING,
+    LOG_LIFT,
     LOG_LOCK,
     LOG_PIN,
     LOG_RELEASE,
     LOG_TOP,
     LOG_UNLOCK,
     RATE_TOL,
+    SLIDING,
     Z_TOL,
-    all_anchored,
     fall_ended,
+    fall_over,
     hold_at,
     limit_in_force,
     must_hold,
     settle_anchors,
 )
+from ...core.unilateral import floor_impact, floor_lock_set, new_floor_work
 from ...floors.dispatch import floor_contacts, top_event
 from ...jit import entry, njit
 from .integrator import ADV_EVENT, advance
-from .watch import EV_LANDING, EV_TOP, EV_UNLOCK, apex_times, arm_functions
+from .slides import (
+    absolute_points,
+    after_impact,
+    base_velocity,
+    energies,
+    held_candidates,
+    log_lifts,
+    mechanical,
+    start_flight,
+    touch_candidates,
+)
+from .watch import EV_LANDING, EV_LIFT, EV_TOP, EV_UNLOCK, apex_times, arm_functions
 
 
 @entry
@@ -128,6 +144,18 @@ Points = namedtuple(
         "vel",  # (N, 3): centre velocities
     ],
 )
+Floor = namedtuple(
+    "Floor",
+    [
+        "fcand",  # (N+1,) uint8: the instant's floor candidates (a frictionless floor: ``slides``)
+        "lifted",  # (N+1,) uint8: left the floor at this instant (not a candidate again in it)
+        "held",  # (N+1,) uint8: held by the floor before the lock set (its lift-offs logged)
+        "pz",  # (N+1,): the floor's vertical force on each point after the lock set
+        "pu",  # (2, 3): point N's position and velocity
+        "fw",  # the floor's complementarity scratch (unilateral.FloorWork)
+        "en",  # (2,): U, T
+    ],
+)
 Instant = namedtuple(
     "Instant",
     [
@@ -137,6 +165,7 @@ Instant = namedtuple(
         "pt",  # Points
         "iw",  # the impacts' scratch (impacts.ImpactWork)
         "recent",  # (ZENO_EVENTS + 1,): ring of the latest event instants' times
+        "fl",  # Floor
     ],
 )
 
@@ -157,16 +186,21 @@ def new_instant(n: int) -> Instant:
         np.zeros(n + 1, np.int64),
     )
     pt = Points(np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n, 3)))
-    return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1))
+    u8p = lambda: np.zeros(n + 1, np.uint8)  # noqa: E731
+    fl = Floor(u8p(), u8p(), u8p(), np.zeros(n + 1), np.zeros((2, 3)), new_floor_work(n), np.zeros(2))
+    return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1), fl)
 
 
 @njit(cache=True)
-def _unlocks_and_top(t, model, chain, hs, pt, books, log, found):
+def _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found):
     """Step 1: unlock the hinges whose multiplier crossed zero (they cannot re-lock in
-    this instant); the top end reaching the floor (floor models with a top event) ends
-    the fall.  Returns whether a landing event fired."""
+    this instant); on a frictionless floor, let go the points whose floor force crossed
+    zero (a lift-off; not held again in this instant); the top end reaching the floor
+    (floor models with a top event) ends the fall.  Returns whether a landing event fired."""
     for k in range(hs.exclude.shape[0]):
         hs.exclude[k] = 0
+    for j in range(fl.lifted.shape[0]):
+        fl.lifted[j] = 0
     any_landing = np.bool_(False)
     for i in range(found.n[0]):
         if found.time[i] > t + 10.0 * model.xtol:
@@ -183,6 +217,12 @@ def _unlocks_and_top(t, model, chain, hs, pt, books, log, found):
                 log_row(log, t, LOG_TOP, 0, 0.0, 0.0, 0.0, 0.0, pt.pts, 0)
         elif kd == EV_LANDING:
             any_landing = True
+        elif kd == EV_LIFT:
+            j = found.idx[i]
+            if chain.anchored[j] != 0:
+                chain.anchored[j] = 0
+                fl.lifted[j] = 1
+                log_row(log, t, LOG_LIFT, j, 0.0, 0.0, 0.0, 0.0, pt.pts, j)
     return any_landing
 
 
@@ -325,7 +365,7 @@ def _impact_candidates(model, chain, hs, ct):
 
 
 @njit(cache=True)
-def _apply_impact(rnd, model, chain, ws, hs, ct, iw, books):
+def _apply_impact(t, rnd, model, chain, ws, hs, ct, iw, fl, books):
     """Step 3: one impact over the new anchors and the candidates (Moreau's, or Newton's
     restitution at the limits, ``model.e_lock``, and at the floor, iw.rebound; impulses summed into the books, the
     hinge log and the floor's impulse); the hinges it keeps at their limit are locked (a
@@ -335,7 +375,12 @@ def _apply_impact(rnd, model, chain, ws, hs, ct, iw, books):
     hinge_rates(e, w, hs.rates)
     if rnd == 0:  # (Newton's law compares with the rates before the instant, in every round)
         hinge_rates(e, w, iw.rates_before)
-    if velocity_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, model.e_lock, ws, iw) < 0:
+    if slides(model.friction):  # (the floor's rows unilateral: ``slides``; the centres move with point N)
+        base_velocity(t, chain, fl.pu, iw)
+        if floor_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, fl.fcand, model.e_lock, ws, iw, fl.fw) < 0:
+            return False
+        after_impact(chain, fl.fw.vc, fl.pu)
+    elif velocity_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, model.e_lock, ws, iw) < 0:
         return False
     books.lost_locking[0] += iw.split[0]
     books.lost_landing[0] += iw.split[1]
@@ -367,9 +412,10 @@ def _settle_anchors(model, chain, hs):
 
 
 @njit(cache=True)
-def _lock_set(chain, ws, hs, acc):
+def _lock_set(model, chain, ws, hs, acc, fl):
     """Step 4: which hinges at the limit (at rest there, or locked) stay locked, the
-    acceleration-level LCP.  Returns False if it failed."""
+    acceleration-level LCP (on a frictionless floor with the points it holds: which it
+    keeps, ``slides``; fl.pz their forces).  Returns False if it failed."""
     e, w, locked = chain.Y[0], chain.Y[1], chain.locked
     for k in range(locked.shape[0]):
         c2 = (
@@ -377,7 +423,18 @@ def _lock_set(chain, ws, hs, acc):
         ) and hs.exclude[k] == 0
         hs.cand[k] = 1 if c2 else 0
         hs.active[k] = 1 if (locked[k] != 0 and c2) else 0
-    if lock_set(e, w, chain.anchored, hs.cand, hs.active, ws, acc.de, acc.dw, acc.ddg, acc.lam) < 0:
+    if slides(model.friction):
+        held_candidates(chain.anchored, fl.lifted, fl.fcand)
+        if (
+            floor_lock_set(
+                e, w, chain.anchored, hs.cand, hs.active, fl.fcand, ws, acc.de, acc.dw, acc.ddg, acc.lam, fl.fw
+            )
+            < 0
+        ):
+            return False
+        for j in range(fl.pz.shape[0]):
+            fl.pz[j] = fl.fw.pz[j] if chain.anchored[j] != 0 else 0.0
+    elif lock_set(e, w, chain.anchored, hs.cand, hs.active, ws, acc.de, acc.dw, acc.ddg, acc.lam) < 0:
         return False
     for k in range(locked.shape[0]):
         locked[k] = hs.active[k]
@@ -448,7 +505,7 @@ def _log_instant(t, na, model, chain, hs, ct, pt, iw, log):
         i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
         lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * (ct.pre_v[r, 2] + ct.bounce[j]))
         kind = LOG_LANDING
-        if chain.anchored[j] == 0:
+        if chain.anchored[j] == 0 and not slides(model.friction):
             kind = LOG_BOUNCE
         elif rebounds(floor_rebound(ct.pre_v[r, 2], e_floor), e_floor, RATE_TOL):
             kind = LOG_PIN  # (Newton's law would bounce it: a fallback rule anchored it, ``contacts.newton``)
@@ -469,15 +526,29 @@ def _finish_instant(t, model, chain, watch, ws, sc, books):
     for k in range(locked.shape[0]):
         if sc.hs.was_locked[k] == 0 and locked[k] != 0:
             chain.lock_cos[k] = model.cos_alpha + sc.hs.gaps[k]
-    before = mechanical_energy(e, w, sc.pt.pv, sc.pt.vel)
-    project_state(chain, ws, sc.pt.pts, sc.pt.vel, projection_tol(e.shape[0]), np.int64(5))
-    books.projected[PROJECTED_AT_INSTANTS] += mechanical_energy(e, w, sc.pt.pv, sc.pt.vel) - before
+    slide = slides(model.friction)
+    pt, fl = sc.pt, sc.fl
+    before = _mechanical(t, model, chain, pt, fl)
+    project_state(chain, ws, pt.pts, pt.vel, projection_tol(e.shape[0]), np.int64(5))
+    books.projected[PROJECTED_AT_INSTANTS] += _mechanical(t, model, chain, pt, fl) - before
     hinge_gaps(e, model.cos_alpha, sc.hs.gaps)
-    fall_ended(books, t, False, not top_event(model.floor) and (chain.anchored[0] != 0 or sc.ct.bounce[0] > 0.0))
-    arm_functions(model, chain, watch, sc.hs.gaps, sc.acc.lam, not math.isnan(books.t_fall[0]), sc.ct.fv)
+    touched = chain.anchor_t[0] == chain.anchor_t[0] if slide else chain.anchored[0] != 0
+    fall_ended(books, t, False, not top_event(model.floor) and (touched or sc.ct.bounce[0] > 0.0))
+    pz = fl.pz if slide else fl.fw.pz  # (the floor's forces on sliding points: none but on a frictionless floor)
+    zf = floor_z(e, chain.anchored, chain.base, t)
+    arm_functions(model, chain, watch, sc.hs.gaps, sc.acc.lam, pz, zf, not math.isnan(books.t_fall[0]), sc.ct.fv)
     hinge_rates(e, w, sc.hs.rates)
-    velocities(e, w, sc.pt.pv, sc.pt.vel)
-    apex_times(t, e, w, sc.acc.de, sc.acc.dw, watch, sc.hs.rates, sc.acc.ddg, sc.pt.pv)
+    velocities(e, w, pt.pv, pt.vel)
+    vz0, az0 = floor_z_rates(e, w, sc.acc.de, sc.acc.dw, chain.anchored, chain.base, t)
+    apex_times(t, e, w, sc.acc.de, sc.acc.dw, watch, sc.hs.rates, sc.acc.ddg, pt.pv, vz0, az0)
+
+
+@njit(cache=True)
+def _mechanical(t, model, chain, pt, fl):
+    """U + T (on a frictionless floor, where point N is: ``slides``)."""
+    if slides(model.friction):
+        return mechanical(t, chain, pt.pts, pt.pv, pt.vel)
+    return mechanical_energy(chain.Y[0], chain.Y[1], pt.pv, pt.vel)
 
 
 @njit(cache=True)
@@ -486,42 +557,68 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     the events the integrator found (``integrator.Found``).  Returns EV_OK or a negative
     error code."""
     e, w = chain.Y[0], chain.Y[1]
-    hs, acc, ct, pt = sc.hs, sc.acc, sc.ct, sc.pt
+    hs, acc, ct, pt, fl = sc.hs, sc.acc, sc.ct, sc.pt, sc.fl
+    slide = slides(model.friction)
     reuse_factors(ws.S, np.bool_(True))  # the axes stay (off after the next evaluation: integrator.advance)
     point_positions(e, pt.pts)  # (positions do not change at an instant)
-    any_landing = _unlocks_and_top(t, model, chain, hs, pt, books, log, found)
-    na = _anchor_contacts(t, model, chain, ct, pt, any_landing, sc.iw)
+    if not slide:
+        any_landing = _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found)
+    if slide:  # (a touch is a floor candidate, no anchor; the absolute points: ``slides``)
+        absolute_points(t, chain, pt, fl.pu)  # (point N where it is, before a lift-off lets the last held point go)
+        any_landing = _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found)
+        na = touch_candidates(t, model, chain, ct, pt, any_landing, sc.iw, fl.fcand, fl.lifted, fl.pu)
+        for j in range(fl.held.shape[0]):
+            fl.held[j] = chain.anchored[j]
+    else:
+        na = _anchor_contacts(t, model, chain, ct, pt, any_landing, sc.iw)
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
-    T0 = kinetic_energy(e, w, pt.pv, pt.vel)
+    T0 = _kinetic(t, model, chain, pt, fl)
     if model.e_lock > 0.0:  # (Newton's law compares with the rates before the instant, whichever round impacts first)
         hinge_rates(e, w, sc.iw.rates_before)
     settle = True
     # each round holds one more hinge, anchors one more point or makes one bounce
     for rnd in range(chain.locked.shape[0] + 2 * chain.anchored.shape[0] + 1):
-        if impact and not _apply_impact(rnd, model, chain, ws, hs, ct, sc.iw, books):
+        if impact and not _apply_impact(t, rnd, model, chain, ws, hs, ct, sc.iw, fl, books):
             return ERR_IMPACT_LCP
-        if model.e_floor > 0.0:
+        if model.e_floor > 0.0 and not slide:
             _leave_floor(model, chain, ct, pt, na, sc.iw)
         if settle:
             _settle_anchors(model, chain, hs)
-        if not _lock_set(chain, ws, hs, acc):
+        if not _lock_set(model, chain, ws, hs, acc, fl):
             return ERR_LOCK_LCP
         nhold = _hold_returning(model, chain, hs, acc)
         npts = 0
-        if model.e_floor > 0.0:
+        if model.e_floor > 0.0 and not slide:
             npts = _hold_bouncing(t, model, chain, ct, pt, acc, sc.iw)
             na, n_touch = _touch_floor(t, model, chain, ct, pt, na, sc.iw)
             npts += n_touch
         if nhold + npts == 0:
             break
+        if slide:  # (the next round's floor candidates: the points held now)
+            for j in range(fl.fcand.shape[0]):
+                fl.fcand[j] = SLIDING if chain.anchored[j] != 0 else 0
         _next_round(chain, hs)
         settle = npts > 0
         impact = True
-    if kinetic_energy(e, w, pt.pv, pt.vel) > T0 * (1 + 1e-9) + 1e-12:
+    if slide:
+        start_flight(t, chain, pt, fl.pu)
+    if _kinetic(t, model, chain, pt, fl) > T0 * (1 + 1e-9) + 1e-12:
         return ERR_ENERGY
+    if slide:
+        absolute_points(t, chain, pt, fl.pu)  # (the log's positions: where point N is)
+        log_lifts(t, fl.held, chain.anchored, pt.pts, log)
     _log_instant(t, na, model, chain, hs, ct, pt, sc.iw, log)
     _finish_instant(t, model, chain, watch, ws, sc, books)
     return EV_OK
+
+
+@njit(cache=True)
+def _kinetic(t, model, chain, pt, fl):
+    """The kinetic energy (on a frictionless floor, with point N's velocity: ``slides``)."""
+    if slides(model.friction):
+        energies(t, chain, pt.pts, pt.pv, pt.vel, fl.pu, fl.en)
+        return fl.en[1]
+    return kinetic_energy(chain.Y[0], chain.Y[1], pt.pv, pt.vel)
 
 
 @njit(cache=True)
@@ -563,7 +660,7 @@ def run_events(t, h, model, chain, watch, ws, st, sc, books, frames, trace, log)
         status = _count_instant(t, model, sc.recent, books)
         if status < 0:
             return status, t, h
-        if all_anchored(chain.anchored):
+        if fall_over(chain.anchored, chain.anchor_t, chain.anchored, model.friction, model.e_floor):
             books.t_landed[0] = t
             fall_ended(books, t, True, True)
             return EV_LANDED, t, h

@@ -53,11 +53,14 @@ from collections import namedtuple
 
 import numpy as np
 
+from ...contacts.coulomb import slides
+from ...core.base import floor_z
 from ...core.blocks import reuse_factors
-from ...core.books import PROJECTED_IN_STEPS, lowest_point, mechanical_energy
+from ...core.books import PROJECTED_IN_STEPS, lowest_above_floor, mechanical_energy
 from ...core.dynamics import anchor_force_total, lock_multipliers, pile_pull
 from ...core.kinematics import kinetic_energy, potential_energy, project_state, projection_tol
 from ...core.rules import landed_or_landing, point_height
+from ...core.unilateral import vertical_multipliers
 from ...jit import njit
 from .dopri import (
     chain_rhs,
@@ -73,6 +76,7 @@ from .dopri import (
     step_error,
 )
 from .locate import detect_events
+from .slides import energies_of, frame_base, mechanical
 from .watch import arm_departed
 
 ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0, 1, 2, 3, 4, 5
@@ -106,6 +110,7 @@ Detect = namedtuple(
     "Detect",
     [
         "lam1",  # lock multipliers at the step's end
+        "pz1",  # (N+1,): the floor's vertical force on each point at the step's end (a frictionless floor's lift-offs)
         "fv_mid",  # (N+1,): floor event functions at the step's midpoint
         "fv_end",  # (N+1,): and at its end
         "found",  # the events found in the last step (Found)
@@ -119,6 +124,10 @@ Scratch = namedtuple(
         "fpart",  # (4,): the floor's impulse (0:3) and the smooth laws' loss (3) from the step's start to a frame
         "pts",  # (N+1, 3): point positions or velocities
         "vel",  # (N, 3): centre velocities
+        "pz",  # (N+1,): the floor's vertical force on each point (scratch of event_value)
+        "pv",  # (N+1, 3): point velocities (a frictionless floor's energies)
+        "en",  # (2,): U, T
+        "t0",  # (1,): the step's start (the floor's height in flight: ``base.floor_z``)
     ],
 )
 Stepper = namedtuple(
@@ -134,23 +143,33 @@ Stepper = namedtuple(
 
 # What locating an event needs: the step's start Y and stages K (its dense output),
 # scratch (Yt, dYt, lam, pair) and the constraint state (for the lock multipliers).
-Dense = namedtuple("Dense", ["Y", "K", "Yt", "dYt", "lam", "pair", "anchored", "locked"])
+Dense = namedtuple("Dense", ["Y", "K", "Yt", "dYt", "lam", "pair", "anchored", "locked", "pz", "base", "t0"])
 
 
 def new_stepper(n: int) -> Stepper:
     """The integrator's buffers for an N-segment chain."""
     nh = max(n - 1, 1)
-    m = 3 * n + 4
+    m = 4 * n + 6  # (every event function at most once a step: hinges twice, points twice, the top)
     found = Found(np.zeros(m, np.int64), np.zeros(m, np.int64), np.zeros(m), np.zeros(1, np.int64))
     sg = Stages(np.zeros((7, 2, n, 3)), np.zeros((7, 4)), np.zeros((2, n, 3)), np.zeros((2, n, 3)), np.zeros((2, n, 3)))
     hb = Hermite(np.zeros((7, 2, n, 3)), np.zeros((7, 4)))
-    det = Detect(np.zeros(nh), np.zeros(n + 1), np.zeros(n + 1), found)
-    scr = Scratch(np.zeros(nh), np.zeros((2, 3)), np.zeros(4), np.zeros((n + 1, 3)), np.zeros((n, 3)))
+    det = Detect(np.zeros(nh), np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), found)
+    scr = Scratch(
+        np.zeros(nh),
+        np.zeros((2, 3)),
+        np.zeros(4),
+        np.zeros((n + 1, 3)),
+        np.zeros((n, 3)),
+        np.zeros(n + 1),
+        np.zeros((n + 1, 3)),
+        np.zeros(2),
+        np.zeros(1),
+    )
     return Stepper(sg, hb, det, scr, np.zeros(1, np.int64))
 
 
 @njit(cache=True)
-def _record_frame(Yt, dYt, tf, n_landed, chain, ws, scr, frames):
+def _record_frame(Yt, dYt, tf, n_landed, model, chain, ws, scr, frames):
     """Frame frames.count[0] at time tf from the state Yt: the state, the anchors' force
     on the airborne chain, the pile's pull (``pile_pull``), the vertical force a scale
     under the floor reads (anchors' z force + the weight of the landed segments),
@@ -170,12 +189,17 @@ def _record_frame(Yt, dYt, tf, n_landed, chain, ws, scr, frames):
     anchor_force_total(ws.kind, ws.nrow, ws.x, frames.floor_force[k])
     pile_pull(chain.anchored, ws.kind, ws.nrow, ws.x, frames.pile_pull[k])
     frames.scale_force[k] = frames.floor_force[k, 2] + n_landed
-    frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], scr.pts, scr.vel)
-    frames.potential[k] = potential_energy(Yt[0])
+    if slides(model.friction):  # (point N moves: ``slides``)
+        energies_of(Yt[0], Yt[1], tf, chain, scr.pts, scr.pv, scr.vel, scr.en)
+        frames.potential[k], frames.kinetic[k] = scr.en[0], scr.en[1]
+        frame_base(Yt[0], Yt[1], tf, chain, scr.pts, scr.pv, scr.vel, frames.base[k], frames.base_velocity[k])
+    else:
+        frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], scr.pts, scr.vel)
+        frames.potential[k] = potential_energy(Yt[0])
 
 
 @njit(cache=True)
-def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books, frames):
+def _emit_frames(t, h, t_end, n_landed, model, chain, ws, sg, scr, books, frames):
     """The frames due up to t_end, from the step's dense output; False if the buffers
     filled first (the caller returns ADV_BUFFER and redoes the step once they are
     emptied)."""
@@ -185,7 +209,7 @@ def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books, frames):
             return False
         th = (frames.next[0] - t) / h
         dense_state(chain.Y, sg.K, h, th, sg.Ytmp)
-        _record_frame(sg.Ytmp, sg.dYtmp, frames.next[0], n_landed, chain, ws, scr, frames)
+        _record_frame(sg.Ytmp, sg.dYtmp, frames.next[0], n_landed, model, chain, ws, scr, frames)
         floor_impulse_dense(h, th, sg.F, n_landed, scr.fpart)
         for q in range(3):
             frames.floor_impulse[frames.count[0], q] = books.floor_flow[q] + scr.fpart[q]
@@ -197,10 +221,13 @@ def _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books, frames):
 
 
 @njit(cache=True)
-def _trace_point(trace, t, e):
+def _trace_point(trace, t, e, anchored, base):
+    """The top end's height above the floor at t (``base.floor_z``: point N's, but where a
+    frictionless floor has let it leave)."""
     k = trace.count[0]
     trace.t[k] = t
-    trace.z[k] = point_height(e, 0)
+    z = point_height(e, 0)
+    trace.z[k] = z if anchored[e.shape[0]] != 0 else z - floor_z(e, anchored, base, t)
     trace.count[0] = k + 1
 
 
@@ -234,7 +261,7 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, books, 
     for r in range(found.n[0]):
         found.time[r] = t + found.time[r] * h if found.time[r] <= 1.0 else math.inf
     t_event = t + theta_stop * h
-    _trace_point(trace, t_event, Y[0])
+    _trace_point(trace, t_event, Y[0], chain.anchored, chain.base)
     return t_event
 
 
@@ -247,10 +274,16 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
     floor_impulse_step(h, sg.F, n_landed, books.floor_flow)
     smooth_loss_step(h, sg.F, books.lost_damping)
     copy_state(Y, sg.Y1)
-    before = mechanical_energy(Y[0], Y[1], scr.pts, scr.vel)
+    slide = slides(model.friction)
+    before = (
+        mechanical(t_end, chain, scr.pts, scr.pv, scr.vel) if slide else mechanical_energy(Y[0], Y[1], scr.pts, scr.vel)
+    )
     tol = projection_tol(Y.shape[1])
     res, _ = project_state(chain, ws, scr.pts, scr.vel, tol, np.int64(3))
-    books.projected[PROJECTED_IN_STEPS] += mechanical_energy(Y[0], Y[1], scr.pts, scr.vel) - before
+    after = (
+        mechanical(t_end, chain, scr.pts, scr.pv, scr.vel) if slide else mechanical_energy(Y[0], Y[1], scr.pts, scr.vel)
+    )
+    books.projected[PROJECTED_IN_STEPS] += after - before
     if res > tol:
         stage_rhs(Y, chain.anchored, chain.locked, ws, sg.K[0], sg.F[0])
         books.n_evals[0] += 1
@@ -258,9 +291,10 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
         copy_state(sg.K[0], sg.K[6])
         for q in range(4):
             sg.F[0, q] = sg.F[6, q]
-    arm_departed(model, chain, watch, det.lam1, det.fv_end)
-    lowest_point(Y[0], books.lowest)
-    _trace_point(trace, t_end, Y[0])
+    zf = floor_z(Y[0], chain.anchored, chain.base, t_end)
+    arm_departed(model, chain, watch, det.lam1, det.pz1, zf, det.fv_end)
+    lowest_above_floor(Y[0], chain.anchored, zf, books.lowest)
+    _trace_point(trace, t_end, Y[0], chain.anchored, chain.base)
 
 
 @njit(cache=True)
@@ -289,15 +323,18 @@ def _why_stop(t, h, model, fsal, n_steps, trace):
 
 
 @njit(cache=True)
-def _try_step(h, model, chain, ws, sg, lam1, n_evals):
+def _try_step(h, model, chain, ws, sg, lam1, pz1, n_evals):
     """One Dormand-Prince step of size h (sg.Y1, sg.K, sg.F); returns its error in units
-    of the tolerance (inf: non-finite) and the lock multipliers at its end (lam1)."""
+    of the tolerance (inf: non-finite); the lock multipliers at its end in lam1, the floor's
+    vertical forces in pz1 (a frictionless floor's)."""
     rk_stages(chain.Y, h, sg, chain.anchored, chain.locked, ws)
     n_evals[0] += 6
     err = step_error(chain.Y, sg.Y1, sg.K, h, model.rtol, model.rtol)
     if not math.isfinite(err) or nonfinite(sg.Y1):
         return math.inf
     lock_multipliers(ws.kind, ws.nrow, ws.x, lam1)  # lambda at Y1 (last stage)
+    if slides(model.friction):
+        vertical_multipliers(ws.kind, ws.nrow, ws.x, pz1)
     return err
 
 
@@ -316,7 +353,9 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
     """
     n_landed = _count_landed(chain.anchored)
     sg, hb, det, scr = st.sg, st.hb, st.det, st.scr
-    dense = Dense(chain.Y, sg.K, sg.Ytmp, sg.dYtmp, scr.lam, scr.pair, chain.anchored, chain.locked)
+    dense = Dense(
+        chain.Y, sg.K, sg.Ytmp, sg.dYtmp, scr.lam, scr.pair, chain.anchored, chain.locked, scr.pz, chain.base, scr.t0
+    )
     if st.fsal[0] == 0:  # FSAL: derivative at the current state (kept across an ADV_BUFFER return)
         stage_rhs(chain.Y, chain.anchored, chain.locked, ws, sg.K[0], sg.F[0])
         books.n_evals[0] += 1
@@ -328,7 +367,7 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
         if code != ADV_GO:
             return code, t, h
         h = min(h, model.t_stop - t)
-        err = _try_step(h, model, chain, ws, sg, det.lam1, books.n_evals)
+        err = _try_step(h, model, chain, ws, sg, det.lam1, det.pz1, books.n_evals)
         if err == math.inf:
             nfail += 1
             if nfail > 20:
@@ -339,10 +378,11 @@ def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
             h *= max(0.2, 0.9 * err**-0.2)
             continue
         nfail = 0
+        dense.t0[0] = t
         theta_stop, fire = detect_events(t, h, model, watch, dense, ws, sg, det, books.n_evals)
         books.n_steps[0] += 1
         t_end = t + theta_stop * h
-        if not _emit_frames(t, h, t_end, n_landed, chain, ws, sg, scr, books, frames):
+        if not _emit_frames(t, h, t_end, n_landed, model, chain, ws, sg, scr, books, frames):
             books.n_steps[0] -= 1  # buffers full: redo this step once they are emptied
             st.fsal[0] = 1
             return ADV_BUFFER, t, h

@@ -11,12 +11,15 @@ import math
 
 import numpy as np
 
+from ...contacts.coulomb import slides
+from ...core.base import floor_z
 from ...core.dynamics import lock_multipliers
 from ...core.rules import ARMED, OFF, ZERO_BAND, hinge_gap, point_height
+from ...core.unilateral import vertical_multipliers
 from ...floors.dispatch import floor_value, floor_values
 from ...jit import njit
 from .dopri import chain_rhs, dense_axes, dense_e, dense_state, dense_weights
-from .watch import EV_LANDING, EV_LOCK, EV_TOP, EV_UNLOCK
+from .watch import EV_LANDING, EV_LIFT, EV_LOCK, EV_TOP, EV_UNLOCK
 
 NSCAN = 16  # samples per step for a triggered departing function
 
@@ -36,13 +39,17 @@ def event_value(kind, idx, theta, h, model, dense, ws):
         return hinge_gap(pair, 0, model.cos_alpha)
     if kind == EV_LANDING:
         dense_axes(Y0, K, b, Yt[0])
-        return floor_value(model.floor, Yt[0], idx)
+        zf = floor_z(Yt[0], dense.anchored, dense.base, dense.t0[0] + theta * h)
+        return floor_value(model.floor, Yt[0], dense.anchored, zf, idx)
     if kind == EV_TOP:
         dense_axes(Y0, K, b, Yt[0])
         return point_height(Yt[0], 0)
-    # EV_UNLOCK: lambda_k at the interpolated state
+    # EV_UNLOCK: lambda_k at the interpolated state; EV_LIFT: the floor's force on point idx
     dense_state(Y0, K, h, theta, Yt)
     chain_rhs(Yt, dense.anchored, dense.locked, ws, dense.dYt)
+    if kind == EV_LIFT:
+        vertical_multipliers(ws.kind, ws.nrow, ws.x, dense.pz)
+        return dense.pz[idx]
     lock_multipliers(ws.kind, ws.nrow, ws.x, dense.lam)
     return dense.lam[idx]
 
@@ -135,7 +142,7 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, dense, ws):
         return _locate_armed(kd, ix, tha, fmid, fend, h, model, dense, ws)
     # DEPARTING: it fires when it returns to zero after a sample above ZERO_BAND, or,
     # never having been there, when it sinks below ref - ZERO_BAND
-    nscan = NSCAN if kd != EV_UNLOCK else 2  # lambda costs an evaluation per sample
+    nscan = NSCAN if (kd != EV_UNLOCK and kd != EV_LIFT) else 2  # a multiplier costs an evaluation per sample
     thp = -1.0
     fp = 0.0
     thq = 0.0
@@ -217,10 +224,16 @@ def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
     new count."""
     found = det.found
     nh = dense.locked.shape[0]
-    m = nh if kd == EV_LOCK or kd == EV_UNLOCK else (dense.anchored.shape[0] if kd == EV_LANDING else 1)
+    m = (
+        nh
+        if kd == EV_LOCK or kd == EV_UNLOCK
+        else (dense.anchored.shape[0] if kd == EV_LANDING or kd == EV_LIFT else 1)
+    )
     if kd == EV_LANDING:
-        floor_values(model.floor, sg.Ytmp[0], dense.anchored, det.fv_mid)
-        floor_values(model.floor, sg.Y1[0], dense.anchored, det.fv_end)
+        zm = floor_z(sg.Ytmp[0], dense.anchored, dense.base, t + 0.5 * h)
+        floor_values(model.floor, sg.Ytmp[0], dense.anchored, zm, det.fv_mid)
+        ze = floor_z(sg.Y1[0], dense.anchored, dense.base, t + h)
+        floor_values(model.floor, sg.Y1[0], dense.anchored, ze, det.fv_end)
     for i in range(m):
         if kd == EV_LOCK:
             if watch.arm_lock[i] == OFF or dense.locked[i]:
@@ -242,6 +255,11 @@ def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
                 continue
             mode, ref, tha = watch.arm_land[i], watch.ref_land[i], (watch.apex_land[i] - t) / h
             fm, fe = det.fv_mid[i], det.fv_end[i]
+        elif kd == EV_LIFT:  # the floor's force on a sliding point, known at the end only (as a multiplier)
+            if watch.arm_lift[i] == OFF or dense.anchored[i] == 0:
+                continue
+            mode, ref, tha = watch.arm_lift[i], watch.ref_lift[i], 2.0
+            fm, fe = math.inf, det.pz1[i]
         else:
             if watch.arm_top[0] == OFF:
                 continue
@@ -263,10 +281,10 @@ def detect_events(t, h, model, watch, dense, ws, sg, det, n_evals):
     order), into det.found; returns (theta of the first, whether any fires)."""
     dense_state(dense.Y, dense.K, h, 0.5, sg.Ytmp)  # midpoint state, for the midpoint checks
     nev = 0
-    for kd in range(EV_LOCK, EV_TOP + 1):
+    for kd in range(EV_LOCK, (EV_LIFT if slides(model.friction) else EV_TOP) + 1):
         n0 = nev
         nev = _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det)
-        if kd == EV_UNLOCK:
+        if kd == EV_UNLOCK or kd == EV_LIFT:
             n_evals[0] += 2 * (nev - n0)
             if nev > 0:
                 dense_state(dense.Y, dense.K, h, 0.5, sg.Ytmp)  # (the locating may have used Ytmp)

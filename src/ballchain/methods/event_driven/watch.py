@@ -1,9 +1,10 @@
 """How each event function is watched (docs/model.md, "Events"), compiled.
 
-Four kinds of event function: ``EV_LOCK`` (g_k of an unlocked hinge whose limit is in
+Five kinds of event function: ``EV_LOCK`` (g_k of an unlocked hinge whose limit is in
 force), ``EV_UNLOCK`` (the multiplier lambda_k of a locked hinge), ``EV_LANDING`` (the
 floor model's function of each watched point), ``EV_TOP`` (the top end's height, for
-floor models with a top event).  Each has an arm state (``rules.arm_state``: ARMED,
+floor models with a top event), ``EV_LIFT`` (the floor's vertical force on a point that
+slides on a frictionless floor, ``slides``).  Each has an arm state (``rules.arm_state``: ARMED,
 DEPARTING or OFF), a reference level (where a departing function started:
 min(f, 0) after the event) and, for hinges and points, the predicted apex time of a
 departing constraint that accelerates back (``apex_times``).
@@ -16,12 +17,22 @@ from collections import namedtuple
 
 import numpy as np
 
-from ...core.rules import ARMED, DEPARTING, OFF, ZERO_BAND, arm_state, hinge_gap, limit_in_force, point_height
+from ...core.rules import (
+    ARMED,
+    DEPARTING,
+    OFF,
+    SLIDING,
+    ZERO_BAND,
+    arm_state,
+    hinge_gap,
+    limit_in_force,
+    point_height,
+)
 from ...floors.dispatch import floor_values, floor_watched, top_event
 from ...jit import entry, njit
 
-EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP = 1, 2, 3, 4
-EVENT_FUNCTIONS = (EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP)
+EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP, EV_LIFT = 1, 2, 3, 4, 5
+EVENT_FUNCTIONS = (EV_LOCK, EV_UNLOCK, EV_LANDING, EV_TOP, EV_LIFT)
 
 Watch = namedtuple(
     "Watch",
@@ -36,6 +47,8 @@ Watch = namedtuple(
         "ref_top",
         "apex_lock",  # (N-1,): predicted apex time of a departing hinge (inf: none)
         "apex_land",  # (N+1,): predicted apex time of a departing point (inf: none)
+        "arm_lift",  # (N+1,) int8 per point: the floor's force on a sliding point
+        "ref_lift",
     ],
 )
 
@@ -54,16 +67,20 @@ def new_watch(n: int) -> Watch:
         np.zeros(1),
         np.full(nh, np.inf),
         np.full(n + 1, np.inf),
+        np.zeros(n + 1, np.int8),
+        np.zeros(n + 1),
     )
 
 
 @entry
 @njit(cache=True)
-def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
+def arm_functions(model, chain, watch, gaps, lam, pz, zf, t_fall_known, fv):
     """Arm state of every event function after an instant (or at the start): a function
     is watched only where its rule applies, ARMED where positive, DEPARTING at its zero;
     its reference level (where a departing function starts) is min(f, 0).  ``gaps``:
-    g_k of every hinge; ``lam``: the lock multipliers; ``fv``: scratch (N+1)."""
+    g_k of every hinge; ``lam``: the lock multipliers; ``pz``: the floor's vertical force
+    on each point (a sliding point's lift-off function); ``zf``: the floor's height in the
+    chain's frame (``core.base.floor_z``); ``fv``: scratch (N+1)."""
     e, anchored, locked = chain.Y[0], chain.anchored, chain.locked
     for k in range(locked.shape[0]):
         watch.arm_lock[k] = OFF
@@ -76,10 +93,12 @@ def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
         else:
             watch.arm_lock[k] = arm_state(gaps[k])
             watch.ref_lock[k] = min(gaps[k], 0.0)
-    floor_values(model.floor, e, anchored, fv)
+    floor_values(model.floor, e, anchored, zf, fv)
     for j in range(watch.arm_land.shape[0]):
         watch.arm_land[j] = arm_state(fv[j]) if floor_watched(model.floor, anchored, j) else OFF
         watch.ref_land[j] = min(fv[j], 0.0)
+        watch.arm_lift[j] = arm_state(pz[j]) if anchored[j] == SLIDING else OFF
+        watch.ref_lift[j] = min(pz[j], 0.0)
     watch.arm_top[0] = OFF
     if top_event(model.floor) and not t_fall_known:
         z = point_height(e, 0)
@@ -88,7 +107,7 @@ def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
 
 
 @njit(cache=True)
-def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
+def apex_times(t, e, w, de, dw, watch, rates, ddg, pv, vz0, az0):
     """Predicted apex time of every departing constraint that accelerates back, and of
     every armed hinge or point that approaches its limit while turning back: a hinge
     (or a free point, floor ``all``) that leaves its zero at rate v > 0 while its
@@ -96,7 +115,9 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
     integrator samples a departing function there, so that a return within one step is
     located as a crossing (it fires only after the function has been seen positive).
     Only excursions that rise above rules.ZERO_BAND (v^2 / 2|a|) can be resolved; the
-    others get inf (the accumulation rule has held those that would come back)."""
+    others get inf (the accumulation rule has held those that would come back).  A point's
+    vertical rate and acceleration are measured from the floor's (vz0, az0: 0 but where a
+    frictionless floor has let point N leave it, ``core.base.floor_z_rates``)."""
     arm_lock, arm_land, apex_lock, apex_land = watch.arm_lock, watch.arm_land, watch.apex_lock, watch.apex_land
     for k in range(arm_lock.shape[0]):
         apex_lock[k] = math.inf
@@ -113,27 +134,32 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
     for j in range(n - 1, -1, -1):
         az += 2.0 * (dw[j, 0] * e[j, 1] - dw[j, 1] * e[j, 0] + w[j, 0] * de[j, 1] - w[j, 1] * de[j, 0])
         apex_land[j] = math.inf
-        if arm_land[j] == DEPARTING and az < 0.0 and pv[j, 2] > 0.0 and pv[j, 2] ** 2 > -2.0 * ZERO_BAND * az:
-            apex_land[j] = t + pv[j, 2] / -az
-        elif arm_land[j] == ARMED and pv[j, 2] < 0.0 and az > 0.0:
+        a, v = az - az0, pv[j, 2] - vz0
+        if arm_land[j] == DEPARTING and a < 0.0 and v > 0.0 and v**2 > -2.0 * ZERO_BAND * a:
+            apex_land[j] = t + v / -a
+        elif arm_land[j] == ARMED and v < 0.0 and a > 0.0:
             # an armed point heading for the floor and turning back (one that has just
             # bounced off it): where it comes closest, sampled as for the hinges
-            apex_land[j] = t - pv[j, 2] / az
+            apex_land[j] = t - v / a
 
 
 @njit(cache=True)
-def arm_departed(model, chain, watch, lam1, fv):
+def arm_departed(model, chain, watch, lam1, pz1, zf, fv):
     """After an accepted step: departing functions that have left their zero (above
-    ZERO_BAND) are armed.  ``lam1``: the lock multipliers at the step's end."""
+    ZERO_BAND) are armed.  ``lam1``, ``pz1``: the lock multipliers and the floor's vertical
+    forces at the step's end, ``zf`` the floor's height in the chain's frame there."""
     e, locked = chain.Y[0], chain.locked
     for k in range(locked.shape[0]):
         if watch.arm_lock[k] == DEPARTING and not locked[k] and hinge_gap(e, k, model.cos_alpha) > ZERO_BAND:
             watch.arm_lock[k] = ARMED
         if watch.arm_unlock[k] == DEPARTING and locked[k] and lam1[k] > ZERO_BAND:
             watch.arm_unlock[k] = ARMED
-    floor_values(model.floor, e, chain.anchored, fv)
+    floor_values(model.floor, e, chain.anchored, zf, fv)
     for j in range(fv.shape[0]):
         if watch.arm_land[j] == DEPARTING and fv[j] > ZERO_BAND:
             watch.arm_land[j] = ARMED
     if watch.arm_top[0] == DEPARTING and point_height(e, 0) > ZERO_BAND:
         watch.arm_top[0] = ARMED
+    for j in range(pz1.shape[0]):
+        if watch.arm_lift[j] == DEPARTING and pz1[j] > ZERO_BAND:
+            watch.arm_lift[j] = ARMED

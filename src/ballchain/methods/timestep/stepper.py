@@ -235,7 +235,7 @@ def _touches(t, r0, model, chain, sc, books):
     TOUCH_TOL, or that of a point the last step was cut to land (marked 2 during the
     impact), listed from sc.new_anchor[r0]; returns their number."""
     e, anchored = chain.Y[0], chain.anchored
-    floor_values(model.floor, e, anchored, sc.fv)
+    floor_values(model.floor, e, anchored, 0.0, sc.fv)
     ztol = TOUCH_TOL
     for j in range(sc.fv.shape[0]):
         if sc.due[j] and math.isfinite(sc.fv[j]):
@@ -329,8 +329,8 @@ def _landing_cut(h, model, chain, sc):
     e, anchored = chain.Y[0], chain.anchored
     _mid_rates(model.theta, chain.Y[1], sc)
     rotate_axes(e, sc.w_mid, h, anchored, sc.e_pred)
-    floor_values(model.floor, e, anchored, sc.fv)
-    floor_values(model.floor, sc.e_pred, anchored, sc.fv_pred)
+    floor_values(model.floor, e, anchored, 0.0, sc.fv)
+    floor_values(model.floor, sc.e_pred, anchored, 0.0, sc.fv_pred)
     s = 1.0
     for j in range(sc.fv.shape[0]):
         f, fp = sc.fv[j], sc.fv_pred[j]

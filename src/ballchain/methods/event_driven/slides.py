@@ -1,0 +1,178 @@
+"""The exact method on a frictionless floor (``contacts.coulomb.slides``, mu = 0), compiled:
+a point that touches the floor slides on it, held by its height row alone, and leaves it
+where the floor would pull.  What differs from the anchor, in one place:
+
+* where the chain is (``core.base``): point N moves; the centre of mass moves uniformly
+  along the floor, a held point fixes the height (``rules.floor_height``); the points'
+  positions and velocities at an instant, the energies and the frames' base take it;
+* what a touch creates (``touch_candidates``): a floor candidate (``core.unilateral``), no
+  anchor; its first touch in anchor_t (the fall ends when every point has touched:
+  ``rules.fall_over``);
+* the impact (``unilateral.floor_impact``, called by ``events._apply_impact``): the hinges
+  and every point the floor holds or that touches it in one LCP, the centres moving with
+  point N's velocity (``ImpactWork.dv``);
+* the lock set (``unilateral.floor_lock_set``): the hinges and the points the floor holds,
+  which it keeps while it pushes; one it lets go is logged ``lift``;
+* a lift-off between instants: a held point's vertical force crossing zero
+  (``watch.EV_LIFT``, located as a lock's multiplier is), logged ``lift``.
+
+With nothing held (the bottom end yanked up by a lock while nothing else lies on the
+floor) the chain flies: its centre of mass falls freely from point N's position and
+velocity at the instant it left (``start_flight``), until a point lands again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...contacts.newton import floor_rebound
+from ...core.base import base_point, energies_moved, held_point, set_base
+from ...core.books import log_row
+from ...core.kinematics import point_positions, velocities
+from ...core.rules import LOG_LIFT, SLIDING, Z_TOL
+from ...floors.dispatch import floor_contacts
+from ...jit import njit
+
+
+@njit(cache=True)
+def base_of(t, chain, pts, pv, vel, pu):
+    """pu <- point N's position and velocity (``core.base.base_point``), and pts, pv, vel
+    the points' and centres' relative to it; within an instant that has just let go the
+    last point the floor held (its flight not yet begun: ``Base.flying`` 0), the last ones
+    known are kept in pu (``start_flight`` begins it from them)."""
+    e, w = chain.Y[0], chain.Y[1]
+    if held_point(chain.anchored) >= 0 or chain.base.flying[0] != 0:
+        base_point(e, w, chain.anchored, chain.base, t, pts, pv, vel, pu)
+    else:
+        point_positions(e, pts)
+        velocities(e, w, pv, vel)
+
+
+@njit(cache=True)
+def start_flight(t, chain, pt, pu):
+    """At the end of an instant: with no point held, the flight goes on from point N's
+    position and velocity after it (pu; ``core.base.set_base``: the instant's impacts may
+    have changed the centre of mass's velocity, a landing that the floor let go again);
+    with one held, none is under way."""
+    if held_point(chain.anchored) >= 0:
+        chain.base.flying[0] = 0
+    else:
+        set_base(chain.Y[0], chain.Y[1], chain.anchored, chain.base, t, pt.pts, pt.pv, pt.vel, pu[0], pu[1])
+
+
+@njit(cache=True)
+def after_impact(chain, vc, pu):
+    """pu[1] <- point N's velocity after an impact, from the centres' velocities vc of its
+    maximal coordinates (the lower end of segment N - 1: v - w x e)."""
+    e, w = chain.Y[0], chain.Y[1]
+    i = e.shape[0] - 1
+    pu[1, 0] = vc[i, 0] - (w[i, 1] * e[i, 2] - w[i, 2] * e[i, 1])
+    pu[1, 1] = vc[i, 1] - (w[i, 2] * e[i, 0] - w[i, 0] * e[i, 2])
+    pu[1, 2] = vc[i, 2] - (w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0])
+
+
+@njit(cache=True)
+def absolute_points(t, chain, pt, pu):
+    """pt.pts, pt.pv, pt.vel <- the points' positions and velocities and the centres'
+    velocities where point N is (``base_of``: pu[0] its position, pu[1] its velocity)."""
+    base_of(t, chain, pt.pts, pt.pv, pt.vel, pu)
+    for j in range(pt.pts.shape[0]):
+        for q in range(3):
+            pt.pts[j, q] += pu[0, q]
+            pt.pv[j, q] += pu[1, q]
+    for i in range(pt.vel.shape[0]):
+        for q in range(3):
+            pt.vel[i, q] += pu[1, q]
+
+
+@njit(cache=True)
+def touch_candidates(t, model, chain, ct, pt, any_landing, iw, fcand, lifted, pu):
+    """The instant's floor candidates (fcand: ``SLIDING`` where the floor may hold a point):
+    every point it holds, and the free points that touch it now (the floor model's rule on
+    the absolute heights and velocities; not one that lifted off at this instant), listed
+    in ct.new_anchor with their velocities before the impact (ct.pre_v), their first touch
+    in anchor_t and, with restitution at the floor, their rebound (iw.rebound).  Returns the
+    number of touches."""
+    anchored = chain.anchored
+    absolute_points(t, chain, pt, pu)
+    na = floor_contacts(model.floor, chain.Y[0], pt.pts, pt.pv, anchored, any_landing, Z_TOL, ct.touch)
+    iw.n_rebound[0] = 0
+    for j in range(anchored.shape[0]):
+        fcand[j] = SLIDING if anchored[j] != 0 else 0
+        iw.rebound[j] = 0.0
+    m = 0
+    for r in range(na):
+        j = ct.touch[r]
+        if lifted[j]:
+            continue
+        ct.new_anchor[m] = j
+        for q in range(3):
+            ct.pre_v[m, q] = pt.pv[j, q]
+        m += 1
+        fcand[j] = SLIDING
+        if not chain.anchor_t[j] == chain.anchor_t[j]:  # (NaN: its first touch)
+            chain.anchor_t[j] = t
+        iw.rebound[j] = floor_rebound(pt.pv[j, 2], model.e_floor)
+        iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
+    return m
+
+
+@njit(cache=True)
+def base_velocity(t, chain, pu, iw):
+    """iw.dv <- point N's velocity (``core.base``) on every centre: the velocity the
+    centres move with beside the rates' (``kinematics.velocities``: point N at rest), before
+    an impact (each round's: an impact changes it)."""
+    n = chain.Y.shape[1]
+    base_of(t, chain, np.empty((n + 1, 3)), np.empty((n + 1, 3)), np.empty((n, 3)), pu)
+    for i in range(n):
+        for q in range(3):
+            iw.dv[i, q] = pu[1, q]
+
+
+@njit(cache=True)
+def held_candidates(anchored, lifted, fcand):
+    """The lock set's floor candidates: the points the floor holds (not one that lifted off
+    at this instant)."""
+    for j in range(anchored.shape[0]):
+        fcand[j] = SLIDING if (anchored[j] != 0 and not lifted[j]) else 0
+
+
+@njit(cache=True)
+def log_lifts(t, held_before, anchored, pts, log):
+    """A ``lift`` row for each point the floor held before the lock set and no longer holds."""
+    for j in range(anchored.shape[0]):
+        if held_before[j] != 0 and anchored[j] == 0:
+            log_row(log, t, LOG_LIFT, j, 0.0, 0.0, 0.0, 0.0, pts, j)
+
+
+@njit(cache=True)
+def energies(t, chain, pts, pv, vel, pu, out):
+    """out[0] = U, out[1] = T of the chain where point N is (``base_of``: pu), m g b."""
+    base_of(t, chain, pts, pv, vel, pu)
+    energies_moved(chain.Y[0], chain.Y[1], pts, vel, pu, out)
+
+
+@njit(cache=True)
+def energies_of(e, w, t, chain, pts, pv, vel, out):
+    """``energies`` of the axes e and rates w (a frame's state) on the chain's floor."""
+    pu = np.empty((2, 3))
+    base_point(e, w, chain.anchored, chain.base, t, pts, pv, vel, pu)
+    energies_moved(e, w, pts, vel, pu, out)
+
+
+@njit(cache=True)
+def frame_base(e, w, t, chain, pts, pv, vel, p, u):
+    """p, u <- point N's position and velocity for a frame's state (e, w) at t."""
+    pu = np.empty((2, 3))
+    base_point(e, w, chain.anchored, chain.base, t, pts, pv, vel, pu)
+    for q in range(3):
+        p[q] = pu[0, q]
+        u[q] = pu[1, q]
+
+
+@njit(cache=True)
+def mechanical(t, chain, pts, pv, vel):
+    """U + T where point N is (``energies``; between instants)."""
+    out = np.empty(2)
+    energies(t, chain, pts, pv, vel, np.empty((2, 3)), out)
+    return out[0] + out[1]

@@ -1,0 +1,72 @@
+"""The exact method's frictionless floor (``methods.event_driven.slides``), built but not yet
+offered on the command line (its lift-offs chatter: ``methods.event_driven.CONTACT_REFUSALS``):
+run here past the refusal, against independent truths.
+
+* a rod standing at 0.3 rad on a frictionless floor lands when the quadrature of its own
+  equation of motion says (``theory.sliding_rod_fall_time``: 2.000412 sqrt(b/g)), to 1e-8,
+  its centre on a vertical line, its books closed to 1e-8 E0;
+* a chain of 8: nothing horizontal acts, so its horizontal momentum stays zero; the floor's
+  vertical impulse is the momentum's change plus the weight's impulse; the books close to
+  1e-8 E0 (every loss booked from its own impulses); no point below the floor.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import ballchain.engine
+from ballchain.engine import simulate
+from ballchain.errors import ParameterError
+from ballchain.model import ChainParams, InitialCondition, SolverOptions
+from ballchain.records.measures import momentum
+from ballchain.theory import sliding_rod_fall_time
+
+THETA0 = 0.3
+EVENT = SolverOptions(method="event")
+
+
+@pytest.fixture
+def past_the_refusal(monkeypatch):
+    """The engine's exact frictionless floor, run past the registry's refusal."""
+    monkeypatch.setattr(ballchain.engine, "check_contacts", lambda params, method: None)
+
+
+def test_the_method_refuses_it_in_one_line_naming_why():
+    with pytest.raises(ParameterError) as err:
+        simulate(ChainParams(segments=4, friction=0.0), options=EVENT)
+    assert "--friction" in str(err.value) and "not offered yet" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_rod_on_a_frictionless_floor_lands_when_the_quadrature_says(past_the_refusal):
+    e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
+    r = simulate(ChainParams(segments=1, friction=0.0), state=(e0, None), options=EVENT)
+    assert r.status == "landed"
+    assert abs(r.t_fall - sliding_rod_fall_time(THETA0)) < 1e-8
+    assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]
+    # its centre stays on the vertical line through where it started (x = sin theta0)
+    centre = np.asarray(r.frame_base)[:, 0] + np.asarray(r.frame_e)[:, 0, 0]
+    np.testing.assert_allclose(centre, math.sin(THETA0), atol=1e-10)
+    assert np.all(np.asarray(r.frame_base)[:, 2] == 0.0)  # (its foot never leaves the floor)
+
+
+@pytest.mark.slow
+def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_its_books(past_the_refusal):
+    r = simulate(
+        ChainParams(segments=8, friction=0.0, alpha=math.pi / 4),
+        InitialCondition(kind="random", seed=1),
+        SolverOptions(method="event", frames_per_tff=200),
+    )
+    assert r.status == "landed"
+    p = momentum(r)
+    ft = np.asarray(r.frame_t)
+    M = r.params.segments
+    assert np.max(np.abs(p[:, :2])) < 1e-12 * M
+    record = np.asarray(r.frame_floor_impulse)[:, 2]
+    np.testing.assert_allclose(record, p[:, 2] - p[0, 2] + M * ft, rtol=0, atol=1e-6 * M * ft[-1])
+    assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]
+    assert r.max_depth < 1e-8
+    counts = r.event_counts()
+    assert counts["lift"] > 0 and counts["landing"] >= 8  # (points leave the floor and land again)
