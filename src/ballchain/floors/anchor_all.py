@@ -16,25 +16,25 @@ CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = False  # t_fall comes from the top end's anchoring, not from an event of its own
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def watched(anchored, j):
     """Every free point is watched."""
     return anchored[j] == 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def watched_range(anchored):
     """The points j0 <= j < j1 among which the watched ones are: all of them."""
     return 0, anchored.shape[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def value(e, j):
     """The height of point j."""
     return point_height(e, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def values(e, anchored, out):
     """out[j] = the height of every free point j (others: inf), in O(N)."""
     n = e.shape[0]
@@ -43,10 +43,9 @@ def values(e, anchored, out):
     for j in range(n - 1, -1, -1):
         z += 2.0 * e[j, 2]
         out[j] = math.inf if anchored[j] != 0 else z
-    return out
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     """Every free point at z <= ztol (``Z_TOL`` at an event instant) that is not moving
     up (dz/dt <= RATE_TOL); their number (indices in out)."""
@@ -58,13 +57,13 @@ def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     return na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def level(anchor_pos, j):
     """The height at which a watched point meets the floor: the floor's, z = 0."""
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cascade(e, anchored, ztol, out):
     """The points that land with a touch beyond the ones that touch: none (a point lands
     by its own touch only)."""

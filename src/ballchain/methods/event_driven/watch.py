@@ -58,7 +58,7 @@ def new_watch(n: int) -> Watch:
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
     """Arm state of every event function after an instant (or at the start): a function
     is watched only where its rule applies, ARMED where positive, DEPARTING at its zero;
@@ -87,7 +87,7 @@ def arm_functions(model, chain, watch, gaps, lam, t_fall_known, fv):
         watch.ref_top[0] = min(z, 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
     """Predicted apex time of every departing constraint that accelerates back, and of
     every armed hinge or point that approaches its limit while turning back: a hinge
@@ -121,7 +121,7 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv):
             apex_land[j] = t - pv[j, 2] / az
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def arm_departed(model, chain, watch, lam1, fv):
     """After an accepted step: departing functions that have left their zero (above
     ZERO_BAND) are armed.  ``lam1``: the lock multipliers at the step's end."""
