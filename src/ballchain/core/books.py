@@ -36,7 +36,7 @@ def lowest_point(e, lowest):
         lowest[0] = zlow
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def log_row(log, t, kind, index, i0, i1, i2, energy, pts, j):
     """One row of the event log (``state.Log``): t, kind, index, impulse (i0, i1, i2),
     the energy dissipated, the position of point j (a hinge k: its point j = k + 1)."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import entry, njit
+from ..jit import njit
 from .blocks import factor4, factor_general, generalized_forces, solve4, solve_general, torques4
 from .forces import any_smooth_law, smooth_torques, torque_rhs
 from .rows import (
@@ -38,7 +38,6 @@ from .rules import is_held
 from .rules import is_landed as _is_landed
 
 
-@entry
 @njit(cache=True, _nrt=False)
 def accelerations(e, w, anchored, locked, ws, de, dw):
     """Equations of motion between events: de/dt = w x e, dw/dt = 3 P (torque).
