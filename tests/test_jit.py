@@ -2,6 +2,7 @@
 numba's cheap pipeline, the kernel called from Python and ``entry`` kernels the full one;
 numbers are unchanged (every physics test runs with the policy in force)."""
 
+import collections
 import os
 import shutil
 import subprocess
@@ -333,28 +334,38 @@ def test_kernels_without_reference_counts_that_return_or_take_arrays_are_listed(
     def fine(a):
         return a[0] + 1.0
 
+    def first(pair):
+        return pair.head[0] + pair.tail[0]
+
+    def bundled(a):  # a bundle of views of the arrays it borrows: borrowed too
+        return first_j(Pair(a[:1], a[1:]))
+
+    Pair = collections.namedtuple("Pair", ["head", "tail"])
     probe = types.ModuleType("ballchain._probe_borrow")  # (the checker reads the kernels of the modules)
-    for f in (same, view, total, fine):
+    for f in (same, view, total, fine, first, bundled):
         f.__module__ = probe.__name__
     same_j = probe.same = jit.njit(_nrt=False)(same)
     view_j = probe.view = jit.njit(_nrt=True)(view)
     total_j = probe.total = jit.njit(_nrt=False)(total)
     fine_j = probe.fine = jit.njit(_nrt=False)(fine)
+    first_j = probe.first = jit.njit(_nrt=False)(first)
+    bundled_j = probe.bundled = jit.njit(_nrt=False)(bundled)
     monkeypatch.setitem(sys.modules, probe.__name__, probe)
     a = np.array([1.0, 2.0, 3.0])
-    assert total_j(a) == 4.0 and fine_j(a) == 2.0
+    assert total_j(a) == 4.0 and fine_j(a) == 2.0 and bundled_j(a) == 3.0
     problems = [p for p in jit.borrowing_problems() if "_probe_borrow" in p]
     assert any(p.startswith("ballchain._probe_borrow.same returns") for p in problems)
     assert sum(p.startswith("ballchain._probe_borrow.total takes") for p in problems) == 2
-    assert not any(".fine " in p or ".view " in p for p in problems)
+    assert not any(".fine " in p or ".view " in p or ".bundled " in p or ".first " in p for p in problems)
 
 
 @pytest.mark.slow
-def test_rattle_kernels_without_reference_counts_borrow_only(tmp_path):
-    """RATTLE's kernels compiled with ``_nrt=False`` neither return arrays nor take them from
-    calls (a cold compile in a fresh process, its own cache)."""
+@pytest.mark.parametrize("method", ["event", "timestep", "rattle"])
+def test_kernels_without_reference_counts_borrow_only(tmp_path, method):
+    """Each method's kernels compiled with ``_nrt=False`` (and the core's) neither return
+    arrays nor take them from calls (a cold compile in a fresh process, its own cache)."""
     code = (
-        "from ballchain import engine, jit; engine.load_kernels('rattle'); "
+        f"from ballchain import engine, jit; engine.load_kernels({method!r}); "
         "p = jit.borrowing_problems(); print('\\n'.join(p) or 'none')"
     )
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))

@@ -58,17 +58,21 @@ for it) whose functions are ``available_externally`` (LLVM emits no code for the
 globals as they were (the environment that numba's ``set_env`` fills).  LLVM's code
 generation for those libraries was about 9 of RATTLE's 136 s of CPU.
 
-Kernels compiled with ``_nrt=False`` (numba's option; RATTLE's, ``methods/rattle``) take
-no reference counts: no incref and decref of every array of every bundle on each use,
-entry and exit, which numba lowers and LLVM must then optimise away (RATTLE's bundles hold
-up to ~190 arrays).  They borrow the arrays their caller passes (which the caller holds
-for the call), so such a kernel may neither allocate (numba refuses to compile it), nor
-return an array, nor take one that a call returns (a view its callee made: the reference
-would never be released): the kernels that make views (``scheme.motion_view`` ...) and
-their callers keep numba's reference counts, ``_nrt=True`` written out (numba's callee
-inherits its caller's setting where it states none).  ``borrowing_problems`` lists the
-kernels of a process that break the rule (``tests/test_jit.py`` runs it after a cold
-compile of RATTLE).  The machine code computes the same numbers.
+Kernels compiled with ``_nrt=False`` (numba's option; every method's and the core's, the
+floors' and the contact laws') take no reference counts: no incref and decref of every
+array of every bundle on each use, entry and exit, which numba lowers and LLVM must then
+optimise away (RATTLE's bundles hold up to ~190 arrays, the event handler's scratch ~30).
+They borrow the arrays their caller passes (which the caller holds for the call), so such
+a kernel may neither allocate (numba refuses to compile it), nor return an array, nor take
+one that a call returns (a view its callee made: the reference would never be released; a
+bundle it builds of views of its own arrays, ``Dense(...)``, is not a call in this sense):
+the kernels that allocate (``lcp.dense_lcp``, ``dopri.dense_state`` ...), make views
+(``scheme.motion_view`` ...) and their callers keep numba's reference counts, ``_nrt=True``
+written out (numba's callee inherits its caller's setting where it states none).
+``borrowing_problems`` lists the kernels of a process that break the rule
+(``tests/test_jit.py`` runs it after a cold compile of each method).  The machine code
+computes the same numbers.  Without reference counts the event method's cold compile went
+from 88 to 70 s of CPU (one compile each on a loaded machine; docs/notes/benchmarks-history.md).
 
 The on-disk cache is keyed to every engine source, not only the kernel's own file:
 numba keys a cached kernel to a hash of the file that defines it, so a caller compiled
@@ -557,6 +561,7 @@ def borrowing_problems() -> list:
     (its callees were linked into it): run it after a cold compile."""
     import sys
 
+    from numba.core import types
     from numba.core.registry import CPUDispatcher
 
     problems = []
@@ -572,7 +577,11 @@ def borrowing_problems() -> list:
                 where = f"{name}.{attr}"
                 if _holds_references(cres.signature.return_type):
                     problems.append(f"{where} returns {cres.signature.return_type}")
+                typemap = cres.fndesc.typemap or {}
                 for expr, sig in (cres.fndesc.calltypes or {}).items():
-                    if getattr(expr, "op", None) == "call" and sig is not None and _holds_references(sig.return_type):
-                        problems.append(f"{where} takes {sig.return_type} from a call ({expr.loc.short()})")
+                    if getattr(expr, "op", None) != "call" or sig is None or not _holds_references(sig.return_type):
+                        continue
+                    if isinstance(typemap.get(getattr(expr.func, "name", None)), types.NamedTupleClass):
+                        continue  # a bundle of the arrays it is given (views of borrowed arrays: borrowed)
+                    problems.append(f"{where} takes {sig.return_type} from a call ({expr.loc.short()})")
     return problems

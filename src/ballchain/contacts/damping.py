@@ -49,7 +49,7 @@ def _bend(e, k):
     return nx / s, ny / s, nz / s, s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hinge_torques(c, e, w, tau):
     """tau <- the damping torques on the segments (N, 3), tau_k = C thetadot_k n_k and
     -C thetadot_k n_k on segment k+1 (w: the angular velocities); returns the power they
@@ -72,7 +72,7 @@ def hinge_torques(c, e, w, tau):
     return power
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def axis_forces(c, e, de, f):
     """f <- the damping forces on the axes (N, 3) in the axes' rates de = de/dt,
     f_k = C thetadot_k (e_{k+1} - cos theta e_k) / sin theta and the same with k and k+1

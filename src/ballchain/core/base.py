@@ -30,7 +30,7 @@ from .kinematics import point_positions, velocities
 from .state import Base, new_base  # noqa: F401  (the bundle, allocated beside its kin)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def held_point(anchored):
     """The largest index of a point the floor holds (any mark), -1 if none."""
     for j in range(anchored.shape[0] - 1, -1, -1):
@@ -39,7 +39,7 @@ def held_point(anchored):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_z(e, anchored, base, t):
     """The floor's height in the chain's frame (positions summed from point N at the
     origin): 0 while point N is held (always, but on a frictionless floor); the height of
@@ -59,7 +59,7 @@ def floor_z(e, anchored, base, t):
     return csum / n - (base.cm0[2] + base.vcm0[2] * s - 0.5 * s * s)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_z_rates(e, w, de, dw, anchored, base, t):
     """The floor's vertical rate and acceleration in the chain's frame (``floor_z``'s), for
     the rates w, de = w x e and accelerations dw of the axes: 0, 0 while point N is held;
@@ -83,7 +83,7 @@ def floor_z_rates(e, w, de, dw, anchored, base, t):
     return vs / n - (base.vcm0[2] - s), as_ / n + 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _centre_mean(e, vel, pts, out):
     """out[0] = mean_i c_i^rel, out[1] = mean_i v_i^rel (pts, vel: relative to point N)."""
     n = e.shape[0]
@@ -96,7 +96,7 @@ def _centre_mean(e, vel, pts, out):
         out[1, q] = v / n
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def base_point(e, w, anchored, base, t, pts, pv, vel, out):
     """out[0] = point N's position p, out[1] = its velocity u at time t (module docstring);
     pts, pv, vel leave holding the positions and velocities relative to point N.  Returns
@@ -119,7 +119,7 @@ def base_point(e, w, anchored, base, t, pts, pv, vel, out):
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def set_base(e, w, anchored, base, t, pts, pv, vel, p, u):
     """base <- the centre of mass's position and velocity at t for point N at p moving at u
     (the start of a run, or the whole chain leaving the floor at t)."""
@@ -134,7 +134,7 @@ def set_base(e, w, anchored, base, t, pts, pv, vel, p, u):
     base.flying[0] = 1 if held_point(anchored) < 0 else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def energies_moved(e, w, pts, vel, pu, out):
     """out[0] = U, out[1] = T (m g b) of the chain whose point N is at pu[0] moving at pu[1],
     from its positions pts and centres' velocities vel relative to point N: sum_i (z_i^rel
@@ -150,7 +150,7 @@ def energies_moved(e, w, pts, vel, pu, out):
     out[1] = tk
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def energy_on_floor(e, w, anchored, base, t, pts, pv, vel):
     """U + T of the chain whose point N is where ``base_point`` puts it (m g b)."""
     pu = np.empty((2, 3))

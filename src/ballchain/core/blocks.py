@@ -37,7 +37,7 @@ REC_VALID, REC_NDROP, REC_ON = 3, 4, 5
 DROP_RTOL = 1e-11  # relative pivot below which a constraint row is treated as redundant
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _chol_inplace(S, j, nr, drop):
     """Cholesky of the nr x nr block S[j] (lower triangle), dropping redundant rows
     (pivot below DROP_RTOL of the original diagonal): their unknowns are set to 0."""
@@ -62,7 +62,7 @@ def _chol_inplace(S, j, nr, drop):
             S[j, i, k] = s / lkk
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _chol_solve(S, j, nr, drop, b):
     """Solve S[j] x = b in place (b has length >= nr), dropped unknowns = 0."""
     for k in range(nr):
@@ -83,7 +83,7 @@ def _chol_solve(S, j, nr, drop, b):
         b[k] = s / S[j, k, k]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _weights(anchored, i, n):
     """(1/m, 3/(m b^2)) of segment i, or (0, 0) if landed or outside the chain.  Its ends'
     marks are read before any branch (clamped into the chain): numba then takes no
@@ -95,7 +95,7 @@ def _weights(anchored, i, n):
     return W_V, W_W
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def factor_general(anchored, J, nrow, S, G, drop):
     """Block Cholesky of J W J^T for any row count per point (up to MAXR), products
     taken from the rows J: S[j] <- chol(D_j - E_{j-1}^T S_{j-1}^{-1} E_{j-1}),
@@ -154,7 +154,7 @@ def factor_general(anchored, J, nrow, S, G, drop):
     return ndrop
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_general(nrow, S, G, drop, rhs, x):
     """Solve (J W J^T) x = rhs with the factors from ``factor_general`` (block Thomas)."""
     npts = nrow.shape[0]
@@ -235,7 +235,7 @@ def _lock_vector(e, j, nr):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fits4(kind, nrow):
     """Every point has 0, 3 or 4 rows (one end group and at most one lock row), or 6
     (an anchor between two airborne segments, without a lock row); a sliding point's
@@ -294,7 +294,7 @@ def _unit_lower_solve4(l10, l20, l21, l30, l31, l32, b0, b1, b2, b3):
     return x0, x1, x2, x3
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def factor4(e, anchored, kind, nrow, S, G, drop):
     """L P L^T factor of J W J^T in 4 x 4 blocks formed in closed form (see above), every
     block held in scalars (one line per entry).  Returns the number of redundant rows
@@ -543,7 +543,7 @@ def factor4(e, anchored, kind, nrow, S, G, drop):
     return ndrop
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def reuse_factors(S, on):
     """Keep factor4's restart record (on: during an event instant, where J W J^T is
     factored many times for the same axes) or stop keeping it (off: between events,
@@ -553,7 +553,7 @@ def reuse_factors(S, on):
         S[0, REC_E, REC_VALID] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _restart_point(e, anchored, kind, nrow, S):
     """The first point whose block factor4 must recompute: npts if S holds the factors
     of these very inputs, else one above the first segment or point whose inputs
@@ -577,7 +577,7 @@ def _restart_point(e, anchored, kind, nrow, S):
     return max(first - 1, 0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve4(nrow, S, G, rhs, x):
     """Solve (J W J^T) x = rhs with the factors from ``factor4`` (u, x carried in
     scalars; a point without rows is skipped: its unknowns are 0)."""
@@ -655,7 +655,7 @@ def solve4(nrow, S, G, rhs, x):
         x[j, 3] = z3
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def factor(e, anchored, J, kind, nrow, S, G, drop):
     """Factor J W J^T (the fixed-size path when every point has <= 4 rows, else the
     general one); returns the number of redundant rows dropped.  ``solve`` picks the
@@ -665,7 +665,7 @@ def factor(e, anchored, J, kind, nrow, S, G, drop):
     return factor_general(anchored, J, nrow, S, G, drop)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve(kind, nrow, S, G, drop, rhs, x):
     """Solve (J W J^T) x = rhs with the factors from ``factor`` (of the same rows)."""
     if fits4(kind, nrow):
@@ -674,7 +674,7 @@ def solve(kind, nrow, S, G, drop, rhs, x):
         solve_general(nrow, S, G, drop, rhs, x)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def generalized_forces(anchored, J, nrow, x, gf):
     """gf[i] = (J^T x) restricted to segment i: (force, torque) on segment i."""
     n = gf.shape[0]
@@ -688,7 +688,7 @@ def generalized_forces(anchored, J, nrow, x, gf):
             gf[i, q] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def torques4(e, kind, nrow, x, gf):
     """gf[i, 3:6] = torque of the multipliers x on segment i (fixed-size layout):
     an end group with multiplier f and w-coefficient B gives B f x e_i, a lock row
@@ -724,7 +724,7 @@ def torques4(e, kind, nrow, x, gf):
         gf[i, 5] = tz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def forces4(kind, nrow, x, gf):
     """gf[i, 0:3] = force of the multipliers x on segment i (fixed-size layout): an end
     group with multiplier f and v-coefficient A gives A f (``torques4``'s twin)."""

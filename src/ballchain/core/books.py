@@ -8,7 +8,7 @@ from .kinematics import kinetic_energy, potential_energy
 PROJECTED_AT_INSTANTS, PROJECTED_IN_STEPS = 0, 1  # the slots of Books.projected
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fill_frame_books(frames, books):
     """Frames written since the last call (``frames.fill[0]`` .. ``frames.count[0]``) get
     the energy lost at impacts, the friction's work on sliding points (none in a method that
@@ -23,7 +23,7 @@ def fill_frame_books(frames, books):
     frames.fill[0] = frames.count[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def lowest_point(e, lowest):
     """lowest <- the lowest point height seen, min(lowest, min_j z_j) (for the max depth)."""
     zlow = 0.0
@@ -36,7 +36,7 @@ def lowest_point(e, lowest):
         lowest[0] = zlow
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def lowest_above_floor(e, anchored, zf, lowest):
     """``lowest_point`` with the heights measured from the floor, at zf in the chain's frame
     (0, but where a frictionless floor has let point N leave it: ``base.floor_z``)."""
@@ -53,7 +53,7 @@ def lowest_above_floor(e, anchored, zf, lowest):
         lowest[0] = zlow
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def log_row(log, t, kind, index, i0, i1, i2, energy, pts, j):
     """One row of the event log (``state.Log``): t, kind, index, impulse (i0, i1, i2),
     the energy dissipated, the position of point j (a hinge k: its point j = k + 1)."""
@@ -70,7 +70,7 @@ def log_row(log, t, kind, index, i0, i1, i2, energy, pts, j):
     log.n[0] = k + 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def mechanical_energy(e, w, pv, vel):
     """U + T of axes e and rates w (m g b; pv (N+1, 3), vel (N, 3): scratch)."""
     return potential_energy(e) + kinetic_energy(e, w, pv, vel)

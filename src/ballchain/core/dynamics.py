@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import entry, njit
+from ..jit import njit
 from .blocks import factor4, factor_general, generalized_forces, solve4, solve_general, torques4
 from .forces import any_smooth_law, smooth_torques, torque_rhs
 from .rows import (
@@ -38,8 +38,7 @@ from .rules import is_held
 from .rules import is_landed as _is_landed
 
 
-@entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def accelerations(e, w, anchored, locked, ws, de, dw):
     """Equations of motion between events: de/dt = w x e, dw/dt = 3 P (torque).
 
@@ -89,7 +88,7 @@ def accelerations(e, w, anchored, locked, ws, de, dw):
     return ndrop
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def lock_multipliers(kind, nrow, x, lam):
     """lam[k] = multiplier of hinge k's lock row (0 where unlocked)."""
     for k in range(lam.shape[0]):
@@ -100,7 +99,7 @@ def lock_multipliers(kind, nrow, x, lam):
                 lam[k] = x[j, r]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def anchor_forces(kind, nrow, x, out):
     """out[j] = force of the anchor at point j on the non-landed chain (of the floor on a
     sliding point: its height row, vertical)."""
@@ -116,7 +115,7 @@ def anchor_forces(kind, nrow, x, out):
                 out[j, 2] += x[j, r]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def anchor_force_total(kind, nrow, x, out):
     """out = sum_j F_j, the continuous force of all anchors on the airborne chain
     (the multipliers of the anchor rows, and of the sliding points' height rows; landed
@@ -133,7 +132,7 @@ def anchor_force_total(kind, nrow, x, out):
                 out[2] += x[j, r]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def pile_pull(anchored, kind, nrow, x, out):
     """out = force of the pile on the hanging chain: the force of the first anchored
     point from the top, j*, on segment j* - 1 above it (its ROW_ANCHOR_LOWER rows);

@@ -28,7 +28,7 @@ def any_smooth_law(laws):
     return damped(laws.damping)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def smooth_torques(laws, e, w, anchored, tau):
     """tau <- the smooth laws' torques on the segments not landed (landed ones: zero;
     their rates are zero, so the power is what acts on the rest), w the angular
@@ -41,7 +41,7 @@ def smooth_torques(laws, e, w, anchored, tau):
     return power
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def smooth_axis_forces(laws, e, de, f):
     """f <- the same laws' forces on the axes in the axes' rates de = de/dt (maximal
     coordinates: the force f_i on e_i does what the torque e_i x f_i does); returns the
@@ -49,7 +49,7 @@ def smooth_axis_forces(laws, e, de, f):
     return axis_forces(laws.damping, e, de, f)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def torque_rhs(e, tau, kind, nrow, rhs):
     """rhs -= J W f for applied torques tau on the segments (W = 3 on the rates): the rows'
     acceleration right-hand side with the torques applied (kinds as in ``rows``:

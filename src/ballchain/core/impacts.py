@@ -128,14 +128,14 @@ def _row_target(kind, j, r, iw):
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hinge_gaps(e, cos_alpha, out):
     """out[k] = g_k of every hinge of unit axes e (``rules.unit_hinge_gap``)."""
     for k in range(out.shape[0]):
         out[k] = unit_hinge_gap(e, k, cos_alpha)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hinge_rates(e, w, out):
     """dg_k/dt = (w_k x e_k) . e_{k+1} + e_k . (w_{k+1} x e_{k+1})."""
     for k in range(out.shape[0]):
@@ -149,7 +149,7 @@ def hinge_rates(e, w, out):
         out[k] = dax * e[c, 0] + day * e[c, 1] + daz * e[c, 2] + e[a, 0] * dcx + e[a, 1] * dcy + e[a, 2] * dcz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hinge_accels(e, w, de, dw, out):
     """d2g_k/dt2 = dde_k . e_{k+1} + 2 de_k . de_{k+1} + e_k . dde_{k+1}, dde = dw x e + w x de."""
     for k in range(out.shape[0]):
@@ -164,7 +164,7 @@ def hinge_accels(e, w, de, dw, out):
         out[k] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _delassus(e, w, anchored, base, idx, c, ws, wt, col, M, dref):
     """M[:c, :c] = J_L W_eff J_L^T over the hinges idx[:c]: column j = the hinge rates
     that a unit lock impulse on hinge idx[j] produces once the equality rows (hinges,
@@ -217,7 +217,7 @@ def _delassus(e, w, anchored, base, idx, c, ws, wt, col, M, dref):
             M[jj, ii] = m
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def _dense_fallback(e, w, anchored, base, idx, c, q_all, tol, ws, active):
     """The LCP over the candidates idx[:c] as one dense problem (``_delassus``, then
     ``lcp.dense_lcp``): q = q_all[idx] (the rates or accelerations with no candidate
@@ -233,7 +233,7 @@ def _dense_fallback(e, w, anchored, base, idx, c, q_all, tol, ws, active):
     return dense_lcp(M, q0, c, idx, active, tol, dref)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def translation_rates(anchored, J, kind, nrow, fits, dv, jv):
     """jv += the rates of the constraint rows under centre velocities dv (w = 0): a hinge
     row dv_a - dv_c, an anchor row the dv of its segment; lock rows 0."""
@@ -268,7 +268,7 @@ def translation_rates(anchored, J, kind, nrow, fits, dv, jv):
                 jv[j, r] += acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw):
     """Post-impact velocity iw.w_plus and hinge rates iw.rates_after for the lock set
     ``active``: the impulses x solve (J W J^T) x = -J v- (a lock row not held by the
@@ -302,7 +302,7 @@ def _impact_trial(e, w, anchored, active, forced, e_lock, ws, iw):
     hinge_rates(e, w_plus, iw.rates_after)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _impact_violations(cand, forced, active, e_lock, ws, iw, viol):
     """Mark (viol) and count the complementarity violations of the last trial: an active
     hinge pulled by its impulse (unless held) or an inactive candidate whose law rate
@@ -335,7 +335,7 @@ def _impact_violations(cand, forced, active, e_lock, ws, iw, viol):
     return nviol
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _impact_books(w, ws, iw):
     """Accept the last trial: w <- w+, the floor's impulse per point, and the energy lost
     per constraint, -1/2 Lambda_c (J_c v- + J_c v+) (J_c v+ = 0 for anchors), split into
@@ -367,7 +367,7 @@ def _impact_books(w, ws, iw):
             w[i, q] = iw.w_plus[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     """One impact by principal pivoting on the lock set (``velocity_impact``)."""
     nh = e.shape[0] - 1
@@ -395,7 +395,7 @@ def _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _lock_violations(cand, active, ws, ddg, lam, viol):
     """Mark and count the violations of the acceleration-level LCP (a locked hinge pulled
     by its multiplier, a free candidate accelerating through its limit), lam the lock
@@ -428,7 +428,7 @@ def _lock_violations(cand, active, ws, ddg, lam, viol):
     return nviol, atol
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def lock_set(e, w, anchored, cand, active, ws, de, dw, ddg, lam):
     """Which hinges at their limit stay locked: the acceleration-level LCP over
     ``cand`` (hinges at the limit with dg/dt = 0).  ``active`` is the initial guess on
@@ -457,7 +457,7 @@ def lock_set(e, w, anchored, cand, active, ws, de, dw, ddg, lam):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     """Moreau's inelastic impact, or with ``e_lock`` > 0 Newton's restitution on the
     hinges' lock rows (``contacts.newton``; anchors and held hinges stay inelastic), with
@@ -512,7 +512,7 @@ def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     return _newton_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stepped_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     """A time-stepping method's velocity problem with Newton's law at the limits, in one
     pass (Moreau-Jean's form): on every candidate lock row, gamma+ + e_lock gamma- >= 0,
@@ -526,7 +526,7 @@ def stepped_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     return _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _floor_pulls(iw):
     """Would the floor pull a point down to make it rebound (a negative vertical impulse
     on a rebounding point: its rows are equalities)?"""
@@ -538,7 +538,7 @@ def _floor_pulls(iw):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     """Newton's restitution at the limits (``velocity_impact``), and the second, inelastic
     pass if a hinge comes out closing; iw.lost_hinge: each hinge's share."""

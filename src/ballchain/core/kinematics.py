@@ -24,7 +24,7 @@ PROJ_TOL = 1e-12  # constraint drift tolerated before projection (b; at least)
 PROJ_ROUNDOFF = 1e-13  # ... and per segment: the round-off of positions summed over N segments
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def point_positions(e, out):
     """Positions of points 0..N: point N at the origin, point j = 2 sum_{i>=j} e_i."""
     n = e.shape[0]
@@ -36,7 +36,7 @@ def point_positions(e, out):
             out[j, q] = out[j + 1, q] + 2.0 * e[j, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def velocities(e, w, pv, vel):
     """Point velocities pv (N+1, 3) and centre velocities vel (N, 3) from w:
     d/dt point_j = 2 sum_{i>=j} w_i x e_i, v_i = pv_{i+1} + w_i x e_i."""
@@ -57,7 +57,7 @@ def velocities(e, w, pv, vel):
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def kinetic_energy(e, w, pv, vel):
     """T = sum 1/2 |v_i|^2 + 1/2 (1/3) |w_i|^2 (units m g b)."""
     velocities(e, w, pv, vel)
@@ -69,7 +69,7 @@ def kinetic_energy(e, w, pv, vel):
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def potential_energy(e):
     """U = sum z_centre_i = sum_i (e_iz + 2 sum_{k>i} e_kz) (units m g b)."""
     n = e.shape[0]
@@ -81,7 +81,7 @@ def potential_energy(e):
     return u
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def constraint_velocities(e, w, J, nrow, pv, vel, out):
     """out[j, r] = J_row (v, w): the rate of every constraint row."""
     velocities(e, w, pv, vel)
@@ -98,14 +98,14 @@ def constraint_velocities(e, w, J, nrow, pv, vel, out):
             out[j, r] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def apply_impulses(e, w, anchored, J, nrow, x, gf, sign):
     """w_i += sign * 3 P_i (torque of J^T x on segment i): a velocity jump."""
     generalized_forces(anchored, J, nrow, x, gf)
     torque_jump(e, w, anchored, gf, sign)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def constraint_rates4(e, w, anchored, kind, nrow, pv, vel, out):
     """``constraint_velocities`` for the fixed-size layout, without J: hinge rows
     (lower end of a) - (upper end of c), anchor rows the velocity of the anchored end,
@@ -146,7 +146,7 @@ def constraint_rates4(e, w, anchored, kind, nrow, pv, vel, out):
             out[j, 3] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def torque_jump(e, w, anchored, gf, sign):
     """w_i += sign * 3 P_i gf[i, 3:6] (P_i: projection perpendicular to e_i); w = 0 on
     landed segments."""
@@ -163,7 +163,7 @@ def torque_jump(e, w, anchored, gf, sign):
         w[i, 2] += sign * (tz - tp * e[i, 2])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def normalize_state(e, w, anchored):
     """|e_i| = 1, w_i perpendicular to e_i, w = 0 on landed segments."""
     for i in range(e.shape[0]):
@@ -209,7 +209,7 @@ def _floor_z(anchored, pts):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def slide_rates_from_floor(anchored, kind, nrow, pv, out):
     """The sliding points' height rows' rates (``out``, from velocities with point N at
     rest, ``pv``) made the rates relative to the floor: minus the held reference's vertical
@@ -223,7 +223,7 @@ def slide_rates_from_floor(anchored, kind, nrow, pv, out):
                 out[j, r] -= vz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pts, out):
     """Residual of every row at the position level: anchors (point - anchor, where
     ``drift_removable``; else 0), locks (e_a . e_c - lock_cos: the cosine at which the
@@ -251,7 +251,7 @@ def position_residuals(e, anchored, locked, lock_cos, anchor_pos, kind, nrow, pt
     return worst
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rotate_by(e, anchored, gf, sign):
     """e_i <- normalize(e_i + sign * 3 P_i tau_i x e_i) (a small rotation)."""
     for i in range(e.shape[0]):
@@ -268,7 +268,7 @@ def rotate_by(e, anchored, gf, sign):
         e[i, 2] = nz / nrm
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _axis_rates(e, w, out):
     """out_i = de_i/dt = w_i x e_i."""
     for i in range(e.shape[0]):
@@ -277,7 +277,7 @@ def _axis_rates(e, w, out):
         out[i, 2] = w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rates_for_axes(e, de, w):
     """w_i = e_i x de_i: the rates that turn the (moved, unit) axes e_i at the rates de_i
     they had before the move, but for the components along e_i (which a segment's fixed
@@ -298,7 +298,7 @@ def projection_tol(n):
     return max(PROJ_TOL, PROJ_ROUNDOFF * n)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project_state(chain, ws, pts, vel, tol, iters, with_velocities=True):
     """Remove constraint drift from the state of ``chain`` (``state.Chain``; ``pts``,
     ``vel``: scratch of the points' positions and the centres' velocities): normalise,

@@ -31,7 +31,7 @@ _HKEY = np.uint64(0x9E3779B97F4A7C15)
 Pivoting = namedtuple("Pivoting", ["viol", "hist", "nhist", "best", "stall", "murty"])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def new_pivoting(nh):
     """A fresh driver for an LCP over nh indices."""
     return Pivoting(
@@ -44,7 +44,7 @@ def new_pivoting(nh):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _pivot_update(active, viol, use_murty):
     """Flip violated indices: all of them (block pivoting) or the least one (Murty)."""
     if use_murty:
@@ -58,7 +58,7 @@ def _pivot_update(active, viol, use_murty):
                 active[k] = 1 - active[k]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _set_hash(active, nh):
     """64-bit fingerprint of the active set (a collision only calls the fallback early)."""
     h = np.uint64(1469598103934665603)
@@ -69,7 +69,7 @@ def _set_hash(active, nh):
     return h
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _seen(hist, nhist, h):
     for i in range(nhist):
         if hist[i] == h:
@@ -77,7 +77,7 @@ def _seen(hist, nhist, h):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def next_active_set(piv, active, nh, nviol):
     """After a trial of ``active`` with ``nviol`` violations (marked in ``piv.viol``):
     PIVOT_FALLBACK if the set was tried before (cycling) or the budget is spent, else
@@ -99,7 +99,7 @@ def next_active_set(piv, active, nh, nviol):
     return PIVOT_NEXT
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def candidates(cand, forced, idx):
     """idx[:c] = the candidate indices that are not held (``forced``); returns c."""
     c = 0
@@ -110,7 +110,7 @@ def candidates(cand, forced, idx):
     return c
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def _lemke(M, q, c, z):
     """Solve the LCP  w = q + M z >= 0, z >= 0, w.z = 0  (c x c, M a P-matrix) by
     Lemke's complementary pivoting with the lexicographic ratio test (no cycling:
@@ -200,7 +200,7 @@ def _lemke(M, q, c, z):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def dense_lcp(M, q, c, idx, active, tol, dref):
     """Fallback: active[idx] <- the solution set of LCP(M + delta I, q + tol) over the
     rows that are not redundant, a positive definite problem (delta = REG_RTOL max

@@ -76,7 +76,7 @@ def _zero_cols(J, j, r0, nr, col):
             J[j, r, col + q] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def build_rows(e, w, anchored, locked, J, kind, nrow, rhs, with_acc_rhs):
     """Fill the constraint rows of every point; if ``with_acc_rhs``, also the
     acceleration right-hand side rhs = -(J W f_gravity + velocity-product terms)."""
@@ -179,7 +179,7 @@ def _slide_row(e, w, j, r, a_air, J, kind, rhs, with_acc_rhs):
     return r + 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
     """``build_rows`` without J, for the fixed-size path, in one pass that carries each
     segment's |w|^2, de = w x e and airborne flag to the next point.  Returns False if
@@ -244,7 +244,7 @@ def rows_rhs4(e, w, anchored, locked, kind, nrow, rhs):
     return fits
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def constraint_rows(e, w, anchored, locked, J, kind, nrow, rhs):
     """The constraint rows of the current anchors and locks: the fixed-size layout
     (kind, nrow; no J) when every point fits it, else J as well (``build_rows``).

@@ -76,14 +76,14 @@ OFF = -1  # not watched
 ZERO_BAND = 1e-12
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def must_hold(rate, accel, hold_rate, hold_apex):
     """The accumulation rule for a hinge just released at its limit with rate dg/dt =
     ``rate`` >= 0 and free acceleration d2g/dt2 = ``accel``: hold it at its limit?"""
     return accel < 0.0 and (rate < hold_rate or rate * rate < -2.0 * hold_apex * accel)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def arm_state(f):
     """ARMED if the event function f is clearly positive, else DEPARTING (it sits at
     its zero after the event that put it there, and is known to be leaving it)."""
@@ -106,7 +106,7 @@ def is_landed(anchored, i):
     return (anchored[i] == 1) & (anchored[i + 1] == 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def landed_count(anchored):
     """How many segments have landed (``is_landed``): the floor holds up their weight."""
     m = 0
@@ -144,7 +144,7 @@ def unit_hinge_gap(e, k, cos_alpha):
     return e[k, 0] * e[k + 1, 0] + e[k, 1] * e[k + 1, 1] + e[k, 2] * e[k + 1, 2] - cos_alpha
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def point_height(e, j):
     """z_j = 2 sum_{i>=j} e_i,z: the height of point j (units b; point N at the origin)."""
     z = 0.0
@@ -153,7 +153,7 @@ def point_height(e, j):
     return z
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def all_anchored(anchored):
     """Every point anchored: the fall is over (t_landed)."""
     for j in range(anchored.shape[0]):
@@ -162,7 +162,7 @@ def all_anchored(anchored):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fall_over(anchored, anchor_t, touching, friction, e_floor):
     """The run is over: every point anchored (the anchor, friction inf: ``all_anchored``),
     or, on a floor that lets points slide (friction 0: nothing is anchored, the pile slides
@@ -180,7 +180,7 @@ def fall_over(anchored, anchor_t, touching, friction, e_floor):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fall_ended(books, t, top_reached, top_anchored):
     """The t_fall rule: the fall ends when the top end first reaches the floor, either as
     an event of its own (``top_reached``, floor models with a top event) or when it is
@@ -192,7 +192,7 @@ def fall_ended(books, t, top_reached, top_anchored):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def limit_in_force(anchored, k, cone, alpha):
     """Is the bend limit of hinge k (between segments k and k+1) in force?  Never when
     alpha = pi; between two segments that have not landed, yes, unless they span two
@@ -211,7 +211,7 @@ def limit_in_force(anchored, k, cone, alpha):
     return cone and (la != lc)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def bottom_airborne(anchored):
     """Index of the lowest segment that has not landed (-1 if all have)."""
     n = anchored.shape[0] - 1
@@ -221,7 +221,7 @@ def bottom_airborne(anchored):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hold_at(chain, j, pts):
     """Where the floor holds point j that touches it at pts[j] (points' positions):
 
@@ -260,7 +260,7 @@ def hold_at(chain, j, pts):
         anchor_pos[j, q] = pts[j, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def settle_anchors(chain, cone, alpha):
     """What a touch creates, once its impact is solved: the new anchors are made (2 -> 1),
     a lock whose limit is no longer in force (``limit_in_force``) is dropped, a landed

@@ -68,7 +68,7 @@ def new_floor_work(n: int) -> FloorWork:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def vertical_multipliers(kind, nrow, x, out):
     """out[j] = the vertical multiplier of the floor's rows at point j (its height row,
     or the vertical rows of its anchor), 0 where it has none."""
@@ -83,7 +83,7 @@ def vertical_multipliers(kind, nrow, x, out):
         out[j] = p
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def point_heights_rates(e, w, vc, out):
     """out[j] = dz_j/dt from the centres' velocities vc and the axes' rates w: the upper
     end of segment j, v_j + (w_j x e_j); point N, the lower end of segment N - 1,
@@ -95,7 +95,7 @@ def point_heights_rates(e, w, vc, out):
     out[n] = vc[i, 2] - (w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _segment_forces(anchored, ws):
     """ws.gf[:, 0:3] = the multipliers' force on each segment (either layout)."""
     if fits4(ws.kind, ws.nrow):
@@ -104,7 +104,7 @@ def _segment_forces(anchored, ws):
         generalized_forces(anchored, ws.J, ws.nrow, ws.x, ws.gf)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _centres_after(anchored, base, ws, vc):
     """vc = base + the multipliers' force on each segment (m = 1; ``base``: the centres'
     velocities before the impact, or gravity's acceleration); a landed segment's centre at
@@ -115,7 +115,7 @@ def _centres_after(anchored, base, ws, vc):
             vc[i, q] = 0.0 if is_landed(anchored, i) else base[i, q] + ws.gf[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _centre_velocities(e, w, iw, vc):
     """vc = the centres' velocities before the impact: the chain's from w with point N at
     rest (``kinematics.velocities``) plus iw.dv."""
@@ -125,7 +125,7 @@ def _centre_velocities(e, w, iw, vc):
             vc[i, q] = iw.vel[i, q] + iw.dv[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _set_trial(anchored, fcand, fw, nh):
     """The trial's marks: a floor candidate held in fw.active is marked fcand[j], else 0."""
     for j in range(anchored.shape[0]):
@@ -133,7 +133,7 @@ def _set_trial(anchored, fcand, fw, nh):
             anchored[j] = fcand[j] if fw.active[nh + j] else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _floor_violations(fcand, fw, nh, target, ptol, rtol, viol):
     """Mark (viol[nh + j]) and count the floor candidates that break complementarity: held
     and pulled (fw.pz < -ptol), or free and below their target (fw.vz < target - rtol)."""
@@ -152,7 +152,7 @@ def _floor_violations(fcand, fw, nh, target, ptol, rtol, viol):
     return nviol
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _start_sets(cand, active, anchored, fcand, fw, nh):
     """The combined candidates and initial active set: the hinges' as given, a floor
     candidate held where it is held on entry."""
@@ -164,7 +164,7 @@ def _start_sets(cand, active, anchored, fcand, fw, nh):
         fw.active[nh + j] = 1 if (fcand[j] != 0 and anchored[j] != 0) else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw):
     """Moreau's impact (Newton's at the limits with ``e_lock``, at the floor with the
     targets iw.rebound) with the floor's rows unilateral: the hinges ``cand`` (``forced``
@@ -203,7 +203,7 @@ def floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def point_heights_accels(e, w, de, dw, ac, out):
     """out[j] = d2z_j/dt2 from the centres' accelerations ac and the axes' (dw, de):
     the upper end of segment j, a_j + (dw_j x e_j + w_j x de_j); point N, the lower end
@@ -215,7 +215,7 @@ def point_heights_accels(e, w, de, dw, ac, out):
     out[n] = ac[i, 2] - (dw[i, 0] * e[i, 1] - dw[i, 1] * e[i, 0] + w[i, 0] * de[i, 1] - w[i, 1] * de[i, 0])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def floor_lock_set(e, w, anchored, cand, active, fcand, ws, de, dw, ddg, lam, fw):
     """Which hinges at their limit stay locked and which floor candidates (points at rest
     on the floor) the floor holds: the acceleration-level LCP over both (module

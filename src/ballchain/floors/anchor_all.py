@@ -16,19 +16,19 @@ CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = False  # t_fall comes from the top end's anchoring, not from an event of its own
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def watched(anchored, j):
     """Every free point is watched."""
     return anchored[j] == 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def watched_range(anchored):
     """The points j0 <= j < j1 among which the watched ones are: all of them."""
     return 0, anchored.shape[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def value(e, anchored, zf, j):
     """The height of point j above the floor, which is at zf in the chain's frame (0, but
     where a frictionless floor has let point N leave it: ``core.base.floor_z``)."""
@@ -37,7 +37,7 @@ def value(e, anchored, zf, j):
     return point_height(e, j) - zf
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def values(e, anchored, zf, out):
     """out[j] = the height above the floor of every free point j (others: inf), in O(N)."""
     n = e.shape[0]
@@ -51,10 +51,9 @@ def values(e, anchored, zf, out):
         for j in range(n):
             if anchored[j] == 0:
                 out[j] -= zf
-    return out
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     """Every free point at z <= ztol (``Z_TOL`` at an event instant) that is not moving
     up (dz/dt <= RATE_TOL); their number (indices in out)."""
@@ -66,13 +65,13 @@ def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     return na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def level(anchor_pos, j):
     """The height at which a watched point meets the floor: the floor's, z = 0."""
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cascade(e, anchored, ztol, out):
     """The points that land with a touch beyond the ones that touch: none (a point lands
     by its own touch only)."""

@@ -15,7 +15,7 @@ from . import anchor_all, pivot
 from .registry import FLOOR_ALL
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_watched(floor, anchored, j):
     """Is floor event function j watched?"""
     if floor == FLOOR_ALL:
@@ -23,7 +23,7 @@ def floor_watched(floor, anchored, j):
     return pivot.watched(anchored, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_watched_range(floor, anchored):
     """(j0, j1): every watched point j lies in j0 <= j < j1 (a loop over the watched
     points in O(their range), not O(N) calls of ``floor_watched``)."""
@@ -32,7 +32,7 @@ def floor_watched_range(floor, anchored):
     return pivot.watched_range(anchored)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_value(floor, e, anchored, zf, j):
     """Floor event function j of axes e (need not be unit length); zf: the floor's height in
     the chain's frame (``core.base.floor_z``: 0 but on a frictionless floor point N has left)."""
@@ -41,15 +41,16 @@ def floor_value(floor, e, anchored, zf, j):
     return pivot.value(e, anchored, zf, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_values(floor, e, anchored, zf, out):
     """out[j] = floor_value(floor, e, anchored, zf, j) for every watched j (others: inf), in O(N)."""
     if floor == FLOOR_ALL:
-        return anchor_all.values(e, anchored, zf, out)
-    return pivot.values(e, anchored, zf, out)
+        anchor_all.values(e, anchored, zf, out)
+    else:
+        pivot.values(e, anchored, zf, out)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_contacts(floor, e, pts, pv, anchored, landing_event, ztol, out):
     """Points that the floor anchors at this instant (a floor function at or below
     ``ztol`` touches: ``rules.Z_TOL`` at an event instant); returns their number (in out)."""
@@ -58,7 +59,7 @@ def floor_contacts(floor, e, pts, pv, anchored, landing_event, ztol, out):
     return pivot.contacts(e, pts, pv, anchored, landing_event, ztol, out)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_level(floor, anchor_pos, j):
     """The height at which watched point j meets the floor (anchors' positions anchor_pos):
     a time-stepper's position-level floor row for j is z_j - floor_level >= 0."""
@@ -67,7 +68,7 @@ def floor_level(floor, anchor_pos, j):
     return pivot.level(anchor_pos, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_cascade(floor, e, anchored, ztol, out):
     """The points that land in the instant of a touch besides the touching ones, once
     those are anchored (``anchored``: theirs set); their number (in out)."""
@@ -76,7 +77,7 @@ def floor_cascade(floor, e, anchored, ztol, out):
     return pivot.cascade(e, anchored, ztol, out)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def top_event(floor):
     """Is the top end's height an event function of its own (t_fall by crossing)?"""
     if floor == FLOOR_ALL:

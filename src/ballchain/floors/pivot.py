@@ -19,13 +19,13 @@ CONTACT = 0  # registry.CONTACT_FIXED
 TOP_EVENT = True  # t_fall: the top end's height crossing zero is watched
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def watched(anchored, j):
     """Only the upper end of the bottom airborne segment."""
     return anchored[j] == 0 and j == bottom_airborne(anchored)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def watched_range(anchored):
     """The points j0 <= j < j1 among which the watched one is: itself (none when every
     segment has landed)."""
@@ -35,13 +35,13 @@ def watched_range(anchored):
     return 0, 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def value(e, anchored, zf, j):
     """e_j,z / |e_j| of the segment whose upper end is point j (e need not be unit)."""
     return e[j, 2] / math.sqrt(e[j, 0] ** 2 + e[j, 1] ** 2 + e[j, 2] ** 2)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def values(e, anchored, zf, out):
     """out[j] = value(e, j) for the watched point (others: inf)."""
     m = bottom_airborne(anchored)
@@ -49,10 +49,9 @@ def values(e, anchored, zf, out):
         out[j] = math.inf
     if m >= 0 and anchored[m] == 0:
         out[m] = value(e, anchored, 0.0, m)
-    return out
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def level(anchor_pos, j):
     """The height at which the watched point j meets the floor: its segment lies flat when
     j is as high as the segment's lower end, the pivot j + 1 (z = 0, or below it where a
@@ -60,7 +59,7 @@ def level(anchor_pos, j):
     return anchor_pos[j + 1, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cascade(e, anchored, ztol, out):
     """Once the bottom airborne segment has landed (its upper end anchored): the segments
     above it that lie flat or point below the horizontal (e_z <= ztol) land in the same
@@ -74,7 +73,7 @@ def cascade(e, anchored, ztol, out):
     return na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def contacts(e, pts, pv, anchored, landing_event, ztol, out):
     """After a landing event: the upper end of the bottom airborne segment once it lies
     flat (e_z <= ztol; ``Z_TOL`` at an event instant), cascading up while the next one

@@ -2,6 +2,12 @@
 handler at each event instant (``events``), how event functions are watched (``watch``),
 and the Python driver of a run (``driver``).
 
+Its kernels, and the core's they call, are compiled without numba's reference counts
+(``_nrt=False``: they borrow the arrays of the bundles they are passed, ``jit`` module
+docstring), but for those that allocate their scratch (``dopri.dense_state``,
+``dopri.floor_impulse_dense``, ``locate.event_value``; in the core ``blocks.factor_general``,
+``impacts.lock_set`` and the dense fallbacks of the impact problem).
+
 What the method owns (plain data, importable without its kernels): its options
 (``OPTIONS``: the integrator's tolerance, how exactly event times are located, and the
 accumulation rule's thresholds) and the bounds its runs are audited against

@@ -73,7 +73,7 @@ HB_NODES = np.array([1 / 3, 2 / 3])
 HB_MINV = _hermite_birkhoff_inverse(Fr(1, 3), Fr(2, 3))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def chain_rhs(Y, anchored, locked, ws, dY):
     return accelerations(Y[0], Y[1], anchored, locked, ws, dY[0], dY[1])
 
@@ -90,7 +90,7 @@ def dense_weights(h, theta, b):
         b[s] = acc * h
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def dense_state(Y0, K, h, theta, out):
     """Continuous extension of the step (4th order) at t0 + theta h, whole state."""
     b = np.empty(7)
@@ -114,7 +114,7 @@ def dense_e(Y0, K, b, i, q):
     return v
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stage_rhs(Y, anchored, locked, ws, dY, F):
     """dY = f(Y); F[0:3] = the anchors' total force on the chain at Y, F[3] = the power
     the smooth laws remove there (``core.forces``: both integrated as extra states)."""
@@ -123,7 +123,7 @@ def stage_rhs(Y, anchored, locked, ws, dY, F):
     F[3] = ws.power[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rk_stages(Y, h, sg, anchored, locked, ws):
     """Stages 2..7 of a Dormand-Prince step of size h from Y (sg.K[0] = f(Y), sg.F[0]
     given); sg.Y1 = the 5th-order solution, sg.K[6] = f(Y1); sg.F[s] the anchors' force
@@ -152,7 +152,7 @@ def rk_stages(Y, h, sg, anchored, locked, ws):
             stage_rhs(Y1, anchored, locked, ws, K[6], F[6])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint, lost):
     """Y <- the state at t0 + theta h of the step from Y (stages sg.K, sg.F; sg.Y1 its
     5th-order end, K[6] = f(Y1)), fint (the floor's impulse) and lost (the smooth laws'
@@ -212,7 +212,7 @@ def event_state(Y, sg, hb, h, theta, anchored, locked, ws, n_landed, fint, lost)
     fint[2] += theta * h * n_landed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def floor_impulse_step(h, F, n_landed, out):
     """out += int_0^h (F(t) + n_landed m g e_z) dt by the step's own quadrature,
     h sum_s b_s F_s (the weights of the 5th-order solution): the floor's continuous
@@ -225,7 +225,7 @@ def floor_impulse_step(h, F, n_landed, out):
     out[2] += h * n_landed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def smooth_loss_step(h, F, lost):
     """lost += int_0^h F[3] dt, the power the smooth laws remove, by the step's own
     quadrature (as ``floor_impulse_step``)."""
@@ -235,7 +235,7 @@ def smooth_loss_step(h, F, lost):
     lost[0] += h * acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def floor_impulse_dense(h, theta, F, n_landed, out):
     """out[0:3] = int_0^(theta h) (F + n_landed m g e_z) dt and out[3] the smooth laws'
     loss over the same time, from the continuous extension (the quadrature dense output
@@ -250,7 +250,7 @@ def floor_impulse_dense(h, theta, F, n_landed, out):
     out[2] += theta * h * n_landed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def copy_state(dst, src):
     """dst[...] = src for (2, N, 3) states (an explicit loop: cheaper than a slice copy)."""
     for a in range(2):
@@ -259,7 +259,7 @@ def copy_state(dst, src):
                 dst[a, i, q] = src[a, i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def nonfinite(Y):
     for a in range(2):
         for i in range(Y.shape[1]):
@@ -269,7 +269,7 @@ def nonfinite(Y):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def dense_axes(Y0, K, b, out):
     """The axes e of the dense output (weights b from dense_weights) into out."""
     for i in range(Y0.shape[1]):
@@ -277,7 +277,7 @@ def dense_axes(Y0, K, b, out):
             out[i, q] = dense_e(Y0, K, b, i, q)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def step_error(Y, Y1, K, h, rtol, atol):
     """Largest component error of the step, in units of its tolerance (max norm)."""
     n = Y.shape[1]

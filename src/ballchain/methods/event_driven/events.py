@@ -83,7 +83,7 @@ from .watch import EV_LANDING, EV_LIFT, EV_TOP, EV_UNLOCK, apex_times, arm_funct
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def log_room(n):
     """Log rows one event instant can add at most: per hinge a lock/impulse/hold row and
     a release row, unlocks, per point a landing or an anchor-impulse row, the top."""
@@ -191,7 +191,7 @@ def new_instant(n: int) -> Instant:
     return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1), fl)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found):
     """Step 1: unlock the hinges whose multiplier crossed zero (they cannot re-lock in
     this instant); on a frictionless floor, let go the points whose floor force crossed
@@ -226,7 +226,7 @@ def _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found):
     return any_landing
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _anchor_contacts(t, model, chain, ct, pt, any_landing, iw):
     """Step 2: the points the floor model lets touch the floor are anchored where they
     touched (marked 2: their neighbours still move during the impact); returns their
@@ -248,7 +248,7 @@ def _anchor_contacts(t, model, chain, ct, pt, any_landing, iw):
     return na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _touch(t, chain, j, pt, iw, e_floor):
     """Point j touches the floor at t: anchored where it touched (|z| < Z_TOL; marked 2
     while its impact is solved) and, with restitution at the floor (``e_floor`` > 0), given
@@ -260,7 +260,7 @@ def _touch(t, chain, j, pt, iw, e_floor):
     iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _leave_floor(model, chain, ct, pt, na, iw):
     """After a round's impact, with restitution at the floor: a point that landed in it
     and rebounds (``contacts.newton.rebounds``) is not anchored (ct.bounce: its upward
@@ -281,7 +281,7 @@ def _leave_floor(model, chain, ct, pt, na, iw):
     iw.n_rebound[0] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _touch_floor(t, model, chain, ct, pt, na, iw):
     """With restitution at the floor, after a round: a free point at the floor that this
     instant's impulses have turned down (``floor_contacts`` on the new velocities) lands
@@ -309,7 +309,7 @@ def _touch_floor(t, model, chain, ct, pt, na, iw):
     return na, n_new
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _hold_bouncing(t, model, chain, ct, pt, acc, iw):
     """The accumulation limit at the floor: a point that left the floor at this instant
     and would come back slower than hold_rate_floor (``--hold-rate-floor``; hold_rate's by
@@ -338,7 +338,7 @@ def _hold_bouncing(t, model, chain, ct, pt, acc, iw):
     return nheld
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _impact_candidates(model, chain, hs, ct):
     """The hinges the impact concerns: limits in force, at the limit or locked, not just
     unlocked (hs.cand); the initial active set: locked or approaching (rate < -RATE_TOL).
@@ -364,7 +364,7 @@ def _impact_candidates(model, chain, hs, ct):
     return any_approaching
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _apply_impact(t, rnd, model, chain, ws, hs, ct, iw, fl, books):
     """Step 3: one impact over the new anchors and the candidates (Moreau's, or Newton's
     restitution at the limits, ``model.e_lock``, and at the floor, iw.rebound; impulses summed into the books, the
@@ -402,7 +402,7 @@ def _apply_impact(t, rnd, model, chain, ws, hs, ct, iw, fl, books):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _settle_anchors(model, chain, hs):
     """After the first impact: the new anchors are made (``rules.settle_anchors``) and
     the limits in force recorded (hs.in_force)."""
@@ -411,7 +411,7 @@ def _settle_anchors(model, chain, hs):
         hs.in_force[k] = 1 if limit_in_force(chain.anchored, k, model.cone, model.alpha) else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _lock_set(model, chain, ws, hs, acc, fl):
     """Step 4: which hinges at the limit (at rest there, or locked) stay locked, the
     acceleration-level LCP (on a frictionless floor with the points it holds: which it
@@ -441,7 +441,7 @@ def _lock_set(model, chain, ws, hs, acc, fl):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _hold_returning(model, chain, hs, acc):
     """The accumulation limit: a hinge this instant has released (it was locked, or took
     an impulse) that accelerates back to its limit and would return either slower than
@@ -465,7 +465,7 @@ def _hold_returning(model, chain, hs, acc):
     return nhold
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _next_round(chain, hs):
     """The candidates and the initial active set of the next round's impact, once the
     accumulation rule has held a hinge or a point."""
@@ -479,7 +479,7 @@ def _next_round(chain, hs):
         hs.active[k] = 1 if (locked[k] or hs.forced[k]) else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _log_instant(t, na, model, chain, hs, ct, pt, iw, log):
     """The log: one row per constraint that acted (hinges, new anchors, old anchors that
     took an impulse).  A contact that Newton's law would rebound (``contacts.newton``: it
@@ -517,7 +517,7 @@ def _log_instant(t, na, model, chain, hs, ct, pt, iw, log):
                 log_row(log, t, LOG_ANCHOR, j, i0, i1, i2, 0.0, pts, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _finish_instant(t, model, chain, watch, ws, sc, books):
     """Step 5: new locks hold the angle reached, the state is projected onto the
     constraints, the fall may end (the top end anchored), each event function is armed
@@ -543,7 +543,7 @@ def _finish_instant(t, model, chain, watch, ws, sc, books):
     apex_times(t, e, w, sc.acc.de, sc.acc.dw, watch, sc.hs.rates, sc.acc.ddg, pt.pv, vz0, az0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _mechanical(t, model, chain, pt, fl):
     """U + T (on a frictionless floor, where point N is: ``slides``)."""
     if slides(model.friction):
@@ -551,7 +551,7 @@ def _mechanical(t, model, chain, pt, fl):
     return mechanical_energy(chain.Y[0], chain.Y[1], pt.pv, pt.vel)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     """Apply everything that happens at the instant t (module docstring, steps 1-5) to
     the events the integrator found (``integrator.Found``).  Returns EV_OK or a negative
@@ -612,7 +612,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     return EV_OK
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _kinetic(t, model, chain, pt, fl):
     """The kinetic energy (on a frictionless floor, with point N's velocity: ``slides``)."""
     if slides(model.friction):
@@ -621,7 +621,7 @@ def _kinetic(t, model, chain, pt, fl):
     return kinetic_energy(chain.Y[0], chain.Y[1], pt.pv, pt.vel)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _count_instant(t, model, ring, books):
     """Count an event instant; the accumulation guard: ERR_ZENO if ZENO_EVENTS instants
     fell within model.zeno_window, ERR_MAX_EVENTS past model.max_events, else EV_OK."""
@@ -637,7 +637,7 @@ def _count_instant(t, model, ring, books):
 
 
 @entry
-@njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
+@njit(cache=True, nogil=True, _nrt=False)  # the GIL released: other threads (a sweep's event loop) run meanwhile
 def run_events(t, h, model, chain, watch, ws, st, sc, books, frames, trace, log):
     """Integrate and handle events in one compiled loop.  Returns (code, t, h): an
     integrator code (integrator.ADV_*; never ADV_EVENT; ADV_BUFFER: the trace or frame

@@ -168,7 +168,7 @@ def new_stepper(n: int) -> Stepper:
     return Stepper(sg, hb, det, scr, np.zeros(1, np.int64))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _record_frame(Yt, dYt, tf, n_landed, model, chain, ws, scr, frames):
     """Frame frames.count[0] at time tf from the state Yt: the state, the anchors' force
     on the airborne chain, the pile's pull (``pile_pull``), the vertical force a scale
@@ -198,7 +198,7 @@ def _record_frame(Yt, dYt, tf, n_landed, model, chain, ws, scr, frames):
         frames.potential[k] = potential_energy(Yt[0])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _emit_frames(t, h, t_end, n_landed, model, chain, ws, sg, scr, books, frames):
     """The frames due up to t_end, from the step's dense output; False if the buffers
     filled first (the caller returns ADV_BUFFER and redoes the step once they are
@@ -220,7 +220,7 @@ def _emit_frames(t, h, t_end, n_landed, model, chain, ws, sg, scr, books, frames
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _trace_point(trace, t, e, anchored, base):
     """The top end's height above the floor at t (``base.floor_z``: point N's, but where a
     frictionless floor has let it leave)."""
@@ -231,7 +231,7 @@ def _trace_point(trace, t, e, anchored, base):
     trace.count[0] = k + 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, books, trace):
     """End the step at its first event: the state at the event time to the step's order
     (the 4th-order interpolant is good enough to locate the event, not to restart
@@ -265,7 +265,7 @@ def _stop_at_event(t, h, theta_stop, n_landed, chain, ws, sg, hb, found, books, 
     return t_event
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, books, trace):
     """Accept the full step: the state at its end, the floor's impulse, the projection
     onto the constraints (f(Y) recomputed if it moved the state, else the last stage
@@ -297,7 +297,7 @@ def _accept_step(t_end, h, n_landed, model, chain, watch, ws, sg, det, scr, book
     _trace_point(trace, t_end, Y[0], chain.anchored, chain.base)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _count_landed(anchored):
     """Segments whose both ends are anchored (the floor holds up their weight)."""
     n_landed = np.int64(0)
@@ -307,7 +307,7 @@ def _count_landed(anchored):
     return n_landed
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _why_stop(t, h, model, fsal, n_steps, trace):
     """A reason to return before the next step (ADV_*), or ADV_GO."""
     if n_steps[0] >= model.max_steps:
@@ -322,7 +322,7 @@ def _why_stop(t, h, model, fsal, n_steps, trace):
     return ADV_GO
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _try_step(h, model, chain, ws, sg, lam1, pz1, n_evals):
     """One Dormand-Prince step of size h (sg.Y1, sg.K, sg.F); returns its error in units
     of the tolerance (inf: non-finite); the lock multipliers at its end in lam1, the floor's
@@ -338,7 +338,7 @@ def _try_step(h, model, chain, ws, sg, lam1, pz1, n_evals):
     return err
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def advance(t, h, model, chain, watch, ws, st, books, frames, trace):
     """Integrate from t until model.t_stop or the first event.
 

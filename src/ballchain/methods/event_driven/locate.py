@@ -24,7 +24,7 @@ from .watch import EV_LANDING, EV_LIFT, EV_LOCK, EV_TOP, EV_UNLOCK
 NSCAN = 16  # samples per step for a triggered departing function
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def event_value(kind, idx, theta, h, model, dense, ws):
     """Value of event function (kind, idx) at t0 + theta h on the dense output of the
     step of size h from dense.Y (stages dense.K)."""
@@ -54,7 +54,7 @@ def event_value(kind, idx, theta, h, model, dense, ws):
     return dense.lam[idx]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _brent(kind, idx, off, a, b, fa, fb, h, model, dense, ws):
     """Root of f + off on [a, b] (theta units) with fa > 0 >= fb (the values of f + off
     there) by Brent's method; returns a theta at which f + off <= 0 (the crossing, to
@@ -109,7 +109,7 @@ def _brent(kind, idx, off, a, b, fa, fb, h, model, dense, ws):
     return c
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _locate_armed(kd, ix, tha, fmid, fend, h, model, dense, ws):
     """Where an ARMED function fires in the step (theta), or 2.0: its first crossing of
     zero, bracketed by the start, the predicted closest approach ``tha`` (if in the
@@ -132,7 +132,7 @@ def _locate_armed(kd, ix, tha, fmid, fend, h, model, dense, ws):
     return 2.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, dense, ws):
     """Where in the step (theta in [0, 1]) event function (kd, ix) fires, or 2.0 if it
     does not (module docstring).  ``fmid``, ``fend``: its values at the midpoint and the
@@ -178,7 +178,7 @@ def _locate(kd, ix, mode, ref, tha, fmid, fend, h, model, dense, ws):
     return 2.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _closest_approach(Y0, Y1, K, h, k, g1, cos_alpha):
     """Theta in (0, 1) where hinge k's gap comes closest to its limit inside the step,
     or 2.0 if it has no interior minimum: the minimum of the cubic Hermite interpolant
@@ -216,7 +216,7 @@ def _closest_approach(Y0, Y1, K, h, k, g1, cos_alpha):
     return best
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
     """The event functions of kind kd that fire in the step: each watched function is
     checked at the step's midpoint (sg.Ytmp) and end (sg.Y1) and located where it
@@ -275,7 +275,7 @@ def _detect_kind(kd, nev, t, h, model, watch, dense, ws, sg, det):
     return nev
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def detect_events(t, h, model, watch, dense, ws, sg, det, n_evals):
     """Every event function that fires in the step, kind by kind (watch.EVENT_FUNCTIONS
     order), into det.found; returns (theta of the first, whether any fires)."""

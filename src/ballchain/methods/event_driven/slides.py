@@ -34,7 +34,7 @@ from ...floors.dispatch import floor_contacts
 from ...jit import njit
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def base_of(t, chain, pts, pv, vel, pu):
     """pu <- point N's position and velocity (``core.base.base_point``), and pts, pv, vel
     the points' and centres' relative to it; within an instant that has just let go the
@@ -48,7 +48,7 @@ def base_of(t, chain, pts, pv, vel, pu):
         velocities(e, w, pv, vel)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def start_flight(t, chain, pt, pu):
     """At the end of an instant: with no point held, the flight goes on from point N's
     position and velocity after it (pu; ``core.base.set_base``: the instant's impacts may
@@ -60,7 +60,7 @@ def start_flight(t, chain, pt, pu):
         set_base(chain.Y[0], chain.Y[1], chain.anchored, chain.base, t, pt.pts, pt.pv, pt.vel, pu[0], pu[1])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def after_impact(chain, vc, pu):
     """pu[1] <- point N's velocity after an impact, from the centres' velocities vc of its
     maximal coordinates (the lower end of segment N - 1: v - w x e)."""
@@ -71,7 +71,7 @@ def after_impact(chain, vc, pu):
     pu[1, 2] = vc[i, 2] - (w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def absolute_points(t, chain, pt, pu):
     """pt.pts, pt.pv, pt.vel <- the points' positions and velocities and the centres'
     velocities where point N is (``base_of``: pu[0] its position, pu[1] its velocity)."""
@@ -85,7 +85,7 @@ def absolute_points(t, chain, pt, pu):
             pt.vel[i, q] += pu[1, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def touch_candidates(t, model, chain, ct, pt, any_landing, iw, fcand, lifted, pu):
     """The instant's floor candidates (fcand: ``SLIDING`` where the floor may hold a point):
     every point it holds, and the free points that touch it now (the floor model's rule on
@@ -117,7 +117,7 @@ def touch_candidates(t, model, chain, ct, pt, any_landing, iw, fcand, lifted, pu
     return m
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def base_velocity(t, chain, pu, iw):
     """iw.dv <- point N's velocity (``core.base``) on every centre: the velocity the
     centres move with beside the rates' (``kinematics.velocities``: point N at rest), before
@@ -129,7 +129,7 @@ def base_velocity(t, chain, pu, iw):
             iw.dv[i, q] = pu[1, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def held_candidates(anchored, lifted, fcand):
     """The lock set's floor candidates: the points the floor holds (not one that lifted off
     at this instant)."""
@@ -137,7 +137,7 @@ def held_candidates(anchored, lifted, fcand):
         fcand[j] = SLIDING if (anchored[j] != 0 and not lifted[j]) else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def log_lifts(t, held_before, anchored, pts, log):
     """A ``lift`` row for each point the floor held before the lock set and no longer holds."""
     for j in range(anchored.shape[0]):
@@ -145,14 +145,14 @@ def log_lifts(t, held_before, anchored, pts, log):
             log_row(log, t, LOG_LIFT, j, 0.0, 0.0, 0.0, 0.0, pts, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def energies(t, chain, pts, pv, vel, pu, out):
     """out[0] = U, out[1] = T of the chain where point N is (``base_of``: pu), m g b."""
     base_of(t, chain, pts, pv, vel, pu)
     energies_moved(chain.Y[0], chain.Y[1], pts, vel, pu, out)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def energies_of(e, w, t, chain, pts, pv, vel, out):
     """``energies`` of the axes e and rates w (a frame's state) on the chain's floor."""
     pu = np.empty((2, 3))
@@ -160,7 +160,7 @@ def energies_of(e, w, t, chain, pts, pv, vel, out):
     energies_moved(e, w, pts, vel, pu, out)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def frame_base(e, w, t, chain, pts, pv, vel, p, u):
     """p, u <- point N's position and velocity for a frame's state (e, w) at t."""
     pu = np.empty((2, 3))
@@ -170,7 +170,7 @@ def frame_base(e, w, t, chain, pts, pv, vel, p, u):
         u[q] = pu[1, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)
 def mechanical(t, chain, pts, pv, vel):
     """U + T where point N is (``energies``; between instants)."""
     out = np.empty(2)

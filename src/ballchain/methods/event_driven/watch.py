@@ -73,7 +73,7 @@ def new_watch(n: int) -> Watch:
 
 
 @entry
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def arm_functions(model, chain, watch, gaps, lam, pz, zf, t_fall_known, fv):
     """Arm state of every event function after an instant (or at the start): a function
     is watched only where its rule applies, ARMED where positive, DEPARTING at its zero;
@@ -106,7 +106,7 @@ def arm_functions(model, chain, watch, gaps, lam, pz, zf, t_fall_known, fv):
         watch.ref_top[0] = min(z, 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def apex_times(t, e, w, de, dw, watch, rates, ddg, pv, vz0, az0):
     """Predicted apex time of every departing constraint that accelerates back, and of
     every armed hinge or point that approaches its limit while turning back: a hinge
@@ -143,7 +143,7 @@ def apex_times(t, e, w, de, dw, watch, rates, ddg, pv, vz0, az0):
             apex_land[j] = t - v / a
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def arm_departed(model, chain, watch, lam1, pz1, zf, fv):
     """After an accepted step: departing functions that have left their zero (above
     ZERO_BAND) are armed.  ``lam1``, ``pz1``: the lock multipliers and the floor's vertical

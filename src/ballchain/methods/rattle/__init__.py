@@ -8,8 +8,10 @@ control and the compiled loop), ``codes``; ``driver``: a run.
 Its kernels are compiled without numba's reference counts (``_nrt=False``: they borrow
 the arrays of the bundles they are passed, ``jit`` module docstring), but for those that
 make views (``scheme.motion_view``, ``rows_view``, ``scratch_view``, ``blocks.factors_view``),
-the step that takes them (``scheme.rattle_step``), the one that allocates
-(``rebounds.impact_rates``) and the compiled loop (``stepper.run_steps``).
+the step that takes them (``scheme.rattle_step``) and the one that allocates
+(``rebounds.impact_rates``).  The compiled loop (``stepper.run_steps``, called from Python)
+borrows too: its Python wrapper then unboxes the fall's ~190 arrays without reference
+counts.
 
 What the method owns (plain data, importable without its kernels): its options
 (``OPTIONS``), its default step (``DEFAULTS``: the step ``dt`` is the time-stepping

@@ -95,7 +95,7 @@ def _pair(J1, J0, j1, r, j0, s, g1, g0, wv, ww):
     return wv * ac + ww * ae
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def _entry(J1, J0, kind, j1, r, j0, s, b1, b0, wv, ww):
     """J1[j1, r] W J0[j0, s]^T over one segment: the one below point j1 if b1 (else above),
     below point j0 if b0.  An end row's gradient there is a signed unit vector (``rows``):
@@ -219,7 +219,7 @@ def factor_blocks(anchored, J1, J0, kind, nrow, drops, F, symmetric, j_from):
     return ndrop
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def _free_point_blocks(J1, J0, npv, nr, j, o, D, L, av, aw, cv, cw):
     """D_j's first 4 x 4 and L_j's first 4 rows at a free point j: its joint rows q (on the
     segment above: +1 centre, -1 axis; below: -1, -1) and the axis row of the segment
@@ -242,7 +242,7 @@ def _free_point_blocks(J1, J0, npv, nr, j, o, D, L, av, aw, cv, cw):
         L[_u(o + 3 * npv + p)] = 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def _free_point_coupling(J1, J0, nn, j, o, X, cv, cw):
     """U_j's first 4 rows at a free point j (``_free_point_blocks``), against the rows s of
     point j + 1 on their segment above (J0[j+1, s, 0:6]):  U[q, s] = -cv J0[j+1, s, q] - cw
@@ -322,7 +322,7 @@ def _factor_free_points(J1, J0, kind, nrow, j0, F, symmetric, drops):
     return j, ndrop
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False)
 def _lu_solve_columns(D, o, nr, X, nn):
     """The block at o of X <- D'_j^{-1} times it (D'_j's LU at o of D; nn columns; a
     dropped row comes out 0: its inverse pivot is 0 and its column of l is 0)."""

@@ -307,7 +307,7 @@ def _trace_step(t_end, mo, trace):
 
 
 @entry
-@njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
+@njit(cache=True, nogil=True, _nrt=False)  # the GIL released: other threads (a sweep's event loop) run meanwhile
 def run_steps(t, h, model, fall, books, frames, trace, log):
     """Steps of size h until the fall ends, the stop time, full buffers or
     ``model.return_every`` steps.  Returns (code, t): RT_* or a negative ERR_*."""

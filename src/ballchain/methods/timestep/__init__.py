@@ -1,4 +1,6 @@
 """Moreau-Jean time-stepping: ``stepper`` (the compiled step and loop), ``driver`` (a run).
+Its kernels are compiled without numba's reference counts (``_nrt=False``, ``jit`` module
+docstring).
 
 What the method owns (plain data, importable without its kernels): its options
 (``OPTIONS``: the step, its position update and how it sizes its steps, with the

@@ -211,7 +211,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
     return sc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rotate_axes(e, w, h, anchored, out):
     """out_i = R(h w_i) e_i, the exact rotation by the angle h |w_i| about w_i
     (Rodrigues); landed segments do not turn.  ``out`` may be ``e``."""
@@ -229,7 +229,7 @@ def rotate_axes(e, w, h, anchored, out):
         out[i, 2] = ez * c + (kx * ey - ky * ex) * s + kz * kd
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _touches(t, r0, model, chain, sc, books):
     """Part 2: anchor where they are the points at the floor: a floor function at most
     TOUCH_TOL, or that of a point the last step was cut to land (marked 2 during the
@@ -253,7 +253,7 @@ def _touches(t, r0, model, chain, sc, books):
     return na
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _aim_rebounds(r0, na, e_floor, sc):
     """Restitution at the floor (``contacts.newton.floor_rebound``): each point that lands
     in this step (sc.new_anchor[r0:r0 + na]) is aimed to leave the floor at -e v_z, v_z its
@@ -270,7 +270,7 @@ def _aim_rebounds(r0, na, e_floor, sc):
         iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _leave_floor(h, na, chain, sc):
     """After the step's impact problem, with restitution at the floor: a point that landed
     in it, was aimed up (``_aim_rebounds``; an impact the law would make create energy was
@@ -291,7 +291,7 @@ def _leave_floor(h, na, chain, sc):
     iw.n_rebound[0] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _let_go(chain):
     """At the end of a step: the points that bounced in it (``LEAVING``, held at the floor
     through its position update and projection, so that the mean of the velocities before
@@ -305,7 +305,7 @@ def _let_go(chain):
                 chain.anchor_pos[j, q] = np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _point_velocities(e, w, vmax, pv):
     """pv_j: the velocity of point j in maximal coordinates, the upper end of segment j
     (V_j - e_j x w_j; point N: the lower end of segment N-1, V + e x w)."""
@@ -320,7 +320,7 @@ def _point_velocities(e, w, vmax, pv):
     pv[n, 2] = vmax[i, 2] + (e[i, 0] * w[i, 1] - e[i, 1] * w[i, 0])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _landing_cut(h, model, chain, sc):
     """Part 5: the fraction of the step at which the first watched point reaches the
     floor when the axes turn by h w+ (linear in the step; 1: none does).  The points
@@ -342,7 +342,7 @@ def _landing_cut(h, model, chain, sc):
     return max(s, TOUCH_FRACTION)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _mid_rates(theta, w, sc):
     """sc.w_mid = theta w+ + (1 - theta) w0: the rates the axes turn at, between those
     before (sc.w_pre) and after (w) the step's impulses (theta = 1/2: their mean)."""
@@ -351,7 +351,7 @@ def _mid_rates(theta, w, sc):
             sc.w_mid[i, q] = theta * w[i, q] + (1.0 - theta) * sc.w_pre[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _turn_cut(h, w):
     """The fraction of the step h within which no segment turns more than TURN_MAX
     (1: none does) at the rates w."""
@@ -364,14 +364,14 @@ def _turn_cut(h, w):
     return 0.95 * TURN_MAX / (h * wmax)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _copy3(src, dst):
     for i in range(src.shape[0]):
         for q in range(3):
             dst[i, q] = src[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _first_to_land(s, sc):
     """Mark due the points predicted to reach the floor first (at the fraction s)."""
     for j in range(sc.fv.shape[0]):
@@ -379,7 +379,7 @@ def _first_to_land(s, sc):
         sc.due[j] = 1 if (math.isfinite(f) and f > 0.0 and fp <= 0.0 and f / (f - fp) <= s * (1.0 + 1e-9)) else 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _free_velocity(h, model, chain, ws, sc):
     """Part 3: the free velocity V_free = V - h g e_z on airborne segments (0 on landed
     ones) in sc.vmax, w_free = w + h W tau (the smooth laws' torques at the step's start,
@@ -405,7 +405,7 @@ def _free_velocity(h, model, chain, ws, sc):
             sc.vmax[i, q] = sc.vel[i, q] + dv[i, q]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _smooth_work(h, w_pre, w, tau):
     """What the smooth laws' kick removed in the step: -h tau . (w + w+) / 2, its impulse's
     work with the rates before and after the step (landed segments: tau 0)."""
@@ -416,7 +416,7 @@ def _smooth_work(h, w_pre, w, tau):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _kick_energy(h, anchored, v_pre):
     """The kinetic energy gravity's kick gave the airborne segments in the step (part 3):
     sum 1/2 |V - h e_z|^2 - 1/2 |V|^2 = sum (h^2 / 2 - h V_z), V the velocities at its
@@ -431,7 +431,7 @@ def _kick_energy(h, anchored, v_pre):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _index_set(h, model, chain, sc):
     """Part 4, the index set: hinges in force whose predicted bend g + h dg/dt reaches
     the limit; the warm start: all of them (fewer trials than from those that took
@@ -446,7 +446,7 @@ def _index_set(h, model, chain, sc):
         sc.active[k] = sc.cand[k]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def kinetic_energy_maximal(vmax, w):
     """T = sum 1/2 |V_i|^2 + |w_i|^2 / 6 of the centres' velocities V (the time-stepper's
     own, maximal coordinates) and the rates w (units m g b)."""
@@ -457,7 +457,7 @@ def kinetic_energy_maximal(vmax, w):
     return t
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _solve(model, chain, ws, sc):
     """Part 4: the step's velocity-level problem: w <- w+, and the centres' velocities
     V+ = V_free + (the impulses' force) kept in maximal coordinates (sc.vmax; a loop of
@@ -530,7 +530,7 @@ def _solve(model, chain, ws, sc):
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _book(t, h, na, e_floor, chain, ws, sc, books, log):
     """The step's impulses into the books: the energy removed at the lock and anchor
     rows, the floor's impulse, the anchors' mean force (for the frames); the locks,
@@ -585,7 +585,7 @@ def _book(t, h, na, e_floor, chain, ws, sc, books, log):
             log_row(log, t, kind, j, px * share, py * share, pz * share, lost, sc.pts, j)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _project(model, chain, ws, sc, books):
     """Part 6 (``sc``: its scratch, ``Projection``): the hinges found past their limit are put back on it, the anchors at
     their points (positions only).  A projection that would move a point by more than
@@ -634,7 +634,7 @@ def _project(model, chain, ws, sc, books):
     return undone
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _nothing_to_project(model, chain, sc):
     """No hinge in force past its limit (sc.gaps, by more than the projection's
     tolerance, ``projection_tol``: a hinge put on its limit by the last projection sits
@@ -654,7 +654,7 @@ def _nothing_to_project(model, chain, sc):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def record_frame(t, kinetic, chain, sc, books, frames):
     """Frame frames.count[0] at time t (the next frame's): the state (``chain``: the
     run's, or a frame's own, ``fill_frames``), the anchors' mean force on the airborne
@@ -688,19 +688,19 @@ def record_frame(t, kinetic, chain, sc, books, frames):
     frames.next[0] += frames.dt
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _frame_tol(t):
     """A frame within this of a step's start or end is at it (round-off of the times)."""
     return t * 1e-12 + 1e-12
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _frame_due(tf, t):
     """Is the frame at tf due at a step's start t (not inside an earlier step)?"""
     return tf <= t + _frame_tol(t)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _energies(chain, sc, books, out):
     """out: the run's T (of the velocities (V, w)), lost energies (locking, landing),
     floor impulse (3), lost to damping and to sliding, now."""
@@ -713,7 +713,7 @@ def _energies(chain, sc, books, out):
     out[7] = books.lost_sliding[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _state_between(s, model, chain, sc, fw):
     """The frame's state and books at the fraction s of the last step (``fill_frames``),
     from its start and its end (the run's chain, sc; fw.start, fw.end), in fw; returns
@@ -743,7 +743,7 @@ def _state_between(s, model, chain, sc, fw):
     return (1.0 - s) * a[0] + s * b[0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fill_frames(model, chain, sc, fw, books, frames):
     """The frames at times strictly inside the last step (t0, t0 + h), from the state at
     its start and at its end (one due at its end waits for the next step's start), as
@@ -774,7 +774,7 @@ def fill_frames(model, chain, sc, fw, books, frames):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fall_speed(e, w, anchored, pv, vel):
     """v = -mean V_z over the airborne segments, V their centres' velocities from the
     axes and rates alone (``kinematics.velocities``, into the scratch pv, vel); 0 when
@@ -789,7 +789,7 @@ def fall_speed(e, w, anchored, pv, vel):
     return fall / m if m > 0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _step_by_rule(dt, model, chain, sc):
     """The step before any cut (part 1): dt under dt_rule fixed; under landing
     dt v_ff / v, v the airborne segments' mean fall speed (``fall_speed``) and
@@ -804,7 +804,7 @@ def _step_by_rule(dt, model, chain, sc):
     return dt * max(1.0 / LANDING_STEP_RANGE, model.v_ff / v)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def step(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
     """One Moreau-Jean step from t (module docstring, parts 1-6), of size dt at most.
     Returns (code, t + h): 0, or ERR_*."""
@@ -888,7 +888,7 @@ def step(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
 
 
 @entry
-@njit(cache=True, nogil=True)  # the GIL released: other threads (a sweep's event loop) run meanwhile
+@njit(cache=True, nogil=True, _nrt=False)  # the GIL released: other threads (a sweep's event loop) run meanwhile
 def run_steps(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
     """Steps until the fall ends, the stop time, full buffers or ``model.return_every``
     steps, each followed by the frames inside it (``fill_frames``; a return for full
