@@ -76,7 +76,7 @@ from .dopri import (
     step_error,
 )
 from .locate import detect_events
-from .slides import energies_of, frame_base, mechanical
+from .slides import frame_state, mechanical
 from .watch import arm_departed
 
 ADV_STOP, ADV_EVENT, ADV_BUFFER, ADV_FAIL_STEP, ADV_FAIL_NAN, ADV_MAX_STEPS = 0, 1, 2, 3, 4, 5
@@ -190,9 +190,8 @@ def _record_frame(Yt, dYt, tf, n_landed, model, chain, ws, scr, frames):
     pile_pull(chain.anchored, ws.kind, ws.nrow, ws.x, frames.pile_pull[k])
     frames.scale_force[k] = frames.floor_force[k, 2] + n_landed
     if slides(model.friction):  # (point N moves: ``slides``)
-        energies_of(Yt[0], Yt[1], tf, chain, scr.pts, scr.pv, scr.vel, scr.en)
+        frame_state(Yt[0], Yt[1], tf, chain, scr.pts, scr.pv, scr.vel, scr.en, frames.base[k], frames.base_velocity[k])
         frames.potential[k], frames.kinetic[k] = scr.en[0], scr.en[1]
-        frame_base(Yt[0], Yt[1], tf, chain, scr.pts, scr.pv, scr.vel, frames.base[k], frames.base_velocity[k])
     else:
         frames.kinetic[k] = kinetic_energy(Yt[0], Yt[1], scr.pts, scr.vel)
         frames.potential[k] = potential_energy(Yt[0])

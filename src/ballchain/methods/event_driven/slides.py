@@ -153,18 +153,12 @@ def energies(t, chain, pts, pv, vel, pu, out):
 
 
 @njit(cache=True, _nrt=True)
-def energies_of(e, w, t, chain, pts, pv, vel, out):
-    """``energies`` of the axes e and rates w (a frame's state) on the chain's floor."""
+def frame_state(e, w, t, chain, pts, pv, vel, en, p, u):
+    """A frame's state (e, w) at t on the chain's floor: en[0] = U, en[1] = T (m g b), and
+    point N's position p and velocity u (``core.base.base_point``, taken once)."""
     pu = np.empty((2, 3))
     base_point(e, w, chain.anchored, chain.base, t, pts, pv, vel, pu)
-    energies_moved(e, w, pts, vel, pu, out)
-
-
-@njit(cache=True, _nrt=True)
-def frame_base(e, w, t, chain, pts, pv, vel, p, u):
-    """p, u <- point N's position and velocity for a frame's state (e, w) at t."""
-    pu = np.empty((2, 3))
-    base_point(e, w, chain.anchored, chain.base, t, pts, pv, vel, pu)
+    energies_moved(e, w, pts, vel, pu, en)
     for q in range(3):
         p[q] = pu[0, q]
         u[q] = pu[1, q]
