@@ -1,6 +1,5 @@
-"""The exact method's frictionless floor (``methods.event_driven.slides``), built but not yet
-offered on the command line (its lift-offs chatter: ``methods.event_driven.CONTACT_REFUSALS``):
-run here past the refusal, against independent truths.
+"""The exact method's frictionless floor (``methods.event_driven.slides``, ``--friction 0``)
+against independent truths.
 
 * a rod standing at 0.3 rad on a frictionless floor lands when the quadrature of its own
   equation of motion says (``theory.sliding_rod_fall_time``: 2.000412 sqrt(b/g)), to 1e-8,
@@ -17,7 +16,6 @@ import math
 import numpy as np
 import pytest
 
-import ballchain.engine
 from ballchain.engine import simulate
 from ballchain.errors import ParameterError
 from ballchain.model import ChainParams, InitialCondition, SolverOptions
@@ -28,19 +26,21 @@ THETA0 = 0.3
 EVENT = SolverOptions(method="event")
 
 
-@pytest.fixture
-def past_the_refusal(monkeypatch):
-    """The engine's exact frictionless floor, run past the registry's refusal."""
-    monkeypatch.setattr(ballchain.engine, "check_contacts", lambda params, method: None)
-
-
-def test_the_method_refuses_it_in_one_line_naming_why():
+@pytest.mark.parametrize(
+    "params, why",
+    [
+        (dict(friction=0.3), "stick and slip"),
+        (dict(friction=0.0, restitution_floor=0.5), "no bounce yet"),
+        (dict(friction=0.0, restitution_lock=0.5), "Newton's law at the bend limits"),
+    ],
+)
+def test_what_it_does_not_take_yet_is_refused_in_one_line_naming_why(params, why):
     with pytest.raises(ParameterError) as err:
-        simulate(ChainParams(segments=4, friction=0.0), options=EVENT)
-    assert "--friction" in str(err.value) and "not offered yet" in str(err.value) and "\n" not in str(err.value)
+        simulate(ChainParams(segments=4, **params), options=EVENT)
+    assert "--friction" in str(err.value) and why in str(err.value) and "\n" not in str(err.value)
 
 
-def test_a_rod_on_a_frictionless_floor_lands_when_the_quadrature_says(past_the_refusal):
+def test_a_rod_on_a_frictionless_floor_lands_when_the_quadrature_says():
     e0 = np.array([[math.sin(THETA0), 0.0, math.cos(THETA0)]])
     r = simulate(ChainParams(segments=1, friction=0.0), state=(e0, None), options=EVENT)
     assert r.status == "landed"
@@ -53,7 +53,7 @@ def test_a_rod_on_a_frictionless_floor_lands_when_the_quadrature_says(past_the_r
 
 
 @pytest.mark.slow
-def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_its_books(past_the_refusal):
+def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_its_books():
     r = simulate(
         ChainParams(segments=8, friction=0.0, alpha=math.pi / 4),
         InitialCondition(kind="random", seed=1),

@@ -147,8 +147,9 @@ def test_the_which_method_tables_are_one_table_and_the_registrys():
 
 @pytest.mark.parametrize("method", METHOD_NAMES)
 def test_each_cell_is_what_a_run_does(method):
-    """A run is refused, in one line naming the flag, where the table says "refused" or
-    beyond "up to B"; accepted at B, and at either end where it says "any"."""
+    """A run is refused, in one line naming the flag, where the table says "refused",
+    beyond "up to B" or away from "A or B"; accepted at B, at A and B, and at either end
+    where it says "any"."""
     from ballchain.errors import ParameterError
     from ballchain.model import ChainParams
 
@@ -160,6 +161,10 @@ def test_each_cell_is_what_a_run_does(method):
         elif cell.startswith("up to "):
             bound = float(cell.removeprefix("up to "))
             accepted, refused = [bound], bound + 0.01
+        elif " or " in cell:  # (those values only: away from each, refused)
+            accepted = [float(v) for v in cell.split(" or ")]
+            refused = away
+            assert p.default in accepted and refused not in accepted, cell
         else:
             assert cell == "refused", cell
             accepted, refused = [p.default], away
@@ -182,7 +187,7 @@ def _numbers(block: str) -> list[str]:
     contact-law cells (the registry's, checked above)."""
     block = re.sub(r"`[^`]*`|pi/\d+", "", block)
     block = re.sub(r"\]\([^)]*\)", "]", block)
-    block = re.sub(r"\| (?:any|refused|up to [\d.]+) (?=\|)", "|", block)
+    block = re.sub(r"\| (?:any|refused|up to [\d.]+|[\d.]+ or inf) (?=\|)", "|", block)
     return re.findall(r"(?<![\w.])[+-]?\d+(?:\.\d+)?(?:e[+-]?\d+)?%?(?![\w.]*\w)", block)
 
 

@@ -22,7 +22,13 @@ import pytest
 from ballchain.core.impacts import new_impact_work
 from ballchain.core.rules import SLIDING
 from ballchain.core.state import new_work
-from ballchain.core.unilateral import floor_impact, floor_lock_set, new_floor_work
+from ballchain.core.unilateral import (
+    dense_impact_set,
+    dense_lock_set,
+    floor_impact,
+    floor_lock_set,
+    new_floor_work,
+)
 
 I_C = 1.0 / 3.0
 
@@ -124,11 +130,21 @@ CASES = [  # (seed, N, the points the floor may hold, the hinges at their limit)
 ]
 
 
+def _from_dense_set(fw, active, anchored):
+    """The dense problem's solution set (fw.active) as the pivoting's initial guess."""
+    nh = active.shape[0]
+    active[:] = fw.active[:nh]
+    anchored[:] = np.where(fw.active[nh:] != 0, SLIDING, 0)
+
+
 @pytest.mark.parametrize("seed, n, points, hinges", CASES)
 @pytest.mark.parametrize("restitution, phi", [(0.0, 0.0), (0.5, 0.0), (0.5, 2.2)])
+@pytest.mark.parametrize("dense", [False, True], ids=["pivoting", "dense"])
 def test_an_impact_with_a_floor_that_never_pulls_is_the_lcp_of_lagranges_equations(
-    seed, n, points, hinges, restitution, phi
+    seed, n, points, hinges, restitution, phi, dense
 ):
+    """Pivoting, or the dense problem (its fallback where pivoting cycles: its solution set
+    then taken by the pivoting at its first trial, nothing left to change)."""
     theta, rate, base, alpha = _chain(seed, n, hinges)
     M = _mass(theta)
     jc, jz = _jacobians(theta)
@@ -152,7 +168,11 @@ def test_an_impact_with_a_floor_that_never_pulls_is_the_lcp_of_lagranges_equatio
     fcand[points] = SLIDING
     cand, forced, active = (np.zeros(max(n - 1, 0), np.uint8) for _ in range(3))
     cand[hinges] = 1
-    assert floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw) >= 0
+    if dense:
+        assert dense_impact_set(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw) >= 0
+        _from_dense_set(fw, active, anchored)
+    trials = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
+    assert trials == 0 if dense else trials >= 0
     w = w @ R  # (turned back into the x-z plane)
     np.testing.assert_allclose(w, np.stack([0.0 * q2[2:], q2[2:], 0.0 * q2[2:]], axis=1), atol=1e-10)
     np.testing.assert_allclose(fw.vz[points], (A @ q2)[: len(points)], atol=1e-10)
@@ -182,7 +202,8 @@ def _velocity_products(theta, rate):
 
 
 @pytest.mark.parametrize("seed, n, points, hinges", CASES)
-def test_which_points_the_floor_holds_is_the_acceleration_lcp_of_lagranges_equations(seed, n, points, hinges):
+@pytest.mark.parametrize("dense", [False, True], ids=["pivoting", "dense"])
+def test_which_points_the_floor_holds_is_the_acceleration_lcp_of_lagranges_equations(seed, n, points, hinges, dense):
     theta, rate, _, alpha = _chain(seed, n, hinges)
     for k in hinges:  # (a hinge at its limit and at rest there: the same rate on both sides)
         rate[k + 1] = rate[k]
@@ -208,7 +229,11 @@ def test_which_points_the_floor_holds_is_the_acceleration_lcp_of_lagranges_equat
     fcand[points] = SLIDING
     cand, active = np.zeros(max(n - 1, 0), np.uint8), np.zeros(max(n - 1, 0), np.uint8)
     cand[hinges] = 1
-    assert floor_lock_set(e, w, anchored, cand, active, fcand, ws, de, dw, ddg, lm, fw) >= 0
+    if dense:
+        assert dense_lock_set(e, w, anchored, cand, active, fcand, ws, de, dw, ddg, 1e-10, fw) >= 0
+        _from_dense_set(fw, active, anchored)
+    trials = floor_lock_set(e, w, anchored, cand, active, fcand, ws, de, dw, ddg, lm, fw)
+    assert trials == 0 if dense else trials >= 0
     np.testing.assert_allclose(dw[:, 1], qdd[2:], atol=1e-9)
     np.testing.assert_allclose(fw.pz[points], lam[: len(points)], atol=1e-9)
     np.testing.assert_allclose(fw.vz[points], (A @ qdd + a0)[: len(points)], atol=1e-9)

@@ -34,7 +34,7 @@ from ..jit import entry, njit
 from .blocks import factor, solve, torques4
 from .dynamics import accelerations
 from .kinematics import apply_impulses, constraint_rates4, constraint_velocities, kinetic_energy, torque_jump
-from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set
+from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, candidates, dense_lcp, new_pivoting, next_active_set, symmetrise
 from .rows import (
     ROW_ANCHOR_LOWER,
     ROW_ANCHOR_UPPER,
@@ -210,11 +210,7 @@ def _delassus(e, w, anchored, base, idx, c, ws, wt, col, M, dref):
         hinge_rates(e, wt, col)
         for ii in range(c):
             M[ii, jj] = col[idx[ii]]
-    for ii in range(c):
-        for jj in range(ii):
-            m = 0.5 * (M[ii, jj] + M[jj, ii])
-            M[ii, jj] = m
-            M[jj, ii] = m
+    symmetrise(M, c)
 
 
 @njit(cache=True, _nrt=True)

@@ -41,11 +41,14 @@ EVENT_MEANINGS = {
     "friction cone; impulse: that force (x, y, z) over the step",
     "stick": "finite friction: a sliding point stops and is held where it is (the friction reversed it within a "
     "step); no impulse given",
-    "lift": "finite friction: a point held by the floor is let go, the floor having pulled it; impulse: that "
-    "force (x, y, z) over the step",
+    "lift": "a point held by the floor (finite friction, or a frictionless floor) is let go, the floor having "
+    "pulled it (RATTLE; impulse: that force (x, y, z) over the step) or its force having crossed zero (the event "
+    "method; no impulse)",
     "pin": "restitution at the floor: a point that lands and that Newton's law would bounce is anchored instead (on a "
     "frictionless floor: kept on it, sliding) by a fallback rule (its bounce would be too small to resolve: the accumulation limit of a series of bounces; or "
-    "the impact's other contacts turned it back down); impulse and energy as a landing's",
+    "the impact's other contacts turned it back down); or, in the event method on a frictionless floor, a point that "
+    "an impact would lift off the floor and that would land again slower than the accumulation threshold, kept on "
+    "it (the floor's impulse on it of either sign); impulse and energy as a landing's",
     "jam": "finite friction: a point held by a fallback rule where the law gives no outcome the step can take: a "
     "landing or sliding point whose slide in the impact has no solution (Painleve's kind: the friction would press it "
     "into the floor harder than it is pressed), or the sliding points near a row that the stages could not meet even "

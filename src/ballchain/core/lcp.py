@@ -110,6 +110,17 @@ def candidates(cand, forced, idx):
     return c
 
 
+@njit(cache=True, _nrt=False)
+def symmetrise(M, c):
+    """M[:c, :c] <- (M + M^T) / 2: a Delassus matrix built column by column, its round-off
+    made symmetric."""
+    for ii in range(c):
+        for jj in range(ii):
+            m = 0.5 * (M[ii, jj] + M[jj, ii])
+            M[ii, jj] = m
+            M[jj, ii] = m
+
+
 @njit(cache=True, _nrt=True)
 def _lemke(M, q, c, z):
     """Solve the LCP  w = q + M z >= 0, z >= 0, w.z = 0  (c x c, M a P-matrix) by

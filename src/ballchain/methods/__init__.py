@@ -8,7 +8,9 @@ builds the ``Result``.  To add one: a sub-package whose ``__init__`` (plain data
 kernels) states the bounds its runs are audited against (``AUDIT``: ``bounds.AuditBounds``)
 and the options it owns (``OPTIONS``: ``options.MethodOption``; ``DEFAULTS``, ``USES``: its
 defaults of other methods' options), the contact laws' parameters it honours away from their
-defaults (``CONTACTS``: ``contacts.registry``; others are refused in one line), ``summary(s)`` (the command line's line naming the
+defaults (``CONTACTS``: ``contacts.registry``; others are refused in one line; ``CONTACT_VALUES``,
+``CONTACT_BOUNDS``, ``CONTACT_EXCLUDES``: the values and pairs it takes of them, where not all),
+``summary(s)`` (the command line's line naming the
 method and its settings, from a run's summary), and a line here.  The command line, ``SolverOptions``,
 the sweeps and the JSON keys learn the options from ``all_options``.
 """
@@ -55,8 +57,10 @@ def method_package(name: str):
 def check_contacts(params, method: str) -> None:
     """Refuse, in one line, a contact law's parameter away from its default
     (``contacts.registry``) that ``method`` does not honour (its package's ``CONTACTS``; the
-    reason from its ``CONTACT_REFUSALS`` where it states one), or
-    beyond the bound to which it was shown to (``CONTACT_BOUNDS``: name -> (bound, why))."""
+    reason from its ``CONTACT_REFUSALS`` where it states one), outside the values it takes
+    (``CONTACT_VALUES``: name -> (values besides the default, why)), beyond the bound to
+    which it was shown to (``CONTACT_BOUNDS``: name -> (bound, why)), or a pair of them it
+    does not take together (``CONTACT_EXCLUDES``: ((a, b), where a's value, why))."""
     from ..contacts.registry import all_params
     from ..errors import ParameterError
 
@@ -76,16 +80,41 @@ def check_contacts(params, method: str) -> None:
                 + (f"({why})" if why else f"(only by: {', '.join(takers) or 'none'})")
                 + f"; leave it at {p.default:g} or change the method"
             )
+        values = getattr(method_package(method), "CONTACT_VALUES", {}).get(name)
+        if values is not None and value != p.default and value not in values[0]:
+            raise ParameterError(
+                f"{p.flag} {value:g} is not honoured by --method {method} yet ({values[1]}); it takes "
+                f"{_values_text(values[0], p.default)}"
+            )
+    moved = {name for name, p in all_params().items() if getattr(params, name) != p.default}
+    for (a, b), where, why in getattr(method_package(method), "CONTACT_EXCLUDES", ()):
+        if a in moved and b in moved and where(getattr(params, a)):
+            pa, pb = all_params()[a], all_params()[b]
+            raise ParameterError(
+                f"{pa.flag} {getattr(params, a):g} with {pb.flag} {getattr(params, b):g} is not honoured by "
+                f"--method {method} yet: {why}"
+            )
+
+
+def _values_text(values, default) -> str:
+    """The values a method takes of a law's parameter, its default last: "0 or inf"."""
+    return " or ".join(f"{v:g}" for v in (*values, default))
 
 
 def honours(method: str, name: str) -> str:
     """What ``--method method`` takes of the contact law's parameter ``name`` (its package's
-    ``CONTACTS`` and ``CONTACT_BOUNDS``, as ``check_contacts`` enforces them): ``"any"``
-    value, ``"up to B"`` (refused beyond the bound B) or ``"refused"`` (away from its
-    default).  The cells of the "Which method when" table of the README and the site's index."""
+    ``CONTACTS``, ``CONTACT_VALUES`` and ``CONTACT_BOUNDS``, as ``check_contacts`` enforces
+    them): ``"any"`` value, ``"up to B"`` (refused beyond the bound B), ``"A or B"`` (those
+    values only, the default last) or ``"refused"`` (away from its default).  The cells of
+    the "Which method when" table of the README and the site's index."""
     pkg = method_package(method)
     if name not in getattr(pkg, "CONTACTS", ()):
         return "refused"
+    values = getattr(pkg, "CONTACT_VALUES", {}).get(name)
+    if values is not None:
+        from ..contacts.registry import all_params
+
+        return _values_text(values[0], all_params()[name].default)
     bound = getattr(pkg, "CONTACT_BOUNDS", {}).get(name)
     return f"up to {bound[0]:g}" if bound is not None else "any"
 

@@ -69,11 +69,13 @@ from ...floors.dispatch import floor_contacts, top_event
 from ...jit import entry, njit
 from .integrator import ADV_EVENT, advance
 from .slides import (
+    PINNED,
     absolute_points,
     after_impact,
     base_velocity,
     energies,
     held_candidates,
+    hold_leaving,
     log_lifts,
     mechanical,
     start_flight,
@@ -150,6 +152,7 @@ Floor = namedtuple(
         "fcand",  # (N+1,) uint8: the instant's floor candidates (a frictionless floor: ``slides``)
         "lifted",  # (N+1,) uint8: left the floor at this instant (not a candidate again in it)
         "held",  # (N+1,) uint8: held by the floor before the lock set (its lift-offs logged)
+        "seen",  # (N+1,) uint8: the instant's first floor candidates (held before it, or touching)
         "pz",  # (N+1,): the floor's vertical force on each point after the lock set
         "pu",  # (2, 3): point N's position and velocity
         "fw",  # the floor's complementarity scratch (unilateral.FloorWork)
@@ -187,7 +190,7 @@ def new_instant(n: int) -> Instant:
     )
     pt = Points(np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n, 3)))
     u8p = lambda: np.zeros(n + 1, np.uint8)  # noqa: E731
-    fl = Floor(u8p(), u8p(), u8p(), np.zeros(n + 1), np.zeros((2, 3)), new_floor_work(n), np.zeros(2))
+    fl = Floor(u8p(), u8p(), u8p(), u8p(), np.zeros(n + 1), np.zeros((2, 3)), new_floor_work(n), np.zeros(2))
     return Instant(hs, acc, ct, pt, new_impact_work(n), np.zeros(ZENO_EVENTS + 1), fl)
 
 
@@ -480,14 +483,17 @@ def _next_round(chain, hs):
 
 
 @njit(cache=True, _nrt=False)
-def _log_instant(t, na, model, chain, hs, ct, pt, iw, log):
+def _log_instant(t, na, model, chain, hs, ct, pt, iw, fl, log):
     """The log: one row per constraint that acted (hinges, new anchors, old anchors that
     took an impulse).  A contact that Newton's law would rebound (``contacts.newton``: it
     approached faster than RATE_TOL / e before the instant) and that a fallback rule kept
     at its limit is logged as such: ``hold`` (a hinge: the accumulation rule, or an impact
-    taken inelastic because the law would create energy) or ``pin`` (a landing point)."""
+    taken inelastic because the law would create energy) or ``pin`` (a landing point; on a
+    frictionless floor also one the impact would lift off a little, held by the
+    accumulation rule: ``slides.hold_leaving``, its impulse of either sign)."""
     locked, pts = chain.locked, pt.pts
     e_lock, e_floor = model.e_lock, model.e_floor
+    slide = slides(model.friction)
     for k in range(locked.shape[0]):
         was, new = hs.was_locked[k], hs.new_lock[k]
         held = e_lock > 0.0 and locked[k] != 0 and rebounds(-e_lock * iw.rates_before[k], e_lock, RATE_TOL)
@@ -507,13 +513,19 @@ def _log_instant(t, na, model, chain, hs, ct, pt, iw, log):
         kind = LOG_LANDING
         if chain.anchored[j] == 0 and not slides(model.friction):
             kind = LOG_BOUNCE
-        elif rebounds(floor_rebound(ct.pre_v[r, 2], e_floor), e_floor, RATE_TOL):
-            kind = LOG_PIN  # (Newton's law would bounce it: a fallback rule anchored it, ``contacts.newton``)
+        elif rebounds(floor_rebound(ct.pre_v[r, 2], e_floor), e_floor, RATE_TOL) or (
+            slide and fl.fw.forced[j] == PINNED
+        ):
+            kind = LOG_PIN  # (a fallback rule held it: Newton's law would bounce it, or the impact lift it, a little)
         log_row(log, t, kind, j, i0, i1, i2, lost, pts, j)
     for j in range(chain.anchored.shape[0]):  # impulses of the floor on points anchored before this instant
-        if chain.anchored[j] != 0 and chain.anchor_t[j] != t:
+        if chain.anchored[j] != 0 and (fl.held[j] != 0 if slide else chain.anchor_t[j] != t):
             i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
-            if i0 != 0.0 or i1 != 0.0 or i2 != 0.0:
+            if (
+                slide and fl.fw.forced[j] == PINNED
+            ):  # (the accumulation rule kept it on the floor: ``slides.hold_leaving``)
+                log_row(log, t, LOG_PIN, j, i0, i1, i2, 0.0, pts, j)
+            elif i0 != 0.0 or i1 != 0.0 or i2 != 0.0:
                 log_row(log, t, LOG_ANCHOR, j, i0, i1, i2, 0.0, pts, j)
 
 
@@ -565,10 +577,13 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
         any_landing = _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found)
     if slide:  # (a touch is a floor candidate, no anchor; the absolute points: ``slides``)
         absolute_points(t, chain, pt, fl.pu)  # (point N where it is, before a lift-off lets the last held point go)
+        chain.base.flying[0] = 0  # (in the instant, with nothing held, point N's motion is fl.pu's: ``start_flight``)
         any_landing = _unlocks_and_top(t, model, chain, hs, pt, fl, books, log, found)
         na = touch_candidates(t, model, chain, ct, pt, any_landing, sc.iw, fl.fcand, fl.lifted, fl.pu)
         for j in range(fl.held.shape[0]):
             fl.held[j] = chain.anchored[j]
+            fl.seen[j] = fl.fcand[j]
+            fl.fw.forced[j] = 0
     else:
         na = _anchor_contacts(t, model, chain, ct, pt, any_landing, sc.iw)
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
@@ -592,11 +607,13 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
             npts = _hold_bouncing(t, model, chain, ct, pt, acc, sc.iw)
             na, n_touch = _touch_floor(t, model, chain, ct, pt, na, sc.iw)
             npts += n_touch
+        if slide:
+            npts = hold_leaving(t, model, chain, pt, fl, fl.seen)
         if nhold + npts == 0:
             break
-        if slide:  # (the next round's floor candidates: the points held now)
+        if slide:  # (the next round's floor candidates: the points held now, and those it must hold)
             for j in range(fl.fcand.shape[0]):
-                fl.fcand[j] = SLIDING if chain.anchored[j] != 0 else 0
+                fl.fcand[j] = SLIDING if (chain.anchored[j] != 0 or fl.fw.forced[j] != 0) else 0
         _next_round(chain, hs)
         settle = npts > 0
         impact = True
@@ -607,7 +624,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
     if slide:
         absolute_points(t, chain, pt, fl.pu)  # (the log's positions: where point N is)
         log_lifts(t, fl.held, chain.anchored, pt.pts, log)
-    _log_instant(t, na, model, chain, hs, ct, pt, sc.iw, log)
+    _log_instant(t, na, model, chain, hs, ct, pt, sc.iw, fl, log)
     _finish_instant(t, model, chain, watch, ws, sc, books)
     return EV_OK
 

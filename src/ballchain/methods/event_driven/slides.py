@@ -14,7 +14,10 @@ where the floor would pull.  What differs from the anchor, in one place:
 * the lock set (``unilateral.floor_lock_set``): the hinges and the points the floor holds,
   which it keeps while it pushes; one it lets go is logged ``lift``;
 * a lift-off between instants: a held point's vertical force crossing zero
-  (``watch.EV_LIFT``, located as a lock's multiplier is), logged ``lift``.
+  (``watch.EV_LIFT``, located as a lock's multiplier is), logged ``lift``;
+* the accumulation limit at the floor (``hold_leaving``, the hinges' ``rules.must_hold``
+  with ``hold_rate_floor``): a point the impact lifts off the floor and that would land
+  again slower than that, or after a flight too small to resolve, is held (logged ``pin``).
 
 With nothing held (the bottom end yanked up by a lock while nothing else lies on the
 floor) the chain flies: its centre of mass falls freely from point N's position and
@@ -29,9 +32,12 @@ from ...contacts.newton import floor_rebound
 from ...core.base import base_point, energies_moved, held_point, set_base
 from ...core.books import log_row
 from ...core.kinematics import point_positions, velocities
-from ...core.rules import LOG_LIFT, SLIDING, Z_TOL
+from ...core.rules import LOG_LIFT, RATE_TOL, SLIDING, Z_TOL, must_hold
 from ...floors.dispatch import floor_contacts
 from ...jit import njit
+
+# why the accumulation rule holds a point (``hold_leaving``; FloorWork.forced)
+PINNED, AT_REST = 1, 2
 
 
 @njit(cache=True, _nrt=False)
@@ -135,6 +141,30 @@ def held_candidates(anchored, lifted, fcand):
     at this instant)."""
     for j in range(anchored.shape[0]):
         fcand[j] = SLIDING if (anchored[j] != 0 and not lifted[j]) else 0
+
+
+@njit(cache=True, _nrt=False)
+def hold_leaving(t, model, chain, pt, fl, seen):
+    """The accumulation limit at a frictionless floor: a point the floor held or that
+    touched it at this instant (``seen``), which the instant has let go (not at a
+    lift-off event: fl.lifted) and which accelerates back down (z'' < 0, from the lock
+    set's fl.fw.vz) and would land again slower than hold_rate_floor, or after a flight
+    too small to resolve (``rules.must_hold``: vz < hold_rate_floor, or vz^2 < 2 hold_apex
+    |z''|), is held (fl.fw.forced: the next round's impact holds it whatever its impulse;
+    ``PINNED``, logged ``pin``, where it leaves faster than RATE_TOL, the law's outcome
+    changed; ``AT_REST`` where it leaves no faster: at rest on the floor within round-off).
+    The series of ever smaller landings it replaces would end in it held.  Returns the
+    number newly held."""
+    anchored = chain.anchored
+    absolute_points(t, chain, pt, fl.pu)
+    nheld = 0
+    for j in range(anchored.shape[0]):
+        if anchored[j] != 0 or seen[j] == 0 or fl.lifted[j] or fl.fw.forced[j]:
+            continue
+        if must_hold(pt.pv[j, 2], fl.fw.vz[j], model.hold_rate_floor, model.hold_apex):
+            fl.fw.forced[j] = PINNED if pt.pv[j, 2] > RATE_TOL else AT_REST
+            nheld += 1
+    return nheld
 
 
 @njit(cache=True, _nrt=False)
