@@ -1,6 +1,7 @@
 """A frictionless floor against the anchor (the numbers of docs/friction-floor.md).
 
     python studies/friction_study.py docs/data/friction-floor.parquet [--plot FILE]
+    python studies/friction_study.py --methods TABLE [TABLE ...]
 
 The table holds falls of the same starts with ``--friction 0`` and ``--friction inf``
 (the anchor, the model's law), by one method.  Per (N, mu), over the runs that landed (a
@@ -13,6 +14,14 @@ wall time of a fall; the worst |imbalance|/E0 and the deepest point.  Then, pair
 start (mu 0 minus inf), the mean differences of t_fall/t_ff, of gamma measured and of
 E_lock/E0, with their 95% bootstrap intervals, and the median difference of t_fall/t_ff.  ``--plot``: t_fall/t_ff against N for
 both floors, every fall and the means with their intervals.
+
+``--methods``: the frictionless falls (mu 0) of the tables joined, the exact method's
+against RATTLE's paired by start (the same N, seed and spawn key): per N the pairs, each
+method's mean t_fall/t_ff with its interval, the paired differences (exact minus RATTLE)
+of t_fall/t_ff, E_lock/E0, E_land/E0 and their sum with their intervals, the two-sample
+Kolmogorov-Smirnov p of t_fall/t_ff, each method's worst |imbalance|/E0 and its median
+wall time of a fall; and the exact method's median counts per fall of instants, lift-offs
+and the accumulation rule's ``pin`` rows.
 """
 
 from __future__ import annotations
@@ -43,12 +52,57 @@ def _mu(v: float) -> str:
     return "inf" if math.isinf(v) else f"{v:g}"
 
 
+def methods(tables: list[str]) -> None:
+    """The exact method against RATTLE on a frictionless floor (module docstring)."""
+    from scipy.stats import ks_2samp
+
+    df = pd.concat([pd.read_parquet(t) for t in tables], ignore_index=True)
+    df = df[(df.friction == 0.0) & (df.status == "landed")].copy()
+    for col, src in (("elock", "energy_lost_locking"), ("eland", "energy_lost_landing")):
+        df[col] = df[src] / df.energy_initial
+    df["elost"] = df.elock + df.eland
+    df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
+    print("Frictionless floor, the exact method (event) against RATTLE, paired by start (event minus rattle):")
+    print()
+    print(
+        "| N | pairs | event t_fall/t_ff [95%] | rattle t_fall/t_ff [95%] | paired t_fall/t_ff [95%] | KS p "
+        "| paired E_lock/E0 [95%] | paired E_land/E0 [95%] | paired E_lock + E_land [95%] "
+        "| worst imbalance/E0 (event, rattle) | wall per fall (event, rattle) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    key = ["seed", "spawn_key"]
+    for n, g in df.groupby("segments"):
+        ev = g[g.method == "event"].set_index(key)
+        ra = g[g.method == "rattle"].set_index(key)
+        idx = ev.index.intersection(ra.index)
+        if idx.empty:
+            continue
+        e, r = ev.loc[idx], ra.loc[idx]
+        print(
+            f"| {n} | {len(idx)} | {_interval(e.ratio)} | {_interval(r.ratio)} | {_interval(e.ratio - r.ratio, 4)} "
+            f"| {ks_2samp(e.ratio, r.ratio).pvalue:.2f} | {_interval(e.elock - r.elock, 4)} "
+            f"| {_interval(e.eland - r.eland, 4)} | {_interval(e.elost - r.elost, 4)} "
+            f"| {e.imb.max():.1e}, {r.imb.max():.1e} | {e.wall_seconds.median():.1f} s, {r.wall_seconds.median():.1f} s |"
+        )
+    print()
+    for n, g in df[df.method == "event"].groupby("segments"):
+        print(
+            f"N = {n}, the exact method: {int(g.n_instants.median())} instants, {int(g.events_lift.median())} "
+            f"lift-offs and {int(g.events_pin.median())} pin rows per fall (medians); deepest point "
+            f"{g.max_depth.max():.1e} b"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("table")
+    ap.add_argument("tables", nargs="+")
     ap.add_argument("--plot")
+    ap.add_argument("--methods", action="store_true", help="the exact method against RATTLE at mu 0, paired")
     a = ap.parse_args()
-    df = pd.read_parquet(a.table)
+    if a.methods:
+        methods(a.tables)
+        return
+    df = pd.read_parquet(a.tables[0])
     df["friction"] = df["friction"].fillna(math.inf)  # (tables written before the column: the anchor)
     df["elock"] = df.energy_lost_locking / df.energy_initial
     df["eland"] = df.energy_lost_landing / df.energy_initial

@@ -4,9 +4,10 @@ against independent truths.
 * a rod standing at 0.3 rad on a frictionless floor lands when the quadrature of its own
   equation of motion says (``theory.sliding_rod_fall_time``: 2.000412 sqrt(b/g)), to 1e-8,
   its centre on a vertical line, its books closed to 1e-8 E0;
-* a chain of 8: nothing horizontal acts, so its horizontal momentum stays zero; the floor's
-  vertical impulse is the momentum's change plus the weight's impulse; the books close to
-  1e-8 E0 (every loss booked from its own impulses); no point below the floor.
+* chains of 8 and 128: nothing horizontal acts, so their horizontal momentum stays zero; the
+  floor's vertical impulse is the momentum's change plus the weight's impulse; the books
+  close to 1e-8 E0 (every loss booked from its own impulses); no point below the floor;
+* the accumulation rule at the floor: the fall does not move as its threshold goes to zero.
 """
 
 from __future__ import annotations
@@ -53,10 +54,11 @@ def test_a_rod_on_a_frictionless_floor_lands_when_the_quadrature_says():
 
 
 @pytest.mark.slow
-def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_its_books():
+@pytest.mark.parametrize("n, seed", [(8, 1), (128, 2)])  # (128, 2: its floor's LCP cycles, solved densely)
+def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_its_books(n, seed):
     r = simulate(
-        ChainParams(segments=8, friction=0.0, alpha=math.pi / 4),
-        InitialCondition(kind="random", seed=1),
+        ChainParams(segments=n, friction=0.0, alpha=math.pi / 4),
+        InitialCondition(kind="random", seed=seed),
         SolverOptions(method="event", frames_per_tff=200),
     )
     assert r.status == "landed"
@@ -69,4 +71,26 @@ def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_i
     assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]
     assert r.max_depth < 1e-8
     counts = r.event_counts()
-    assert counts["lift"] > 0 and counts["landing"] >= 8  # (points leave the floor and land again)
+    assert counts["lift"] > 0 and counts["landing"] >= n  # (points leave the floor and land again)
+
+
+@pytest.mark.slow
+def test_the_accumulation_rule_at_the_floor_moves_nothing_as_its_threshold_goes_to_zero():
+    """A point that an impact would lift off the floor and that would land again slower
+    than --hold-rate-floor is kept on it (``slides.hold_leaving``): the limit of the
+    series of ever smaller landings it replaces.  Over four decades of the threshold the
+    fall is the same (t_fall to every digit here, the losses to 1e-9 E0), while the rule
+    acts hundreds of times a fall."""
+    runs = [
+        simulate(
+            ChainParams(segments=32, friction=0.0, alpha=math.pi / 4),
+            InitialCondition(kind="random", seed=2),
+            SolverOptions(method="event", hold_rate_floor=h),
+        )
+        for h in (1e-6, 1e-10)
+    ]
+    assert all(r.status == "landed" and r.event_counts()["pin"] > 100 for r in runs)
+    a, b = runs
+    assert abs(a.ratio - b.ratio) < 1e-9
+    for k in ("lost_locking", "lost_landing"):
+        assert abs(a.energy[k] - b.energy[k]) < 1e-9 * a.energy["initial"]
