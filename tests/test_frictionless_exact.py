@@ -32,7 +32,6 @@ EVENT = SolverOptions(method="event")
     [
         (dict(friction=0.3), "stick and slip"),
         (dict(friction=0.0, restitution_floor=0.5), "no bounce yet"),
-        (dict(friction=0.0, restitution_lock=0.5), "Newton's law at the bend limits"),
     ],
 )
 def test_what_it_does_not_take_yet_is_refused_in_one_line_naming_why(params, why):
@@ -72,6 +71,23 @@ def test_a_chain_on_the_exact_frictionless_floor_keeps_its_momentum_and_closes_i
     assert r.max_depth < 1e-8
     counts = r.event_counts()
     assert counts["lift"] > 0 and counts["landing"] >= n  # (points leave the floor and land again)
+
+
+def test_newtons_law_at_the_limits_on_the_frictionless_floor_books_every_loss():
+    """--friction 0 --restitution-lock 0.5: the impacts solve Newton's law at the limits
+    beside the floor's rows (``unilateral.floor_velocity_impact``, against Lagrange in
+    tests/test_unilateral_floor.py); over a whole fall the books close to 1e-8 E0 (each loss
+    from its own impulses), the horizontal momentum stays zero, nothing goes below the floor."""
+    r = simulate(
+        ChainParams(segments=16, friction=0.0, alpha=math.pi / 4, restitution_lock=0.5),
+        InitialCondition(kind="random", seed=2),
+        EVENT,
+    )
+    assert r.status == "landed"
+    assert abs(r.energy["imbalance"]) < 1e-8 * r.energy["initial"]
+    assert r.energy["lost_locking"] > 0.1 * r.energy["initial"]
+    assert np.max(np.abs(momentum(r)[:, :2])) < 1e-12 * 16
+    assert r.max_depth < 1e-8
 
 
 @pytest.mark.slow

@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 
-from ballchain.core.impacts import new_impact_work
+from ballchain.core.impacts import hinge_rates, new_impact_work
 from ballchain.core.rules import SLIDING
 from ballchain.core.state import new_work
 from ballchain.core.unilateral import (
@@ -27,6 +27,7 @@ from ballchain.core.unilateral import (
     dense_lock_set,
     floor_impact,
     floor_lock_set,
+    floor_velocity_impact,
     new_floor_work,
 )
 
@@ -242,3 +243,64 @@ def test_which_points_the_floor_holds_is_the_acceleration_lcp_of_lagranges_equat
     assert [k for k in range(n - 1) if active[k]] == [k for k, p in zip(hinges, lam[len(points) :]) if p > 1e-9]
     ca = np.array([jc[i] @ qdd + ac[i] for i in range(n)])
     np.testing.assert_allclose(fw.vc[:, [0, 2]], ca, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed, n, points, hinges", CASES)
+@pytest.mark.parametrize("phi", [0.0, 2.2])
+def test_newtons_law_at_the_limits_beside_the_floor_is_the_lcp_of_lagranges_equations(seed, n, points, hinges, phi):
+    """``floor_velocity_impact`` with e_lock = 0.5: each candidate hinge's rate after the
+    impact at least -e times its rate before, equal where its impulse acts (Newton's law,
+    ``contacts.newton.law_rate``), the floor's rows inelastic, in one LCP.  Where no hinge
+    comes out closing (a second pass would stop it: not this truth), every rate, impulse
+    and held set is Lagrange's; and the impact never creates energy."""
+    e_lock = 0.5
+    theta, rate, base, alpha = _chain(seed, n, hinges)
+    M = _mass(theta)
+    jc, jz = _jacobians(theta)
+    q1 = np.concatenate([base, rate])
+    A = np.array([jz[j] for j in points] + [_bend_row(theta, k) for k in hinges])
+    before = A @ q1
+    target = np.concatenate([np.zeros(len(points)), -e_lock * before[len(points) :]])
+    Minv = np.linalg.inv(M)
+    P = _solve_lcp(A @ Minv @ A.T, A, before - target)
+    q2 = q1 + Minv @ A.T @ P
+    closing = bool(((A @ q2)[len(points) :] < -1e-9).any())
+
+    R = _turn(phi)
+    e, w = _core_state(theta, rate, phi)
+    ws, iw, fw = new_work(n), new_impact_work(n), new_floor_work(n)
+    iw.dv[:] = R @ [base[0], 0.0, base[1]]
+    hinge_rates(e, w, iw.rates_before)
+    anchored = np.zeros(n + 1, np.uint8)
+    fcand = np.zeros(n + 1, np.uint8)
+    fcand[points] = SLIDING
+    cand, forced, active = (np.zeros(max(n - 1, 0), np.uint8) for _ in range(3))
+    cand[hinges] = 1
+    T0 = 0.5 * q1 @ M @ q1
+    assert floor_velocity_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw) >= 0
+    assert iw.split[0] + iw.split[1] >= -1e-12 * T0  # (never creates energy)
+    if closing:
+        return
+    w = w @ R
+    np.testing.assert_allclose(w[:, 1], q2[2:], atol=1e-10)
+    np.testing.assert_allclose(fw.vz[points], (A @ q2)[: len(points)], atol=1e-10)
+    np.testing.assert_allclose(fw.pz[points], P[: len(points)], atol=1e-10)
+    assert [j for j in range(n + 1) if anchored[j]] == sorted(j for j, p in zip(points, P) if p > 1e-9)
+    assert [k for k in range(n - 1) if active[k]] == [k for k, p in zip(hinges, P[len(points) :]) if p > 1e-9]
+    assert abs((iw.split[0] + iw.split[1]) - (T0 - 0.5 * q2 @ M @ q2)) < 1e-10 * max(T0, 1.0)
+
+
+def test_some_of_newtons_cases_have_no_closing_hinge():
+    """(The test above compares with Lagrange where no hinge comes out closing: most cases.)"""
+    open_cases = 0
+    for seed, n, points, hinges in CASES:
+        theta, rate, base, _ = _chain(seed, n, hinges)
+        M, (_, jz) = _mass(theta), _jacobians(theta)
+        q1 = np.concatenate([base, rate])
+        A = np.array([jz[j] for j in points] + [_bend_row(theta, k) for k in hinges])
+        before = A @ q1
+        target = np.concatenate([np.zeros(len(points)), -0.5 * before[len(points) :]])
+        Minv = np.linalg.inv(M)
+        q2 = q1 + Minv @ A.T @ _solve_lcp(A @ Minv @ A.T, A, before - target)
+        open_cases += not ((A @ q2)[len(points) :] < -1e-9).any()
+    assert open_cases >= 3

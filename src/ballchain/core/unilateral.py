@@ -38,6 +38,7 @@ from ..jit import njit
 from .blocks import factor, fits4, forces4, generalized_forces, solve
 from .dynamics import accelerations
 from .impacts import (
+    ENERGY_RTOL,
     MULT_RTOL,
     MULT_TOL,
     _impact_books,
@@ -318,6 +319,97 @@ def floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw
                 return -1
             final = True
     return -1
+
+
+@njit(cache=True, _nrt=True)
+def floor_velocity_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw):
+    """``floor_impact`` with Newton's restitution at the limits as
+    ``impacts.velocity_impact`` takes it beside the floor's rows: a hinge that comes out
+    closing (pushed back to its limit by the others' impulses) is stopped by a second,
+    inelastic pass from there (iw.lost_hinge: each hinge's share over both), and an impact
+    whose law would create energy is taken inelastic at every hinge instead.  With
+    ``e_lock`` 0, ``floor_impact`` itself.  Returns the number of trials (-1: failure)."""
+    if e_lock == 0.0:
+        return floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw)
+    n = e.shape[0]
+    held = anchored.copy()
+    for i in range(n):
+        for q in range(3):
+            iw.w_start[i, q] = w[i, q]
+    for k in range(cand.shape[0]):
+        iw.active_start[k] = active[k]
+    u0 = np.empty(3)
+    for q in range(3):
+        u0[q] = iw.dv[0, q]
+    it = _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw)
+    if it < 0:
+        return it
+    t_before = 0.0  # (fw.v0: the centres' velocities before the first pass)
+    for i in range(n):
+        t_before += 0.5 * (fw.v0[i, 0] ** 2 + fw.v0[i, 1] ** 2 + fw.v0[i, 2] ** 2)
+        t_before += 0.5 / W_W * (iw.w_start[i, 0] ** 2 + iw.w_start[i, 1] ** 2 + iw.w_start[i, 2] ** 2)
+    if iw.split[0] + iw.split[1] >= -ENERGY_RTOL * t_before:
+        return it
+    # Newton's law beside the floor's inelastic rows created energy: inelastic
+    for i in range(n):
+        for q in range(3):
+            w[i, q] = iw.w_start[i, q]
+            iw.dv[i, q] = u0[q]
+    for k in range(cand.shape[0]):
+        active[k] = iw.active_start[k]
+    for j in range(anchored.shape[0]):
+        anchored[j] = held[j]
+    hinge_rates(e, w, iw.rates_start)
+    it = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
+    for k in range(cand.shape[0]):
+        iw.lost_hinge[k] = -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
+    return it
+
+
+@njit(cache=True, _nrt=True)
+def _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw):
+    """Newton's law at the limits (``floor_velocity_impact``), and the second, inelastic
+    pass if a hinge comes out closing, the centres then moving with point N's velocity
+    after the first (iw.dv); iw.lost_hinge: each hinge's share."""
+    nh = cand.shape[0]
+    n = e.shape[0]
+    hinge_rates(e, w, iw.rates_start)
+    it = floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw)
+    closing = False
+    for k in range(nh):
+        iw.lost_hinge[k] = -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
+        if cand[k] and iw.rates_after[k] < -RATE_TOL:
+            closing = True
+            active[k] = 1
+    if it < 0 or not closing:
+        return it
+    lost_lock, lost_land = iw.split[0], iw.split[1]
+    for k in range(nh):
+        iw.keep_impulse[k] = iw.impulse[k]
+        iw.rates_start[k] = iw.rates_after[k]
+    for j in range(iw.anchor_impulse.shape[0]):
+        for q in range(3):
+            iw.keep_anchor[j, q] = iw.anchor_impulse[j, q]
+    i = n - 1  # point N after the first pass: the lower end of segment N - 1, v - w x e
+    ux = fw.vc[i, 0] - (w[i, 1] * e[i, 2] - w[i, 2] * e[i, 1])
+    uy = fw.vc[i, 1] - (w[i, 2] * e[i, 0] - w[i, 0] * e[i, 2])
+    uz = fw.vc[i, 2] - (w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0])
+    for c in range(n):
+        iw.dv[c, 0], iw.dv[c, 1], iw.dv[c, 2] = ux, uy, uz
+    it2 = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
+    if it2 < 0:
+        return it2
+    iw.split[0] += lost_lock
+    iw.split[1] += lost_land
+    for k in range(nh):
+        iw.lost_hinge[k] += -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
+        iw.impulse[k] += iw.keep_impulse[k]
+        if iw.keep_impulse[k] != 0.0:  # it carried an impulse (in the first pass): active on exit
+            active[k] = 1
+    for j in range(iw.anchor_impulse.shape[0]):
+        for q in range(3):
+            iw.anchor_impulse[j, q] += iw.keep_anchor[j, q]
+    return it + it2
 
 
 @njit(cache=True, _nrt=True)

@@ -41,12 +41,6 @@ CONTACT_EXCLUDES = (
         "the event method's frictionless floor has no bounce yet (its impact holds a landing point on the "
         "floor; --method rattle takes both)",
     ),
-    (
-        ("friction", "restitution_lock"),
-        lambda mu: mu == 0.0,
-        "the event method's frictionless floor has no Newton's law at the bend limits yet (its impact is one "
-        "pass, without the check that keeps the law from creating energy; --method rattle takes both)",
-    ),
 )
 
 # what a run's summary line of events counts beside them (the command line's): its event instants

@@ -64,7 +64,7 @@ from ...core.rules import (
     must_hold,
     settle_anchors,
 )
-from ...core.unilateral import floor_impact, floor_lock_set, new_floor_work
+from ...core.unilateral import floor_lock_set, floor_velocity_impact, new_floor_work
 from ...floors.dispatch import floor_contacts, top_event
 from ...jit import entry, njit
 from .integrator import ADV_EVENT, advance
@@ -380,7 +380,12 @@ def _apply_impact(t, rnd, model, chain, ws, hs, ct, iw, fl, books):
         hinge_rates(e, w, iw.rates_before)
     if slides(model.friction):  # (the floor's rows unilateral: ``slides``; the centres move with point N)
         base_velocity(t, chain, fl.pu, iw)
-        if floor_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, fl.fcand, model.e_lock, ws, iw, fl.fw) < 0:
+        if (
+            floor_velocity_impact(
+                e, w, chain.anchored, hs.cand, hs.forced, hs.active, fl.fcand, model.e_lock, ws, iw, fl.fw
+            )
+            < 0
+        ):
             return False
         after_impact(chain, fl.fw.vc, fl.pu)
     elif velocity_impact(e, w, chain.anchored, hs.cand, hs.forced, hs.active, model.e_lock, ws, iw) < 0:
