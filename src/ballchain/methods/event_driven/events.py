@@ -514,6 +514,8 @@ def _log_instant(t, na, model, chain, hs, ct, pt, iw, fl, log):
     for r in range(na):
         j = ct.new_anchor[r]
         i0, i1, i2 = aimp[j, 0], aimp[j, 1], aimp[j, 2]
+        if slide and chain.anchored[j] == 0 and i2 == 0.0 and fl.fw.forced[j] == 0:
+            continue  # (a point at the floor that the impact neither held nor touched: no landing)
         lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * (ct.pre_v[r, 2] + ct.bounce[j]))
         kind = LOG_LANDING
         if chain.anchored[j] == 0 and not slides(model.friction):
@@ -616,9 +618,10 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
             npts = hold_leaving(t, model, chain, pt, fl, fl.seen)
         if nhold + npts == 0:
             break
-        if slide:  # (the next round's floor candidates: the points held now, and those it must hold)
-            for j in range(fl.fcand.shape[0]):
-                fl.fcand[j] = SLIDING if (chain.anchored[j] != 0 or fl.fw.forced[j] != 0) else 0
+        if slide:  # (the next round's floor candidates: every point at the floor in this instant, not one let go
+            for j in range(fl.fcand.shape[0]):  # at a lift-off event: its impact may push a free one down)
+                at_floor = chain.anchored[j] != 0 or fl.fw.forced[j] != 0 or (fl.seen[j] != 0 and not fl.lifted[j])
+                fl.fcand[j] = SLIDING if at_floor else 0
         _next_round(chain, hs)
         settle = npts > 0
         impact = True

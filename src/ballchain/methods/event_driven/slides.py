@@ -97,8 +97,9 @@ def touch_candidates(t, model, chain, ct, pt, any_landing, iw, fcand, lifted, pu
     every point it holds, and the free points that touch it now (the floor model's rule on
     the absolute heights and velocities; not one that lifted off at this instant), listed
     in ct.new_anchor with their velocities before the impact (ct.pre_v), their first touch
-    in anchor_t and, with restitution at the floor, their rebound (iw.rebound).  Returns the
-    number of touches."""
+    in anchor_t and, with restitution at the floor, their rebound (iw.rebound); then the
+    free points at the floor (z <= Z_TOL) that move up: the impact may push them down (no
+    touch, unless it does: ``events._log_instant``).  Returns the number listed."""
     anchored = chain.anchored
     absolute_points(t, chain, pt, pu)
     na = floor_contacts(model.floor, chain.Y[0], pt.pts, pt.pv, anchored, any_landing, Z_TOL, ct.touch)
@@ -120,6 +121,13 @@ def touch_candidates(t, model, chain, ct, pt, any_landing, iw, fcand, lifted, pu
             chain.anchor_t[j] = t
         iw.rebound[j] = floor_rebound(pt.pv[j, 2], model.e_floor)
         iw.n_rebound[0] += 1 if iw.rebound[j] > 0.0 else 0
+    for j in range(anchored.shape[0]):  # free points at the floor moving up: candidates too (an
+        if anchored[j] == 0 and fcand[j] == 0 and not lifted[j] and pt.pts[j, 2] <= Z_TOL:  # impact may push them down)
+            ct.new_anchor[m] = j
+            for q in range(3):
+                ct.pre_v[m, q] = pt.pv[j, q]
+            m += 1
+            fcand[j] = SLIDING
     return m
 
 
