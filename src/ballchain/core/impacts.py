@@ -535,38 +535,60 @@ def _floor_pulls(iw):
 
 
 @njit(cache=True, _nrt=False)
-def _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
-    """Newton's restitution at the limits (``velocity_impact``), and the second, inelastic
-    pass if a hinge comes out closing; iw.lost_hinge: each hinge's share."""
-    nh = e.shape[0] - 1
-    hinge_rates(e, w, iw.rates_start)
-    it = _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+def first_pass_closing(nh, cand, active, iw):
+    """After Newton's pass at the limits: each hinge's share of the loss (iw.lost_hinge,
+    -Lambda (gamma_start + gamma+) / 2); returns whether a candidate comes out closing
+    (gamma+ < -RATE_TOL), each such one made active for the second, inelastic pass."""
     closing = False
     for k in range(nh):
         iw.lost_hinge[k] = -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
         if cand[k] and iw.rates_after[k] < -RATE_TOL:
             closing = True
             active[k] = 1
-    if it < 0 or not closing:
-        return it
-    lost_lock, lost_land = iw.split[0], iw.split[1]
+    return closing
+
+
+@njit(cache=True, _nrt=False)
+def keep_first_pass(nh, iw):
+    """Before the second pass: the first pass's impulses kept (iw.keep_impulse,
+    iw.keep_anchor), its rates after it the second's start (iw.rates_start)."""
     for k in range(nh):
         iw.keep_impulse[k] = iw.impulse[k]
         iw.rates_start[k] = iw.rates_after[k]
     for j in range(iw.anchor_impulse.shape[0]):
         for q in range(3):
             iw.keep_anchor[j, q] = iw.anchor_impulse[j, q]
-    it2 = _pivoted_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
-    if it2 < 0:
-        return it2
+
+
+@njit(cache=True, _nrt=False)
+def add_first_pass(nh, active, iw, lost_lock, lost_land):
+    """After the second pass: the books, each hinge's share, the impulses and the floor's
+    over both passes; a hinge that carried an impulse in the first is active on exit."""
     iw.split[0] += lost_lock
     iw.split[1] += lost_land
     for k in range(nh):
         iw.lost_hinge[k] += -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
         iw.impulse[k] += iw.keep_impulse[k]
-        if iw.keep_impulse[k] != 0.0:  # it carried an impulse (in the first pass): active on exit
+        if iw.keep_impulse[k] != 0.0:
             active[k] = 1
     for j in range(iw.anchor_impulse.shape[0]):
         for q in range(3):
             iw.anchor_impulse[j, q] += iw.keep_anchor[j, q]
+
+
+@njit(cache=True, _nrt=False)
+def _newton_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
+    """Newton's restitution at the limits (``velocity_impact``), and the second, inelastic
+    pass if a hinge comes out closing; iw.lost_hinge: each hinge's share."""
+    nh = e.shape[0] - 1
+    hinge_rates(e, w, iw.rates_start)
+    it = _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+    if it < 0 or not first_pass_closing(nh, cand, active, iw):
+        return it
+    lost_lock, lost_land = iw.split[0], iw.split[1]
+    keep_first_pass(nh, iw)
+    it2 = _pivoted_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
+    if it2 < 0:
+        return it2
+    add_first_pass(nh, active, iw, lost_lock, lost_land)
     return it + it2

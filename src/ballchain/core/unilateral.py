@@ -45,8 +45,11 @@ from .impacts import (
     _impact_trial,
     _impact_violations,
     _lock_violations,
+    add_first_pass,
+    first_pass_closing,
     hinge_accels,
     hinge_rates,
+    keep_first_pass,
 )
 from .kinematics import torque_jump, velocities
 from .lcp import PIVOT_BUDGET, PIVOT_FALLBACK, dense_lcp, new_pivoting, next_active_set, symmetrise
@@ -60,6 +63,10 @@ from .rules import RATE_TOL, is_landed
 # and the trial's), and the points the impact holds whatever their impulse (``forced``: the
 # accumulation rule at the floor, ``rules.must_hold``; the acceleration level ignores it).
 FloorWork = namedtuple("FloorWork", ["cand", "active", "vz_before", "vz", "pz", "v0", "vc", "forced"])
+
+# The dense problem's scratch (``_floor_delassus``): a unit impulse's jump of the centres'
+# velocities and of the axes' rates, and the candidates' rates it produces (hinges, points).
+DelassusWork = namedtuple("DelassusWork", ["vt", "wt", "hcol", "zcol"])
 
 
 def new_floor_work(n: int) -> FloorWork:
@@ -222,14 +229,15 @@ def _candidate_rates(e, wt, vt, nh, idx, c, hcol, zcol, M, jj):
 
 
 @njit(cache=True, _nrt=False)
-def _floor_delassus(e, w, anchored, base, nh, idx, c, ws, vt, wt, hcol, zcol, M, dref):
+def _floor_delassus(e, w, anchored, base, nh, idx, c, ws, dw, M, dref):
     """M[:c, :c] = H W_eff H^T over the combined candidates idx[:c] (hinges, then points at
     nh + j): column jj, the candidates' rates that a unit impulse at idx[jj]
     (``_unit_impulse``) produces once the equality rows (the hinges, the points
     ``anchored`` marks, the locks ``base``) have reacted; one factorisation, c O(N) solves;
-    symmetrised.  dref[jj]: H W H^T of its row alone."""
+    symmetrised.  dref[jj]: H W H^T of its row alone.  dw: its scratch (``DelassusWork``)."""
     n = e.shape[0]
     J, kind, nrow, rhs, x, gf = ws.J, ws.kind, ws.nrow, ws.rhs, ws.x, ws.gf
+    vt, wt, hcol, zcol = dw.vt, dw.wt, dw.hcol, dw.zcol
     build_rows(e, w, anchored, base, J, kind, nrow, rhs, np.bool_(False))
     factor(e, anchored, J, kind, nrow, ws.S, ws.G, ws.drop)
     for jj in range(c):
@@ -278,10 +286,8 @@ def _floor_dense(e, w, anchored, forced, nh, idx, c, q, tol, ws, fw):
     n = e.shape[0]
     M = np.empty((c, c))
     dref = np.empty(c)
-    _floor_delassus(
-        e, w, anchored, forced, nh, idx, c, ws, np.empty((n, 3)), np.empty((n, 3)),
-        np.empty(max(nh, 1)), np.empty(n + 1), M, dref,
-    )  # fmt: skip
+    dw = DelassusWork(np.empty((n, 3)), np.empty((n, 3)), np.empty(max(nh, 1)), np.empty(n + 1))
+    _floor_delassus(e, w, anchored, forced, nh, idx, c, ws, dw, M, dref)
     return dense_lcp(M, q, c, idx, fw.active, tol, dref)
 
 
@@ -375,21 +381,10 @@ def _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, f
     n = e.shape[0]
     hinge_rates(e, w, iw.rates_start)
     it = floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw)
-    closing = False
-    for k in range(nh):
-        iw.lost_hinge[k] = -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
-        if cand[k] and iw.rates_after[k] < -RATE_TOL:
-            closing = True
-            active[k] = 1
-    if it < 0 or not closing:
+    if it < 0 or not first_pass_closing(nh, cand, active, iw):
         return it
     lost_lock, lost_land = iw.split[0], iw.split[1]
-    for k in range(nh):
-        iw.keep_impulse[k] = iw.impulse[k]
-        iw.rates_start[k] = iw.rates_after[k]
-    for j in range(iw.anchor_impulse.shape[0]):
-        for q in range(3):
-            iw.keep_anchor[j, q] = iw.anchor_impulse[j, q]
+    keep_first_pass(nh, iw)
     i = n - 1  # point N after the first pass: the lower end of segment N - 1, v - w x e
     ux = fw.vc[i, 0] - (w[i, 1] * e[i, 2] - w[i, 2] * e[i, 1])
     uy = fw.vc[i, 1] - (w[i, 2] * e[i, 0] - w[i, 0] * e[i, 2])
@@ -399,16 +394,7 @@ def _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, f
     it2 = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
     if it2 < 0:
         return it2
-    iw.split[0] += lost_lock
-    iw.split[1] += lost_land
-    for k in range(nh):
-        iw.lost_hinge[k] += -0.5 * iw.impulse[k] * (iw.rates_start[k] + iw.rates_after[k])
-        iw.impulse[k] += iw.keep_impulse[k]
-        if iw.keep_impulse[k] != 0.0:  # it carried an impulse (in the first pass): active on exit
-            active[k] = 1
-    for j in range(iw.anchor_impulse.shape[0]):
-        for q in range(3):
-            iw.anchor_impulse[j, q] += iw.keep_anchor[j, q]
+    add_first_pass(nh, active, iw, lost_lock, lost_land)
     return it + it2
 
 
