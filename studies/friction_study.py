@@ -1,7 +1,7 @@
 """A frictionless floor against the anchor (the numbers of docs/friction-floor.md).
 
     python studies/friction_study.py docs/data/friction-floor.parquet [--plot FILE]
-    python studies/friction_study.py --methods TABLE [TABLE ...]
+    python studies/friction_study.py --methods [--restitution-floor E] TABLE [TABLE ...]
 
 The table holds falls of the same starts with ``--friction 0`` and ``--friction inf``
 (the anchor, the model's law), by one method.  Per (N, mu), over the runs that landed (a
@@ -21,7 +21,8 @@ method's mean t_fall/t_ff with its interval, the paired differences (exact minus
 of t_fall/t_ff, E_lock/E0, E_land/E0 and their sum with their intervals, the two-sample
 Kolmogorov-Smirnov p of t_fall/t_ff, each method's worst |imbalance|/E0 and its median
 wall time of a fall; and the exact method's median counts per fall of instants, lift-offs
-and the accumulation rule's ``pin`` rows.
+and the accumulation rule's ``pin`` rows.  ``--restitution-floor E``: the falls on a
+frictionless floor that bounces at E instead (their bounces counted too).
 """
 
 from __future__ import annotations
@@ -52,17 +53,25 @@ def _mu(v: float) -> str:
     return "inf" if math.isinf(v) else f"{v:g}"
 
 
-def methods(tables: list[str]) -> None:
-    """The exact method against RATTLE on a frictionless floor (module docstring)."""
+def methods(tables: list[str], e_floor: float = 0.0) -> None:
+    """The exact method against RATTLE on a frictionless floor, bouncing at ``e_floor``
+    (module docstring)."""
     from scipy.stats import ks_2samp
 
     df = pd.concat([pd.read_parquet(t) for t in tables], ignore_index=True)
-    df = df[(df.friction == 0.0) & (df.status == "landed")].copy()
+    if "restitution_floor" not in df:
+        df["restitution_floor"] = 0.0
+    df = df[(df.friction == 0.0) & (df.restitution_floor.fillna(0.0) == e_floor)]
+    for n, g in df.groupby(["segments", "method"]):
+        if (g.status != "landed").any():
+            print(f"N = {n[0]}, {n[1]}: {(g.status != 'landed').sum()} of {len(g)} did not land, not counted")
+    df = df[df.status == "landed"].copy()
     for col, src in (("elock", "energy_lost_locking"), ("eland", "energy_lost_landing")):
         df[col] = df[src] / df.energy_initial
     df["elost"] = df.elock + df.eland
     df["imb"] = (df.energy_imbalance / df.energy_initial).abs()
-    print("Frictionless floor, the exact method (event) against RATTLE, paired by start (event minus rattle):")
+    bounce = f", bouncing at E = {e_floor:g}" if e_floor else ""
+    print(f"Frictionless floor{bounce}, the exact method (event) against RATTLE, paired by start (event minus rattle):")
     print()
     print(
         "| N | pairs | event t_fall/t_ff [95%] | rattle t_fall/t_ff [95%] | paired t_fall/t_ff [95%] | KS p "
@@ -88,7 +97,9 @@ def methods(tables: list[str]) -> None:
     for n, g in df[df.method == "event"].groupby("segments"):
         print(
             f"N = {n}, the exact method: {int(g.n_instants.median())} instants, {int(g.events_lift.median())} "
-            f"lift-offs and {int(g.events_pin.median())} pin rows per fall (medians); deepest point "
+            "lift-offs"
+            + (f", {int(g.events_bounce.median())} bounces" if e_floor else "")
+            + f" and {int(g.events_pin.median())} pin rows per fall (medians); deepest point "
             f"{g.max_depth.max():.1e} b"
         )
 
@@ -98,9 +109,10 @@ def main() -> None:
     ap.add_argument("tables", nargs="+")
     ap.add_argument("--plot")
     ap.add_argument("--methods", action="store_true", help="the exact method against RATTLE at mu 0, paired")
+    ap.add_argument("--restitution-floor", type=float, default=0.0, help="with --methods: the falls bouncing at E")
     a = ap.parse_args()
     if a.methods:
-        methods(a.tables)
+        methods(a.tables, a.restitution_floor)
         return
     df = pd.read_parquet(a.tables[0])
     df["friction"] = df["friction"].fillna(math.inf)  # (tables written before the column: the anchor)

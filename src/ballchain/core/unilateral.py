@@ -333,9 +333,13 @@ def floor_velocity_impact(e, w, anchored, cand, forced, active, fcand, e_lock, w
     ``impacts.velocity_impact`` takes it beside the floor's rows: a hinge that comes out
     closing (pushed back to its limit by the others' impulses) is stopped by a second,
     inelastic pass from there (iw.lost_hinge: each hinge's share over both), and an impact
-    whose law would create energy is taken inelastic at every hinge instead.  With
-    ``e_lock`` 0, ``floor_impact`` itself.  Returns the number of trials (-1: failure)."""
-    if e_lock == 0.0:
+    whose law would create energy is taken inelastic at every hinge instead.  The same
+    check with Newton's law at the floor (the targets iw.rebound: each point's own
+    restitution, where its rows need not dissipate beside the others'): an impact that would
+    create energy is taken inelastic there too (iw.rebound zeroed; the points it would
+    bounce are held, logged ``pin``).  With ``e_lock`` 0 and no rebound, ``floor_impact``
+    itself.  Returns the number of trials (-1: failure)."""
+    if e_lock == 0.0 and iw.n_rebound[0] == 0:
         return floor_impact(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw)
     n = e.shape[0]
     held = anchored.copy()
@@ -365,6 +369,8 @@ def floor_velocity_impact(e, w, anchored, cand, forced, active, fcand, e_lock, w
         active[k] = iw.active_start[k]
     for j in range(anchored.shape[0]):
         anchored[j] = held[j]
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
     hinge_rates(e, w, iw.rates_start)
     it = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
     for k in range(cand.shape[0]):
@@ -374,9 +380,11 @@ def floor_velocity_impact(e, w, anchored, cand, forced, active, fcand, e_lock, w
 
 @njit(cache=True, _nrt=True)
 def _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, fw):
-    """Newton's law at the limits (``floor_velocity_impact``), and the second, inelastic
-    pass if a hinge comes out closing, the centres then moving with point N's velocity
-    after the first (iw.dv); iw.lost_hinge: each hinge's share."""
+    """Newton's law at the limits and at the floor (``floor_velocity_impact``), and the
+    second, inelastic pass if a hinge comes out closing, the centres then moving with point
+    N's velocity after the first (iw.dv), the floor's targets zeroed (Moreau's law there: a
+    bouncing point the pass pushes back down is stopped); iw.lost_hinge: each hinge's
+    share."""
     nh = cand.shape[0]
     n = e.shape[0]
     hinge_rates(e, w, iw.rates_start)
@@ -391,6 +399,9 @@ def _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, f
     uz = fw.vc[i, 2] - (w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0])
     for c in range(n):
         iw.dv[c, 0], iw.dv[c, 1], iw.dv[c, 2] = ux, uy, uz
+    for j in range(anchored.shape[0]):
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
     it2 = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
     if it2 < 0:
         return it2

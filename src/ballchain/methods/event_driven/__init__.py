@@ -34,14 +34,7 @@ CONTACT_VALUES = {
     ),
 }
 # ... and the pairs it refuses where the first takes the values a test names, with the reason
-CONTACT_EXCLUDES = (
-    (
-        ("friction", "restitution_floor"),
-        lambda mu: mu == 0.0,
-        "the event method's frictionless floor has no bounce yet (its impact holds a landing point on the "
-        "floor; --method rattle takes both)",
-    ),
-)
+CONTACT_EXCLUDES = ()
 
 # what a run's summary line of events counts beside them (the command line's): its event instants
 SUMMARY_COUNT = ("n_instants", "instants")

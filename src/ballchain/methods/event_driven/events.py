@@ -76,6 +76,7 @@ from .slides import (
     energies,
     held_candidates,
     hold_leaving,
+    leave_floor,
     log_lifts,
     mechanical,
     start_flight,
@@ -518,7 +519,7 @@ def _log_instant(t, na, model, chain, hs, ct, pt, iw, fl, log):
             continue  # (a point at the floor that the impact neither held nor touched: no landing)
         lost = -0.5 * (i0 * ct.pre_v[r, 0] + i1 * ct.pre_v[r, 1] + i2 * (ct.pre_v[r, 2] + ct.bounce[j]))
         kind = LOG_LANDING
-        if chain.anchored[j] == 0 and not slides(model.friction):
+        if chain.anchored[j] == 0 and (not slide or ct.bounce[j] > 0.0):
             kind = LOG_BOUNCE
         elif rebounds(floor_rebound(ct.pre_v[r, 2], e_floor), e_floor, RATE_TOL) or (
             slide and fl.fw.forced[j] == PINNED
@@ -591,6 +592,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
             fl.held[j] = chain.anchored[j]
             fl.seen[j] = fl.fcand[j]
             fl.fw.forced[j] = 0
+            ct.bounce[j] = 0.0
     else:
         na = _anchor_contacts(t, model, chain, ct, pt, any_landing, sc.iw)
     impact = _impact_candidates(model, chain, hs, ct) or na > 0
@@ -604,6 +606,8 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
             return ERR_IMPACT_LCP
         if model.e_floor > 0.0 and not slide:
             _leave_floor(model, chain, ct, pt, na, sc.iw)
+        elif model.e_floor > 0.0 and impact:
+            leave_floor(model, chain, ct, sc.iw, fl.fw, na)
         if settle:
             _settle_anchors(model, chain, hs)
         if not _lock_set(model, chain, ws, hs, acc, fl):

@@ -17,7 +17,10 @@ where the floor would pull.  What differs from the anchor, in one place:
   (``watch.EV_LIFT``, located as a lock's multiplier is), logged ``lift``;
 * the accumulation limit at the floor (``hold_leaving``, the hinges' ``rules.must_hold``
   with ``hold_rate_floor``): a point the impact lifts off the floor and that would land
-  again slower than that, or after a flight too small to resolve, is held (logged ``pin``).
+  again slower than that, or after a flight too small to resolve, is held (logged ``pin``);
+* restitution at the floor (``leave_floor``): the impact's height rows take Newton's
+  targets (``contacts.newton.floor_rebound``, in ``unilateral.floor_impact``); a point
+  that leaves at its target is let go (logged ``bounce``), keeping its horizontal velocity.
 
 With nothing held (the bottom end yanked up by a lock while nothing else lies on the
 floor) the chain flies: its centre of mass falls freely from point N's position and
@@ -28,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...contacts.newton import floor_rebound
+from ...contacts.newton import floor_rebound, rebounds
 from ...core.base import base_point, energies_moved, held_point, set_base
 from ...core.books import log_row
 from ...core.kinematics import point_positions, velocities
@@ -173,6 +176,27 @@ def hold_leaving(t, model, chain, pt, fl, seen):
             fl.fw.forced[j] = PINNED if pt.pv[j, 2] > RATE_TOL else AT_REST
             nheld += 1
     return nheld
+
+
+@njit(cache=True, _nrt=False)
+def leave_floor(model, chain, ct, iw, fw, na):
+    """After a round's impact, with restitution at the floor: a point listed at this instant
+    (ct.new_anchor[:na]) that landed fast enough to rebound (``floor_rebound`` of its
+    velocity before the instant, ct.pre_v) and leaves the floor faster than RATE_TOL
+    (``rebounds``, on its height rate after the impact, fw.vz) is let go, ct.bounce its
+    upward velocity; one the floor holds does not bounce (ct.bounce 0).  Newton's targets
+    are then zeroed (iw.rebound): the instant's later rounds take Moreau's law at the floor,
+    so that a point the next round pushes back down is stopped there and the rounds end."""
+    for r in range(na):
+        j = ct.new_anchor[r]
+        if floor_rebound(ct.pre_v[r, 2], model.e_floor) > 0.0 and rebounds(fw.vz[j], model.e_floor, RATE_TOL):
+            chain.anchored[j] = 0
+            ct.bounce[j] = fw.vz[j]
+        elif chain.anchored[j] != 0:
+            ct.bounce[j] = 0.0
+    for j in range(iw.rebound.shape[0]):
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
 
 
 @njit(cache=True, _nrt=False)
