@@ -20,7 +20,8 @@ against RATTLE's paired by start (the same N, seed and spawn key): per N the pai
 method's mean t_fall/t_ff with its interval, the paired differences (exact minus RATTLE)
 of t_fall/t_ff, E_lock/E0, E_land/E0 and their sum with their intervals, the two-sample
 Kolmogorov-Smirnov p of t_fall/t_ff, each method's worst |imbalance|/E0 and its median
-wall time of a fall; and the exact method's median counts per fall of instants, lift-offs
+wall time of a fall; the paired t_fall/t_ff's median and each method's slowest fall; and the
+exact method's median counts per fall of instants, lift-offs
 and the accumulation rule's ``pin`` rows.  ``--restitution-floor E``: the falls on a
 frictionless floor that bounces at E instead (their bounces counted too).
 """
@@ -94,6 +95,15 @@ def methods(tables: list[str], e_floor: float = 0.0) -> None:
             f"| {e.imb.max():.1e}, {r.imb.max():.1e} | {e.wall_seconds.median():.1f} s, {r.wall_seconds.median():.1f} s |"
         )
     print()
+    for n, g in df.groupby("segments"):
+        ev = g[g.method == "event"].set_index(key).ratio
+        ra = g[g.method == "rattle"].set_index(key).ratio
+        idx = ev.index.intersection(ra.index)
+        if not idx.empty:
+            print(
+                f"N = {n}: the paired t_fall/t_ff's median {(ev.loc[idx] - ra.loc[idx]).median():+.4f}; the slowest "
+                f"fall {ev.loc[idx].max():.3f} (event), {ra.loc[idx].max():.3f} (rattle)"
+            )
     for n, g in df[df.method == "event"].groupby("segments"):
         print(
             f"N = {n}, the exact method: {int(g.n_instants.median())} instants, {int(g.events_lift.median())} "

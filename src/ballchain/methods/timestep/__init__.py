@@ -29,11 +29,13 @@ SUMMARY_COUNT = ("n_steps", "steps")  # what the summary's line of events counts
 CONTACTS = ("restitution_lock", "hinge_damping")
 # ... and why it refuses the others (``check_contacts`` names the reason).  Restitution at the
 # floor is in the kernels (stepper._aim_rebounds, _leave_floor, _let_go: a rod's bounces are
-# Newton's to first order, tests/test_timestep_restitution.py), but a chain's bouncing points
-# have no floor row once free and sink below the floor (docs/restitution-floor.md, finding 6).
+# Newton's to first order, tests/test_timestep_restitution.py; _hold_sinking: the projection
+# holds at the floor a bouncing point it would push below it), but on whole chains some falls
+# still break their anchors (benchmarks/probes/timestep_bounce.py; docs/restitution-floor.md,
+# finding 6).
 CONTACT_REFUSALS = {
-    "restitution_floor": "a chain's bouncing points sink below the floor (66 of 240 falls at N = 64 and 128 "
-    "ended in error: docs/restitution-floor.md); the event method and RATTLE take it",
+    "restitution_floor": "some falls of a bouncing chain break their anchors (4 of 48 at N = 128: "
+    "benchmarks/probes/timestep_bounce.py; docs/restitution-floor.md); the event method and RATTLE take it",
 }
 CONTACT_BOUNDS = {
     "restitution_lock": (

@@ -144,6 +144,7 @@ Scratch = namedtuple(
         "e_used",  # (1,): the restitution at the limits the last impact problem took (0: Moreau's law)
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
+        "held",  # (N+1,) uint8: free points the projection holds at the floor (``_hold_sinking``)
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
     ],
 )
@@ -169,19 +170,20 @@ FrameWork = namedtuple(
         "vel",
         "was",
         "e_pred",
+        "held",
     ],
 )
 
 
 # What the projection (``_project``) works in: the run's scratch (``Scratch``) or a frame's
 # (``FrameWork``) hold these arrays; passed alone, its kernel compiles once for both.
-Projection = namedtuple("Projection", ["gaps", "pv", "pts", "vel", "was", "e_pred"])
+Projection = namedtuple("Projection", ["gaps", "pv", "pts", "vel", "was", "e_pred", "held"])
 
 
 def projection_scratch(b) -> Projection:
     """The projection's arrays of a ``Scratch`` or a ``FrameWork`` (from Python; compiled
     code builds the bundle where it calls ``_project``)."""
-    return Projection(b.gaps, b.pv, b.pts, b.vel, b.was, b.e_pred)
+    return Projection(b.gaps, b.pv, b.pts, b.vel, b.was, b.e_pred, b.held)
 
 
 def new_frame_work(n: int) -> FrameWork:
@@ -192,6 +194,7 @@ def new_frame_work(n: int) -> FrameWork:
     return FrameWork(
         np.zeros(1), np.zeros(1), v3(n), np.zeros(8), np.zeros(8), chain, new_books(),
         new_work(n), np.zeros(nh), v3(n + 1), v3(n + 1), v3(n), np.zeros(nh, np.uint8), v3(n),
+        np.zeros(n + 1, np.uint8),
     )  # fmt: skip
 
 
@@ -204,7 +207,7 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64),
-        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), new_impact_work(n),
+        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), np.zeros(n + 1, np.uint8), new_impact_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -233,14 +236,15 @@ def rotate_axes(e, w, h, anchored, out):
 def _touches(t, r0, model, chain, sc, books):
     """Part 2: anchor where they are the points at the floor: a floor function at most
     TOUCH_TOL, or that of a point the last step was cut to land (marked 2 during the
-    impact), listed from sc.new_anchor[r0]; returns their number."""
+    impact), listed from sc.new_anchor[r0]; returns their number.  With restitution at the
+    floor, a point due that rises at the step's start (one that has bounced: ``_let_go``)
+    touches too: it is due because the step's impulses turn it down (``_turned_down``)."""
     e, anchored = chain.Y[0], chain.anchored
     floor_values(model.floor, e, anchored, 0.0, sc.fv)
     ztol = TOUCH_TOL
     for j in range(sc.fv.shape[0]):
         if sc.due[j] and math.isfinite(sc.fv[j]):
             ztol = max(ztol, sc.fv[j])
-        sc.due[j] = 0
     point_positions(e, sc.pts)
     _point_velocities(e, chain.Y[1], sc.v_pre, sc.pv)
     na = floor_contacts(model.floor, e, sc.pts, sc.pv, anchored, True, ztol, sc.new_anchor[r0:])
@@ -249,6 +253,14 @@ def _touches(t, r0, model, chain, sc, books):
         hold_at(chain, j, sc.pts)
         anchored[j] = 2
         chain.anchor_t[j] = t
+    for j in range(sc.fv.shape[0]):
+        if model.e_floor > 0.0 and sc.due[j] and anchored[j] == 0:  # (due, rising at the step's start: turned down)
+            sc.new_anchor[r0 + na] = j
+            na += 1
+            hold_at(chain, j, sc.pts)
+            anchored[j] = 2
+            chain.anchor_t[j] = t
+        sc.due[j] = 0
     fall_ended(books, t, False, not top_event(model.floor) and anchored[0] != 0)
     return na
 
@@ -337,6 +349,8 @@ def _landing_cut(h, model, chain, sc):
         sc.due[j] = 0
         if math.isfinite(f) and f > 0.0 and fp <= 0.0:
             s = min(s, f / (f - fp))
+        elif _turned_down(model.e_floor, f, fp):  # (at the floor, a bounced point turned down: it lands now)
+            s = 0.0
         if math.isfinite(f) and fp < f and fp <= LAND_SLACK * (f - fp):
             sc.due[j] = 1
     return max(s, TOUCH_FRACTION)
@@ -372,11 +386,22 @@ def _copy3(src, dst):
 
 
 @njit(cache=True, _nrt=False)
-def _first_to_land(s, sc):
-    """Mark due the points predicted to reach the floor first (at the fraction s)."""
+def _first_to_land(s, e_floor, sc):
+    """Mark due the points predicted to reach the floor first (at the fraction s), and
+    those at it that the step turns down (``_turned_down``)."""
     for j in range(sc.fv.shape[0]):
         f, fp = sc.fv[j], sc.fv_pred[j]
-        sc.due[j] = 1 if (math.isfinite(f) and f > 0.0 and fp <= 0.0 and f / (f - fp) <= s * (1.0 + 1e-9)) else 0
+        first = math.isfinite(f) and f > 0.0 and fp <= 0.0 and f / (f - fp) <= s * (1.0 + 1e-9)
+        sc.due[j] = 1 if (first or _turned_down(e_floor, f, fp)) else 0
+
+
+@njit(cache=True, _nrt=False)
+def _turned_down(e_floor, f, fp):
+    """With restitution at the floor: a free point at the floor (floor function f <= 0: one
+    that has bounced, let go there by ``_let_go``) that the step turns down (its predicted
+    fp below f) lands at once, in this step (Moreau's law: it was rising), not a step's
+    travel below the floor at the next."""
+    return e_floor > 0.0 and math.isfinite(f) and f <= 0.0 and fp < f
 
 
 @njit(cache=True, _nrt=False)
@@ -618,8 +643,18 @@ def _project(model, chain, ws, sc, books):
             chain.lock_cos[k] = model.cos_alpha
         tol = projection_tol(e.shape[0])
         res0, res = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
-        unmet = attempt == 0 and res > PROJ_UNMET * tol
         point_positions(e, sc.pts)
+        if _hold_sinking(model, chain, sc) > 0:  # (free points pushed below the floor: held at it, again)
+            _copy3(sc.e_pred, e)
+            r0h, rh = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
+            _release_held(chain, sc)
+            if rh > PROJ_UNMET * tol:  # (no state meets the floor's rows beside the others: as before)
+                _copy3(sc.e_pred, e)
+                res0, res = project_state(chain, ws, sc.pts, sc.vel, tol, np.int64(PROJ_ITERS), False)
+            else:
+                res0, res = r0h, rh
+            point_positions(e, sc.pts)
+        unmet = attempt == 0 and res > PROJ_UNMET * tol
         moved = 0.0
         for j in range(sc.pts.shape[0]):
             for q in range(3):
@@ -632,6 +667,36 @@ def _project(model, chain, ws, sc, books):
         locked[k] = sc.was[k]
     books.projected[PROJECTED_IN_STEPS] += potential_energy(e) - before
     return undone
+
+
+@njit(cache=True, _nrt=False)
+def _hold_sinking(model, chain, sc):
+    """With restitution at the floor: the free points that the projection has pushed below
+    the floor (below both their height before it, sc.pv, and the floor, by more than
+    TOUCH_TOL; sc.pts their height after) are held at the floor's height for it
+    (``LEAVING``: a height row, as a point bouncing off in this step): the projection onto
+    the constraints with the floor's row active where it binds.  A point that has bounced lies at the floor, free, beside the hinges the
+    projection puts back on their limits (sc.held: those; ``_release_held`` frees them
+    again).  Returns their number."""
+    if model.e_floor == 0.0:
+        return 0
+    n = 0
+    for j in range(chain.anchored.shape[0]):
+        sc.held[j] = 0
+        if chain.anchored[j] == 0 and sc.pts[j, 2] < min(sc.pv[j, 2], 0.0) - TOUCH_TOL:
+            chain.anchored[j] = LEAVING
+            sc.held[j] = 1
+            n += 1
+    return n
+
+
+@njit(cache=True, _nrt=False)
+def _release_held(chain, sc):
+    """The points ``_hold_sinking`` held for the projection are free again."""
+    for j in range(chain.anchored.shape[0]):
+        if sc.held[j]:
+            chain.anchored[j] = 0
+            sc.held[j] = 0
 
 
 @njit(cache=True, _nrt=False)
@@ -739,7 +804,7 @@ def _state_between(s, model, chain, sc, fw):
     for q in range(3):
         fb.floor_flow[q] = (1.0 - s) * a[3 + q] + s * b[3 + q]
         fb.floor_impulse[q] = 0.0
-    _project(model, fc, fw.ws, Projection(fw.gaps, fw.pv, fw.pts, fw.vel, fw.was, fw.e_pred), fb)
+    _project(model, fc, fw.ws, Projection(fw.gaps, fw.pv, fw.pts, fw.vel, fw.was, fw.e_pred, fw.held), fb)
     return (1.0 - s) * a[0] + s * b[0]
 
 
@@ -839,7 +904,7 @@ def step(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
         if s_turn < s:
             h *= s_turn
         elif s * h < MIN_CUT * dt:  # at the floor already: it touches now, the step stays
-            _first_to_land(s, sc)
+            _first_to_land(s, model.e_floor, sc)
             _copy3(sc.w_pre, w)
             more = _touches(t, na, model, chain, sc, books)
             if model.e_floor > 0.0:
@@ -865,7 +930,7 @@ def step(t, dt, model, chain, ws, sc, fw, books, frames, trace, log):
     u0 = potential_energy(e)
     rotate_axes(e, sc.w_mid, h, anchored, e)
     books.work_error[0] += _kick_energy(h, anchored, sc.v_pre) + potential_energy(e) - u0
-    _project(model, chain, ws, Projection(sc.gaps, sc.pv, sc.pts, sc.vel, sc.was, sc.e_pred), books)
+    _project(model, chain, ws, Projection(sc.gaps, sc.pv, sc.pts, sc.vel, sc.was, sc.e_pred, sc.held), books)
     if model.e_floor > 0.0:
         _let_go(chain)
     t_end = t + h
