@@ -146,7 +146,6 @@ def test_a_bouncing_chains_points_stay_at_the_floor(monkeypatch, spawn_key, e_fl
     lands with no point deeper than 1e-3 b (a step's travel: the method is first order)
     and its audit clean.  (The kernels' law: the registry refuses it, see below.)"""
     import ballchain.methods.timestep as ts
-
     from ballchain.model import InitialCondition
 
     monkeypatch.setattr(ts, "CONTACTS", (*ts.CONTACTS, "restitution_floor"))
