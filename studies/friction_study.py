@@ -21,8 +21,8 @@ method's mean t_fall/t_ff with its interval, the paired differences (exact minus
 of t_fall/t_ff, E_lock/E0, E_land/E0 and their sum with their intervals, the two-sample
 Kolmogorov-Smirnov p of t_fall/t_ff, each method's worst |imbalance|/E0 and its median
 wall time of a fall; the paired t_fall/t_ff's median and each method's slowest fall; and the
-exact method's median counts per fall of instants, lift-offs
-and the accumulation rule's ``pin`` rows.  ``--restitution-floor E``: the falls on a
+exact method's median counts per fall of instants, lift-offs and the accumulation rule's
+``pin`` rows.  ``--restitution-floor E``: the falls on a
 frictionless floor that bounces at E instead (their bounces counted too).
 """
 
@@ -81,6 +81,7 @@ def methods(tables: list[str], e_floor: float = 0.0) -> None:
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     key = ["seed", "spawn_key"]
+    spread = []  # the paired t_fall/t_ff's median and each method's slowest fall, per N
     for n, g in df.groupby("segments"):
         ev = g[g.method == "event"].set_index(key)
         ra = g[g.method == "rattle"].set_index(key)
@@ -88,6 +89,10 @@ def methods(tables: list[str], e_floor: float = 0.0) -> None:
         if idx.empty:
             continue
         e, r = ev.loc[idx], ra.loc[idx]
+        spread.append(
+            f"N = {n}: the paired t_fall/t_ff's median {(e.ratio - r.ratio).median():+.4f}; the slowest "
+            f"fall {e.ratio.max():.3f} (event), {r.ratio.max():.3f} (rattle)"
+        )
         print(
             f"| {n} | {len(idx)} | {_interval(e.ratio)} | {_interval(r.ratio)} | {_interval(e.ratio - r.ratio, 4)} "
             f"| {ks_2samp(e.ratio, r.ratio).pvalue:.2f} | {_interval(e.elock - r.elock, 4)} "
@@ -95,15 +100,7 @@ def methods(tables: list[str], e_floor: float = 0.0) -> None:
             f"| {e.imb.max():.1e}, {r.imb.max():.1e} | {e.wall_seconds.median():.1f} s, {r.wall_seconds.median():.1f} s |"
         )
     print()
-    for n, g in df.groupby("segments"):
-        ev = g[g.method == "event"].set_index(key).ratio
-        ra = g[g.method == "rattle"].set_index(key).ratio
-        idx = ev.index.intersection(ra.index)
-        if not idx.empty:
-            print(
-                f"N = {n}: the paired t_fall/t_ff's median {(ev.loc[idx] - ra.loc[idx]).median():+.4f}; the slowest "
-                f"fall {ev.loc[idx].max():.3f} (event), {ra.loc[idx].max():.3f} (rattle)"
-            )
+    print("\n".join(spread))
     for n, g in df[df.method == "event"].groupby("segments"):
         print(
             f"N = {n}, the exact method: {int(g.n_instants.median())} instants, {int(g.events_lift.median())} "

@@ -502,9 +502,7 @@ def velocity_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
             w[i, q] = iw.w_start[i, q]
     for k in range(nh):
         active[k] = iw.active_start[k]
-    for j in range(iw.rebound.shape[0]):
-        iw.rebound[j] = 0.0
-    iw.n_rebound[0] = 0
+    clear_rebounds(iw)
     return _newton_impact(e, w, anchored, cand, forced, active, 0.0, ws, iw)
 
 
@@ -520,6 +518,15 @@ def stepped_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw):
     motion of the step (gravity's kick).  Returns the number of trials (negative if the
     pivoting did not converge)."""
     return _pivoted_impact(e, w, anchored, cand, forced, active, e_lock, ws, iw)
+
+
+@njit(cache=True, _nrt=False)
+def clear_rebounds(iw):
+    """No point leaves the floor at the next impact: iw.rebound zeroed (Moreau's law at the
+    floor: an impact taken inelastic, or an instant's or a step's later rounds)."""
+    for j in range(iw.rebound.shape[0]):
+        iw.rebound[j] = 0.0
+    iw.n_rebound[0] = 0
 
 
 @njit(cache=True, _nrt=False)

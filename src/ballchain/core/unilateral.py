@@ -46,6 +46,7 @@ from .impacts import (
     _impact_violations,
     _lock_violations,
     add_first_pass,
+    clear_rebounds,
     first_pass_closing,
     hinge_accels,
     hinge_rates,
@@ -369,8 +370,7 @@ def floor_velocity_impact(e, w, anchored, cand, forced, active, fcand, e_lock, w
         active[k] = iw.active_start[k]
     for j in range(anchored.shape[0]):
         anchored[j] = held[j]
-        iw.rebound[j] = 0.0
-    iw.n_rebound[0] = 0
+    clear_rebounds(iw)
     hinge_rates(e, w, iw.rates_start)
     it = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
     for k in range(cand.shape[0]):
@@ -399,9 +399,7 @@ def _floor_newton(e, w, anchored, cand, forced, active, fcand, e_lock, ws, iw, f
     uz = fw.vc[i, 2] - (w[i, 0] * e[i, 1] - w[i, 1] * e[i, 0])
     for c in range(n):
         iw.dv[c, 0], iw.dv[c, 1], iw.dv[c, 2] = ux, uy, uz
-    for j in range(anchored.shape[0]):
-        iw.rebound[j] = 0.0
-    iw.n_rebound[0] = 0
+    clear_rebounds(iw)
     it2 = floor_impact(e, w, anchored, cand, forced, active, fcand, 0.0, ws, iw, fw)
     if it2 < 0:
         return it2

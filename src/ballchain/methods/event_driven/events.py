@@ -76,9 +76,9 @@ from .slides import (
     energies,
     held_candidates,
     hold_leaving,
-    leave_floor,
     log_lifts,
     mechanical,
+    release_bounces,
     start_flight,
     touch_candidates,
 )
@@ -607,7 +607,7 @@ def handle_event(t, model, chain, watch, ws, sc, books, log, found):
         if model.e_floor > 0.0 and not slide:
             _leave_floor(model, chain, ct, pt, na, sc.iw)
         elif model.e_floor > 0.0 and impact:
-            leave_floor(model, chain, ct, sc.iw, fl.fw, na)
+            release_bounces(model, chain, ct, sc.iw, fl.fw, na)
         if settle:
             _settle_anchors(model, chain, hs)
         if not _lock_set(model, chain, ws, hs, acc, fl):

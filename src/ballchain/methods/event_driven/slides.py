@@ -18,7 +18,7 @@ where the floor would pull.  What differs from the anchor, in one place:
 * the accumulation limit at the floor (``hold_leaving``, the hinges' ``rules.must_hold``
   with ``hold_rate_floor``): a point the impact lifts off the floor and that would land
   again slower than that, or after a flight too small to resolve, is held (logged ``pin``);
-* restitution at the floor (``leave_floor``): the impact's height rows take Newton's
+* restitution at the floor (``release_bounces``): the impact's height rows take Newton's
   targets (``contacts.newton.floor_rebound``, in ``unilateral.floor_impact``); a point
   that leaves at its target is let go (logged ``bounce``), keeping its horizontal velocity.
 
@@ -34,6 +34,7 @@ import numpy as np
 from ...contacts.newton import floor_rebound, rebounds
 from ...core.base import base_point, energies_moved, held_point, set_base
 from ...core.books import log_row
+from ...core.impacts import clear_rebounds
 from ...core.kinematics import point_positions, velocities
 from ...core.rules import LOG_LIFT, RATE_TOL, SLIDING, Z_TOL, must_hold
 from ...floors.dispatch import floor_contacts
@@ -179,7 +180,7 @@ def hold_leaving(t, model, chain, pt, fl, seen):
 
 
 @njit(cache=True, _nrt=False)
-def leave_floor(model, chain, ct, iw, fw, na):
+def release_bounces(model, chain, ct, iw, fw, na):
     """After a round's impact, with restitution at the floor: a point listed at this instant
     (ct.new_anchor[:na]) that landed fast enough to rebound (``floor_rebound`` of its
     velocity before the instant, ct.pre_v) and leaves the floor faster than RATE_TOL
@@ -194,9 +195,7 @@ def leave_floor(model, chain, ct, iw, fw, na):
             ct.bounce[j] = fw.vz[j]
         elif chain.anchored[j] != 0:
             ct.bounce[j] = 0.0
-    for j in range(iw.rebound.shape[0]):
-        iw.rebound[j] = 0.0
-    iw.n_rebound[0] = 0
+    clear_rebounds(iw)
 
 
 @njit(cache=True, _nrt=False)

@@ -63,7 +63,7 @@ from ...core.blocks import fits4, forces4, generalized_forces, reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
 from ...core.dynamics import pile_pull
 from ...core.forces import any_smooth_law, smooth_torques
-from ...core.impacts import hinge_gaps, hinge_rates, new_impact_work, stepped_impact, velocity_impact
+from ...core.impacts import clear_rebounds, hinge_gaps, hinge_rates, new_impact_work, stepped_impact, velocity_impact
 from ...core.kinematics import (
     drift_removable,
     point_positions,
@@ -249,20 +249,24 @@ def _touches(t, r0, model, chain, sc, books):
     _point_velocities(e, chain.Y[1], sc.v_pre, sc.pv)
     na = floor_contacts(model.floor, e, sc.pts, sc.pv, anchored, True, ztol, sc.new_anchor[r0:])
     for r in range(r0, r0 + na):
-        j = sc.new_anchor[r]
-        hold_at(chain, j, sc.pts)
-        anchored[j] = 2
-        chain.anchor_t[j] = t
+        _touch(t, chain, sc.new_anchor[r], sc)
     for j in range(sc.fv.shape[0]):
         if model.e_floor > 0.0 and sc.due[j] and anchored[j] == 0:  # (due, rising at the step's start: turned down)
             sc.new_anchor[r0 + na] = j
             na += 1
-            hold_at(chain, j, sc.pts)
-            anchored[j] = 2
-            chain.anchor_t[j] = t
+            _touch(t, chain, j, sc)
         sc.due[j] = 0
     fall_ended(books, t, False, not top_event(model.floor) and anchored[0] != 0)
     return na
+
+
+@njit(cache=True, _nrt=False)
+def _touch(t, chain, j, sc):
+    """Point j touches the floor at t: anchored where it is (sc.pts; marked 2 during the
+    impact)."""
+    hold_at(chain, j, sc.pts)
+    chain.anchored[j] = 2
+    chain.anchor_t[j] = t
 
 
 @njit(cache=True, _nrt=False)
@@ -273,9 +277,7 @@ def _aim_rebounds(r0, na, e_floor, sc):
     Moreau-Jean's form; its horizontal velocity stopped (the rough floor)."""
     iw = sc.iw
     if r0 == 0:
-        for j in range(iw.rebound.shape[0]):
-            iw.rebound[j] = 0.0
-        iw.n_rebound[0] = 0
+        clear_rebounds(iw)
     for r in range(r0, r0 + na):
         j = sc.new_anchor[r]
         iw.rebound[j] = floor_rebound(sc.pv[j, 2], e_floor)
@@ -538,9 +540,7 @@ def _solve(model, chain, ws, sc):
             break
         e_lock = 0.0  # Newton's law raised the energy: the step's impact inelastic
         newton = False
-        for j in range(iw.rebound.shape[0]):
-            iw.rebound[j] = 0.0
-        iw.n_rebound[0] = 0
+        clear_rebounds(iw)
         _copy3(sc.w_pre, w)
         for k in range(sc.cand.shape[0]):
             sc.active[k] = sc.cand[k]
@@ -674,10 +674,10 @@ def _hold_sinking(model, chain, sc):
     """With restitution at the floor: the free points that the projection has pushed below
     the floor (below both their height before it, sc.pv, and the floor, by more than
     TOUCH_TOL; sc.pts their height after) are held at the floor's height for it
-    (``LEAVING``: a height row, as a point bouncing off in this step): the projection onto
-    the constraints with the floor's row active where it binds.  A point that has bounced lies at the floor, free, beside the hinges the
-    projection puts back on their limits (sc.held: those; ``_release_held`` frees them
-    again).  Returns their number."""
+    (``LEAVING``: a height row, as a point bouncing off in this step; sc.held marks them,
+    ``_release_held`` frees them again): the projection onto the constraints with the
+    floor's row active where it binds.  A point that has bounced lies at the floor, free,
+    beside the hinges the projection puts back on their limits.  Returns their number."""
     if model.e_floor == 0.0:
         return 0
     n = 0
