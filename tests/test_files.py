@@ -66,6 +66,7 @@ def make_result(
         frame_base=np.zeros((frames, 3)),
         frame_base_velocity=np.zeros((frames, 3)),
         frame_lost_sliding=np.cumsum(rng.random(frames)),
+        frame_tension=rng.normal(size=(frames, n + 1)),
         event_t=np.sort(rng.uniform(0, 3, size=events)),
         event_kind=rng.integers(1, 9, size=events).astype(np.int8),
         event_index=rng.integers(0, n + 1, size=events).astype(np.int64),
@@ -149,7 +150,7 @@ def test_file_is_self_describing(tmp_path):
     save_result(r, path)
     with h5py.File(path, "r") as f:
         assert f.attrs["format"] == FORMAT_NAME
-        assert int(f.attrs["format_version"]) == 5
+        assert int(f.attrs["format_version"]) == 6
         assert f.attrs["units"] == "SI"
         assert "created" in f.attrs and "package_version" in f.attrs
         assert set(f.attrs) == set(files.ROOT_ATTRS)  # the root's attributes are those documented
@@ -234,6 +235,20 @@ def test_a_file_from_before_a_ledger_loads_with_nothing_booked_there(tmp_path, v
     back = load_result(path)
     assert getattr(back, name).shape == (7,) and np.all(getattr(back, name) == 0.0)
     np.testing.assert_array_equal(getattr(back, kept), getattr(r, kept))
+
+
+def test_a_file_from_before_the_tension_loads_it_as_not_computed(tmp_path):
+    """A file written before the tension was recorded (version 5) lacks it: it loads as
+    NaN, one value per point and frame, the rest as written."""
+    r = make_result(n=6, frames=7, events=5)
+    path = tmp_path / "v5.h5"
+    save_result(r, path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = np.int64(5)
+        del f["frames/frame_tension"]
+    back = load_result(path)
+    assert back.frame_tension.shape == (7, 7) and np.all(np.isnan(back.frame_tension))
+    np.testing.assert_array_equal(back.frame_pile_pull, r.frame_pile_pull)
 
 
 def test_units_nondimensional():
@@ -393,7 +408,7 @@ def test_file_info(tmp_path):
     p = tmp_path / "run.h5"
     save_result(make_result(), p)
     info = files.file_info(p)
-    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 5
+    assert info["format"] == FORMAT_NAME and info["format_version"] == FORMAT_VERSION == 6
     assert info["units"] == "nondimensional" and info["status"] == "landed"
 
 

@@ -132,3 +132,27 @@ def test_a_bad_stretch_is_one_line(run, tmp_path):
     _, path = run
     res = CliRunner().invoke(app, ["view", str(path), "--out", str(tmp_path / "v.html"), "--stretch", "0"])
     assert res.exit_code == 2 and res.stderr.startswith("error: --stretch") and res.stderr.count("\n") == 1
+
+
+def test_the_chain_coloured_by_its_tension(run, tmp_path):
+    """--colour tension: one line through the points, each coloured by the run's tension
+    there in m g at that frame (in every animation frame), the scale symmetric about 0;
+    a bad colouring, or a file without the tension, is one line."""
+    r, path = run
+    fig = view_figure(r, frames=4, colour="tension")
+    chain = fig.data[0]
+    n = r.params.segments
+    assert chain.name == "tension" and len(chain.x) == n + 1
+    assert chain.marker.cmin == -chain.marker.cmax > -np.inf and chain.marker.cmax > 0
+    idx = np.linspace(0, len(r.frame_t) - 1, 4).round().astype(int)
+    for k, i in enumerate(idx):
+        np.testing.assert_allclose(fig.frames[k].data[0].marker.color, np.round(r.frame_tension[i], 4), atol=1e-12)
+    np.testing.assert_allclose(chain.z, np.round(r.points([idx[0]])[0, :, 2] / r.params.half_length, 4))
+    res = CliRunner().invoke(app, ["view", str(path), "--out", str(tmp_path / "v.html"), "--colour", "heat"])
+    assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+    old = r.__class__(**{**r.__dict__, "frame_tension": np.full_like(r.frame_tension, np.nan)})
+    save_result(old, tmp_path / "old.h5")
+    res = CliRunner().invoke(
+        app, ["view", str(tmp_path / "old.h5"), "--out", str(tmp_path / "o.html"), "--colour", "tension"]
+    )
+    assert res.exit_code == 2 and "no tension" in res.output and res.output.count("\n") == 1, res.output

@@ -87,7 +87,7 @@ def window_losses(
     level = 0.0 if h_now is None else max(0.0, math.log2(h / h_now))  # (the step is h / 2^level)
     bound = c.energy_bound[0] if etol_abs is None else etol_abs
     control = new_step_control(bound, cut, c.extra_cuts[0], level)  # (no cut pending, none before)
-    fall = fall._replace(control=control, frame_books=new_frame_books())  # (no frame pending)
+    fall = fall._replace(control=control, frame_books=new_frame_books(fall.motion.e.shape[0]))  # (no frame pending)
     frames = new_frames(n, math.inf, 16)
     frames.next[0] = math.inf
     trace, log = new_trace(1 << 16), new_log(1 << 16)

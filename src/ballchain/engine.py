@@ -355,6 +355,7 @@ def _make_result(setup: Setup, out: RunOutput, wall0: float) -> Result:
         frame_lost_landing=fr["lost_landing"] * eu,
         frame_lost_damping=fr["lost_damping"] * eu,
         frame_lost_sliding=fr["lost_sliding"] * eu,
+        frame_tension=fr["tension"] * fu,
         frame_pile_pull=fr["pile_pull"] * fu,
         frame_scale_force=fr["scale_force"] * fu,
         frame_floor_impulse=fr["floor_impulse"] * iu,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from ..inputs import _START, _parse_angle
@@ -46,7 +47,8 @@ def plot(
     formats: str = typer.Option("png,pdf", "--formats", help="Comma-separated file formats, e.g. png,pdf,svg."),
 ) -> None:
     """Figures of one run: z_top against free fall, energy budget, floor force and the
-    pile's pull, top view of the pile, lock map, gamma measured from the floor (one file per figure and format)."""
+    pile's pull, top view of the pile, lock map, the tension along the chain (with the top end's
+    acceleration), gamma measured from the floor (one file per figure and format)."""
     fmts = tuple(f.strip().lower() for f in formats.split(",") if f.strip())
     bad = [f for f in fmts if f not in ("png", "pdf", "svg")]
     if not fmts or bad:
@@ -198,6 +200,12 @@ def view(
         help="Draw the horizontal lengths this many times the vertical ones (default 1: true proportions; "
         "the title says when it is not 1).",
     ),
+    colour: str = typer.Option(
+        "state",
+        "--colour",
+        help="What colours the chain: state (free, locked and landed segments) or tension (every point by the "
+        "tension there, in m g: red pulls, blue pushes).",
+    ),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
 ) -> None:
     """An orbitable 3D view of a run with a time slider, in one HTML file (plotly)."""
@@ -208,15 +216,19 @@ def view(
             raise ParameterError(f"--out: expected a .html file name, got {out!r}")
         if not (math.isfinite(stretch) and stretch > 0):
             raise ParameterError(f"--stretch: expected a number > 0, got {stretch!r}")
+        if colour not in ("state", "tension"):
+            raise ParameterError(f"--colour: expected state or tension, got {colour!r}")
         check_writable(out, force, "--out")
         result = load_result(file)
         frame_indices(len(result.frame_t), every=every, frames=frames)  # checks the options against the run
+        if colour == "tension" and not np.isfinite(np.asarray(result.frame_tension, dtype=float)).all():
+            raise ParameterError(f"--colour tension: {file} has no tension (written before result format 6)")
     except (ParameterError, ResultFileError, FileExistsError, AnimationError) as e:
         _error(str(e))
         raise typer.Exit(EXIT_USAGE)
     from ..plots.view import write_view  # lazy: plotly
 
-    typer.echo(str(write_view(result, out, every=every, frames=frames, stretch=stretch)))
+    typer.echo(str(write_view(result, out, every=every, frames=frames, stretch=stretch, colour=colour)))
 
 
 @app.command()

@@ -27,6 +27,7 @@ from .forces import any_smooth_law, smooth_torques, torque_rhs
 from .rows import (
     ROW_ANCHOR_LOWER,
     ROW_ANCHOR_UPPER,
+    ROW_HINGE,
     ROW_LOCK,
     ROW_SLIDE_LOWER,
     ROW_SLIDE_UPPER,
@@ -146,3 +147,28 @@ def pile_pull(anchored, kind, nrow, x, out):
                 for q in range(3):
                     out[q] = x[j, q]
             return
+
+
+@njit(cache=True, _nrt=False)
+def chain_tension(e, kind, nrow, x, out):
+    """out[j] = T_j, the tension of the airborne chain at point j, pulling positive: the
+    force on the segment above point j there, along it, T_j = -F_j . e_{j-1} (F_j: the
+    hinge's multipliers, which act on the segment above (``rows``), or at a held point
+    the support's force on it, its anchor-lower rows).  At a held point with no airborne
+    segment above (a held top end) the support's force on the segment below, along it,
+    T_j = F_j . e_j.  0 where no such row acts: a free end, the points between landed
+    segments (the floor holds them).  Units of x (m g: forces, or m sqrt(g b): a step's
+    impulses)."""
+    n = e.shape[0]
+    for j in range(n + 1):
+        above, nh = 0.0, 0  # the hinge's or the lower anchor's force on the segment above, along it
+        below, nu = 0.0, 0  # the upper anchor's force on the segment below, along it
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if (k == ROW_HINGE or k == ROW_ANCHOR_LOWER) and j > 0:
+                above += x[j, r] * e[j - 1, r % 3]
+                nh += 1
+            elif k == ROW_ANCHOR_UPPER and j < n:
+                below += x[j, r] * e[j, r % 3]
+                nu += 1
+        out[j] = -above if nh > 0 else (below if nu > 0 else 0.0)

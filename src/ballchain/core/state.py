@@ -242,6 +242,7 @@ Frames = namedtuple(
         "base",  # (3,): the position of point N (the bottom end): 0 unless it slides (a frictionless floor)
         "base_velocity",  # (3,): its velocity
         "lost_sliding",  # the friction force's work on sliding points to the frame's time (Books.lost_sliding)
+        "tension",  # (N+1,): the tension at every point (``dynamics.chain_tension``; a stepper's: the step's mean)
     ],
 )
 FRAME_FIELDS = Frames._fields[4:]  # the per-frame arrays, in the order of the fields
@@ -272,6 +273,7 @@ def new_frames(n: int, dt: float, cap: int) -> Frames:
         np.zeros((cap, 3)),
         np.zeros((cap, 3)),
         np.zeros(cap),
+        np.zeros((cap, n + 1)),
     )
 
 

@@ -109,6 +109,38 @@ def lock_map_figure(r: Result) -> Figure:
     return fig
 
 
+def tension_map_figure(r: Result) -> Figure:
+    """The tension along the chain over time (``frame_tension``, in units of m g, pulling
+    positive), points from the top end (0) to the bottom end (N), with the pile's top
+    point (the first held point from the top) and the top end's acceleration over g
+    below (``measures.top_acceleration``; under -1 it falls faster than free fall)."""
+    from matplotlib.colors import Normalize
+
+    from ..records.measures import pile_point, top_acceleration
+
+    p = r.params
+    fig, (ax, a2) = plt.subplots(2, 1, figsize=(6, 6), sharex=True, height_ratios=(3, 1.3))
+    tau = np.asarray(r.frame_t) / r.t_ff
+    T = np.asarray(r.frame_tension, dtype=float) / (p.segment_mass * p.gravity)
+    n = p.segments
+    if T.size and np.isfinite(T).any():
+        # the colours span 99% of the values (a whip's few spikes would wash out the rest), beyond: the ends
+        v = max(float(np.nanpercentile(np.abs(T), 99.0)), 1e-12)
+        mesh = ax.pcolormesh(tau, np.arange(n + 1), T.T, cmap="RdBu_r", norm=Normalize(-v, v), shading="nearest")
+        fig.colorbar(mesh, ax=ax, extend="both", label="tension / m g (pull > 0)")
+    j = pile_point(r).astype(float)
+    j[j < 0] = np.nan
+    ax.plot(tau, j, "k", lw=0.8, label="pile's top point")
+    ax.set(ylabel="point j (0: top end, N: bottom end)", ylim=(n + 0.5, -0.5), title=run_title(r))
+    if np.isfinite(j).any():
+        ax.legend(fontsize=7, loc="lower left")
+    a2.plot(tau, top_acceleration(r)[:, 2], color="C0", lw=0.8, label="top end, a_z / g")
+    a2.axhline(-1.0, color="k", lw=0.6, ls="--", label="free fall")
+    a2.set(xlabel="t / t_ff", ylabel="a_z / g", ylim=(-4.0, 1.0))
+    a2.legend(fontsize=7, loc="lower left")
+    return fig
+
+
 def gamma_figure(r: Result) -> Figure:
     """gamma measured from the floor (analysis.floor_gamma) per window of t/t_ff, its
     value over the fall, and the gamma that t_fall/t_ff implies (Hamm-Geminard)."""
@@ -152,6 +184,7 @@ FIGURES = {
     "floor": floor_figure,
     "pile": pile_figure,
     "lock_map": lock_map_figure,
+    "tension": tension_map_figure,
     "gamma": gamma_figure,
 }
 

@@ -26,6 +26,7 @@ MIN_WIDTH = 0.6
 TICKS = 5  # at most about this many ticks on each horizontal axis of the box (nticks)
 COLORS = {"free": "#1f5fbf", "locked": "#d62728", "landed": "#7f7f7f"}
 STATES = ("free", "locked", "landed")
+COLOURINGS = ("state", "tension")  # what colours the chain (``view_figure``)
 
 
 def default_frames(result: Result) -> int:
@@ -58,6 +59,17 @@ def _chain_traces(pts: np.ndarray, state: np.ndarray, go, visible: bool = True) 
         traces.append(go.Scatter3d(x=xs, y=ys, z=zs, mode="lines", name=name, visible=visible,
                                    line=dict(color=COLORS[name], width=6), hoverinfo="skip", showlegend=True))  # fmt: skip
     return traces
+
+
+def _tension_trace(pts: np.ndarray, tension: np.ndarray, vmax: float, go, visible: bool = True):
+    """The chain as one line through its points, each coloured by its tension (m g; red
+    pulls, blue pushes), the colours spanning -vmax..vmax."""
+    scale = dict(colorscale="RdBu", reversescale=True, cmin=-vmax, cmax=vmax)
+    return go.Scatter3d(x=pts[:, 0], y=pts[:, 1], z=pts[:, 2], mode="lines+markers", name="tension", visible=visible,
+                        line=dict(color=tension, width=6, **scale),
+                        marker=dict(size=2.5, color=tension, colorbar=dict(title="tension / m g", len=0.6, x=-0.08),
+                                    **scale),
+                        hoverinfo="skip", showlegend=True)  # fmt: skip
 
 
 def _player(steps: list) -> dict:
@@ -107,13 +119,19 @@ def _player(steps: list) -> dict:
     )
 
 
-def view_figure(result: Result, *, every: int | None = None, frames: int | None = None, stretch: float = 1.0):
+def view_figure(
+    result: Result, *, every: int | None = None, frames: int | None = None, stretch: float = 1.0, colour: str = "state"
+):
     """The interactive figure (a ``plotly.graph_objects.Figure``) of the frames chosen as
     ``ballchain animate`` chooses them (``every`` K-th, or ``frames`` spread evenly;
     default: ``default_frames``).  The scene is in true proportions; ``stretch`` > 1 draws
-    the horizontal lengths that many times longer than the vertical ones (the title says so)."""
+    the horizontal lengths that many times longer than the vertical ones (the title says so).
+    ``colour``: ``state`` (free, locked, landed segments) or ``tension`` (every point by
+    ``frame_tension`` in m g, the colours spanning 99% of the shown values)."""
     if not (np.isfinite(stretch) and stretch > 0):
         raise ValueError(f"--stretch: expected a number > 0, got {stretch!r}")
+    if colour not in COLOURINGS:
+        raise ValueError(f"--colour: expected one of {', '.join(COLOURINGS)}, got {colour!r}")
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
@@ -129,8 +147,23 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
                         subplot_titles=("the chain (drag to orbit)", "the top end"))  # fmt: skip
     t_ff = result.t_ff
     tau = np.asarray(result.frame_t)[idx] / t_ff
-    for tr in _chain_traces(pts_all[0], segment_states(result, int(idx[0])), go):
+    if colour == "tension":
+        p = result.params
+        tension = np.asarray(result.frame_tension, dtype=float)[idx] / (p.segment_mass * p.gravity)
+        if not np.isfinite(tension).all():
+            raise ValueError("--colour tension: this result has no tension (a file written before format 6)")
+        vmax = max(float(np.percentile(np.abs(tension), 99.0)), 1e-12)
+
+        def chain(k, i):
+            return [_tension_trace(pts_all[k], np.round(tension[k], 4), vmax, go)]
+    else:
+
+        def chain(k, i):
+            return _chain_traces(pts_all[k], segment_states(result, int(i)), go)
+
+    for tr in chain(0, idx[0]):
         fig.add_trace(tr, row=1, col=1)
+    n_chain = len(fig.data)
     z0 = result.z0 / unit
     zmax = float(max(hi[2], z0)) * 1.02
     zmin = min(float(lo[2]), 0.0) - 0.5
@@ -150,9 +183,9 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
     fig.frames = [
         go.Frame(
             name=str(k),
-            traces=[0, 1, 2, marker],
+            traces=[*range(n_chain), marker],
             data=[
-                *_chain_traces(pts_all[k], segment_states(result, int(i)), go),
+                *chain(k, i),
                 go.Scatter(x=[tau[k]], y=[pts_all[k, 0, 2]]),
             ],
         )  # fmt: skip
@@ -185,12 +218,18 @@ def view_figure(result: Result, *, every: int | None = None, frames: int | None 
 
 
 def write_view(
-    result: Result, path, *, every: int | None = None, frames: int | None = None, stretch: float = 1.0
+    result: Result,
+    path,
+    *,
+    every: int | None = None,
+    frames: int | None = None,
+    stretch: float = 1.0,
+    colour: str = "state",
 ) -> Path:
     """Write the view to one self-contained HTML file (plotly.js embedded); returns the path."""
     p = Path(path)
     tmp = p.with_name(f".{p.name}.tmp")
-    view_figure(result, every=every, frames=frames, stretch=stretch).write_html(tmp, include_plotlyjs=True, full_html=True,
+    view_figure(result, every=every, frames=frames, stretch=stretch, colour=colour).write_html(tmp, include_plotlyjs=True, full_html=True,
                                                               auto_play=False)  # fmt: skip
     tmp.replace(p)
     return p

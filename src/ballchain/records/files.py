@@ -1,6 +1,6 @@
 """Result files: one self-describing HDF5 file per run.
 
-Layout (format ``ballchain-result``, version 5)::
+Layout (format ``ballchain-result``, version 6)::
 
     /                 attrs (ROOT_ATTRS): format, format_version, package_version (the
                       ballchain version that wrote the file), version (that ran it),
@@ -17,7 +17,7 @@ Layout (format ``ballchain-result``, version 5)::
                       frame_floor_force, frame_pile_pull, frame_scale_force,
                       frame_floor_impulse, frame_kinetic, frame_potential,
                       frame_lost_locking, frame_lost_landing, frame_lost_damping,
-                      frame_base, frame_base_velocity, frame_lost_sliding
+                      frame_base, frame_base_velocity, frame_lost_sliding, frame_tension
                       attrs: conventions (numbering, directions, positions, axes)
     /events           event_t, event_kind, event_index, event_impulse, event_energy,
                       event_pos; attrs: kinds (JSON code -> name), kind_meanings
@@ -52,7 +52,7 @@ from ..model import ChainParams, InitialCondition, ParameterError, SolverOptions
 from .result import EVENT_KINDS, EVENT_MEANINGS, Result, unit_of
 
 FORMAT_NAME = "ballchain-result"
-FORMAT_VERSION = 5  # 5: friction's work on sliding points per frame; 4: the smooth laws' loss per frame; 3: the sliding bottom end; 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
+FORMAT_VERSION = 6  # 6: the tension at every point per frame; 5: friction's work on sliding points per frame; 4: the smooth laws' loss per frame; 3: the sliding bottom end; 2: floor momentum record, event positions, kind 8; version 1 files load (NaN)
 # 3: the bottom end's position and velocity (a frictionless floor); version 1 and 2 files load (zeros)
 
 # the root attributes, each with what it holds (the site's page of the layout lists them from here)
@@ -122,6 +122,7 @@ GROUPS = {
         "frame_base",
         "frame_base_velocity",
         "frame_lost_sliding",
+        "frame_tension",
     ),
     "events": ("event_t", "event_kind", "event_index", "event_impulse", "event_energy", "event_pos"),
     "anchors": ("anchor_t", "anchor_pos"),
@@ -147,6 +148,8 @@ _NEW_IN_V4 = {
 _NEW_IN_V5 = {
     "frame_lost_sliding": lambda nf, ne: (nf,),
 }
+# datasets that files before version 6 lack (read back as NaN: not computed)
+_NEW_IN_V6 = {"frame_tension"}
 _FLOAT_SCALARS = ("z0", "t_ff", "t_fall", "t_landed", "max_depth", "wall_seconds")
 _INT_SCALARS = ("n_steps", "n_evals", "n_instants")
 
@@ -185,6 +188,9 @@ DESCRIPTIONS = {
     "frame_lost_landing": "cumulative kinetic energy lost in landings",
     "frame_lost_damping": "cumulative energy removed by the hinges' viscous damping (its power integrated)",
     "frame_lost_sliding": "cumulative energy removed by Coulomb's friction force from sliding points (its work)",
+    "frame_tension": "tension at every point (F, N+1), pulling positive: the force on the segment above point j "
+    "along its axis, -F_j . e_(j-1) (a held point: the support's pull; 0 at a free end and between landed "
+    "segments); the time-steppers': the mean over the step before the frame",
     "event_t": "event times, one row per constraint that acted",
     "event_kind": ", ".join(f"{c} {name}" for c, name in EVENT_KINDS.items()) + " (docs/measures.md, 'The event log')",
     "event_index": "hinge k (0..N-2) or point j (0..N, from the top) of the event",
@@ -453,16 +459,16 @@ def _read(f, where: str) -> Result:
     kw = {}
     for gname, names in GROUPS.items():
         for name in names:
-            if (name in _NEW_IN_V2 or name in _NEW_IN_V3 or name in _NEW_IN_V4 or name in _NEW_IN_V5) and (
-                f"{gname}/{name}" not in f
-            ):
-                continue  # a version 1 or 2 file: filled in below
+            if name in {*_NEW_IN_V2, *_NEW_IN_V3, *_NEW_IN_V4, *_NEW_IN_V5, *_NEW_IN_V6} and f"{gname}/{name}" not in f:
+                continue  # a file of an earlier version: filled in below
             kw[name] = need(gname, name)
     nf, ne = kw["frame_t"].shape[0], kw["event_t"].shape[0]
     for name, shape in _NEW_IN_V2.items():
         kw.setdefault(name, np.full(shape(nf, ne), np.nan))
     for name, shape in (_NEW_IN_V3 | _NEW_IN_V4 | _NEW_IN_V5).items():
         kw.setdefault(name, np.zeros(shape(nf, ne)))
+    npts = kw["frame_e"].shape[1] + 1 if kw["frame_e"].ndim == 3 else params.segments + 1
+    kw.setdefault("frame_tension", np.full((nf, npts), np.nan))
     for name in _FLOAT_SCALARS:
         kw[name] = float(kw[name])
     for name in _INT_SCALARS:

@@ -47,6 +47,47 @@ def momentum(r) -> np.ndarray:
     return r.params.segment_mass * np.sum(segment_velocities(r), axis=1)
 
 
+def top_velocity(r) -> np.ndarray:
+    """Velocity of the top end (point 0) at every frame (F, 3): v_0 = v_N + 2 b sum_i w_i x e_i."""
+    b = r.params.half_length
+    de = b * np.cross(np.asarray(r.frame_omega), np.asarray(r.frame_e))
+    base = getattr(r, "frame_base_velocity", None)
+    return 2.0 * de.sum(axis=1) + (0.0 if base is None else np.asarray(base))
+
+
+def top_acceleration(r) -> np.ndarray:
+    """The top end's acceleration over g at every frame (F, 3), its velocity's centred
+    difference between the frames beside it (one-sided at the first and last): the mean
+    over two frame intervals, impulses included (a lock inside them shows as a spike).
+    a_z / g < -1: the top falls faster than free fall."""
+    t = np.asarray(r.frame_t, dtype=float)
+    v = top_velocity(r)
+    if len(t) < 2:
+        return np.full((len(t), 3), np.nan)
+    return np.gradient(v, t, axis=0) / r.params.gravity
+
+
+def pile_point(r) -> np.ndarray:
+    """The first point from the top that the floor holds, at every frame (F,) int; -1
+    where none is, or where it is the top end (nothing hangs above it)."""
+    held = np.asarray(r.frame_anchored, dtype=bool)
+    j = np.where(held.any(axis=1), held.argmax(axis=1), -1)
+    j[j == 0] = -1
+    return j
+
+
+def pile_tension(r) -> np.ndarray:
+    """The tension just above the pile at every frame (F,): ``frame_tension`` at the pile's
+    top point (``pile_point``), the pile's pull on the hanging chain along its lowest
+    segment (run units of force; NaN where no point hangs above a held one)."""
+    j = pile_point(r)
+    T = np.asarray(r.frame_tension, dtype=float)
+    out = np.full(len(j), np.nan)
+    ok = j >= 0
+    out[ok] = T[np.flatnonzero(ok), j[ok]]
+    return out
+
+
 def touch_times(r) -> np.ndarray:
     """Time each segment first touched the floor (one end anchored), (N,); NaN: never."""
     a = np.asarray(r.anchor_t, dtype=float)

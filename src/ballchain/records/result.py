@@ -39,6 +39,7 @@ QUANTITY = {
     "frame_lost_landing": "energy",
     "frame_lost_damping": "energy",
     "frame_lost_sliding": "energy",
+    "frame_tension": "force",
     "frame_pile_pull": "force",
     "frame_scale_force": "force",
     "frame_floor_impulse": "impulse",
@@ -119,7 +120,12 @@ class Result:
     ``frame_lost_sliding`` (cumulative: the work of Coulomb's friction force on the points
     sliding on the floor, finite friction only), ``frame_base`` and
     ``frame_base_velocity`` (F, 3: the position and velocity of point N, the bottom end:
-    zero unless it slides, on a frictionless floor).  ``points()`` gives the positions of
+    zero unless it slides, on a frictionless floor), ``frame_tension`` (F, N+1: the
+    tension at every point, pulling positive: the force on the segment above point j
+    there, along it, -F_j . e_{j-1}; at a held point the support's pull on the segment
+    above, and on the segment below at a held top end; 0 at a free end and between
+    landed segments; the time-steppers' the mean over the step before the frame, its
+    impacts included, 0 at t = 0; NaN in files written before it).  ``points()`` gives the positions of
     the points at every frame.
     Events, one row per constraint that acted: ``event_t``, ``event_kind`` (see
     EVENT_KINDS), ``event_index`` (hinge k = 0..N-2 between segments k and k+1, or point
@@ -170,6 +176,7 @@ class Result:
     frame_base: np.ndarray
     frame_base_velocity: np.ndarray
     frame_lost_sliding: np.ndarray
+    frame_tension: np.ndarray
     event_t: np.ndarray
     event_kind: np.ndarray
     event_index: np.ndarray

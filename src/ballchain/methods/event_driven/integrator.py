@@ -57,7 +57,7 @@ from ...contacts.coulomb import slides
 from ...core.base import floor_z
 from ...core.blocks import reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, lowest_above_floor, mechanical_energy
-from ...core.dynamics import anchor_force_total, lock_multipliers, pile_pull
+from ...core.dynamics import anchor_force_total, chain_tension, lock_multipliers, pile_pull
 from ...core.kinematics import kinetic_energy, potential_energy, project_state, projection_tol
 from ...core.rules import landed_or_landing, point_height
 from ...core.unilateral import vertical_multipliers
@@ -171,9 +171,9 @@ def new_stepper(n: int) -> Stepper:
 @njit(cache=True, _nrt=False)
 def _record_frame(Yt, dYt, tf, n_landed, model, chain, ws, scr, frames):
     """Frame frames.count[0] at time tf from the state Yt: the state, the anchors' force
-    on the airborne chain, the pile's pull (``pile_pull``), the vertical force a scale
-    under the floor reads (anchors' z force + the weight of the landed segments),
-    energies."""
+    on the airborne chain, the pile's pull (``pile_pull``), the tension at every point
+    (``chain_tension``), the vertical force a scale under the floor reads (anchors' z
+    force + the weight of the landed segments), energies."""
     k = frames.count[0]
     n = Yt.shape[1]
     frames.t[k] = tf
@@ -188,6 +188,7 @@ def _record_frame(Yt, dYt, tf, n_landed, model, chain, ws, scr, frames):
     chain_rhs(Yt, chain.anchored, chain.locked, ws, dYt)
     anchor_force_total(ws.kind, ws.nrow, ws.x, frames.floor_force[k])
     pile_pull(chain.anchored, ws.kind, ws.nrow, ws.x, frames.pile_pull[k])
+    chain_tension(Yt[0], ws.kind, ws.nrow, ws.x, frames.tension[k])
     frames.scale_force[k] = frames.floor_force[k, 2] + n_landed
     if slides(model.friction):  # (point N moves: ``slides``)
         frame_state(Yt[0], Yt[1], tf, chain, scr.pts, scr.pv, scr.vel, scr.en, frames.base[k], frames.base_velocity[k])

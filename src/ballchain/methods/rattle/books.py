@@ -82,6 +82,27 @@ def _anchor_impulse(kind, nrow, x, impulse):
 
 
 @njit(cache=True, _nrt=False)
+def tension_impulse(e, kind, nrow, x, out):
+    """out[j] += the tension's impulse at point j, pulling positive (``core.dynamics.
+    chain_tension``'s convention, from a stage's impulses x): -P_j . e_{j-1}, P_j the
+    joint's or the lower anchor's impulse on the segment above; at a point with only an
+    upper anchor's rows (a held top end) its impulse on the segment below, along it."""
+    n = e.shape[0]
+    for j in range(n + 1):
+        above, nh = 0.0, 0  # the joint's or the lower anchor's impulse on the segment above, along it
+        below, nu = 0.0, 0  # the upper anchor's impulse on the segment below, along it
+        for r in range(nrow[j]):
+            k = kind[j, r]
+            if k < K_ANCHOR_UPPER and j > 0:  # a joint's (K_JOINT + q) or a lower anchor's (K_ANCHOR_LOWER + q) row
+                above += x[j, r] * e[j - 1, k % 3]
+                nh += 1
+            elif K_ANCHOR_UPPER <= k < K_AXIS and j < n:  # an upper anchor's
+                below += x[j, r] * e[j, k - K_ANCHOR_UPPER]
+                nu += 1
+        out[j] += -above if nh > 0 else (below if nu > 0 else 0.0)
+
+
+@njit(cache=True, _nrt=False)
 def _pile_impulse(anchored, kind, nrow, x, pull):
     """pull += the impulse of the first anchored point from the top on the segment above
     it (its lower-anchor rows): the pile's pull on the hanging chain."""

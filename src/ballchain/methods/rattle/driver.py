@@ -133,7 +133,7 @@ def _new_fall(setup, chain) -> Fall:
     if slides(p.friction):  # a frictionless floor: the bottom end stands on it, free to slide
         chain.anchored[n], chain.anchor_pos[n], touching[n] = 0, np.nan, 1
     mo = Motion(c, chain.Y[0], vc, ve, chain.anchored, chain.anchor_pos, chain.anchor_t, chain.locked, touching, grip)
-    return Fall(mo, new_rows(n), new_scratch(n), new_frame_work(n), _control(setup), new_frame_books())
+    return Fall(mo, new_rows(n), new_scratch(n), new_frame_work(n), _control(setup), new_frame_books(n))
 
 
 def run(setup, progress, stop) -> RunOutput:

@@ -35,6 +35,8 @@ def record_frame(t, mo, fbk, frames):
         frames.floor_force[k, q] = fbk.floor_force[q]
         frames.pile_pull[k, q] = fbk.pile_pull[q]
         frames.floor_impulse[k, q] = now.floor_impulse[q]
+    for j in range(n + 1):
+        frames.tension[k, j] = fbk.tension[j]
     frames.scale_force[k] = fbk.floor_force[2] + landed_count(mo.anchored)
     frames.kinetic[k] = kinetic_energy_rattle(mo.vc, mo.ve)
     if base_at_origin(mo):
@@ -92,10 +94,13 @@ def add_ledger(tally, lg):
 
 @njit(cache=True, _nrt=False)
 def _step_forces(h, lg, fbk):
-    """fbk's forces <- the anchors' mean force and the pile's pull over a step of size h (its ledger lg)."""
+    """fbk's forces <- the anchors' mean force, the pile's pull and the tension over a step of size h (its
+    ledger lg)."""
     for q in range(3):
         fbk.floor_force[q] = lg.floor_impulse[q] / h
         fbk.pile_pull[q] = lg.pile_pull[q] / h
+    for j in range(fbk.tension.shape[0]):
+        fbk.tension[j] = lg.tension[j] / h
 
 
 @njit(cache=True, _nrt=False)

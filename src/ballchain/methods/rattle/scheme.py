@@ -60,6 +60,7 @@ from .books import (
     _pile_impulse,
     _work,
     lock_loss_after_landing,
+    tension_impulse,
 )
 from .codes import ERR_FRICTION, ERR_MERGED, ERR_NEWTON, ERR_REBOUND, ERR_STEP_ENERGY, ERR_STEP_NAN
 from .friction import (
@@ -199,6 +200,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     lg = sc.ledger
     _anchor_impulse(sc.kind1, sc.nrow1, sc.x1, lg.floor_impulse)
     _pile_impulse(mo.anchored, sc.kind1, sc.nrow1, sc.x1, lg.pile_pull)
+    tension_impulse(mo.e, sc.kind1, sc.nrow1, sc.x1, lg.tension)
     if grip:
         friction_work(h, model.friction, mo, sc.start, lg)
     if any_smooth_law(model):
@@ -227,6 +229,7 @@ def _step_points(t, h, model, mo, ws, sc, etol, landings, split, budget):
     lock_after = lock_loss_after_landing(mo, ws, sc) if na > 0 else -1.0
     _anchor_impulse(ws.kind, ws.nrow, ws.x, lg.floor_impulse)
     _pile_impulse(mo.anchored, ws.kind, ws.nrow, ws.x, lg.pile_pull)
+    tension_impulse(mo.e, ws.kind, ws.nrow, ws.x, lg.tension)
     if grip:
         impact_friction_impulse(sc)
     if (na > 0 or ns > 0) and (

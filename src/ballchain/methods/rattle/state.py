@@ -50,6 +50,7 @@ StepLedger = namedtuple(
         "lost_landing",  # (1,): ... at the landings (m g b)
         "floor_impulse",  # (3,): the anchors' and the floor's impulse on the chain in the step (m sqrt(g b))
         "pile_pull",  # (3,): the pile's impulse on the hanging chain in the step (m sqrt(g b))
+        "tension",  # (N+1,): the tension's impulse at every point in the step (``books.tension_impulse``)
         "energy_lost",  # (1,): U + T at the step's start minus at its end, less friction_loss and smooth_loss
         #   (m g b): what its impacts dissipated, else its error (the step control's measure)
         "friction_loss",  # (1,): what the sliding points' friction force removed (``friction.friction_work``; m g b):
@@ -65,10 +66,10 @@ StepLedger = namedtuple(
 )
 
 
-def new_step_ledger() -> StepLedger:
-    """An empty ledger."""
+def new_step_ledger(n: int) -> StepLedger:
+    """An empty ledger of an N-segment chain."""
     f, i = (lambda m=1: np.zeros(m)), (lambda: np.zeros(1, np.int64))  # noqa: E731
-    return StepLedger(f(), f(), f(3), f(3), f(), f(), f(), np.zeros(1, np.uint8), i(), i(), i(), i(), i())
+    return StepLedger(f(), f(), f(3), f(3), f(n + 1), f(), f(), f(), np.zeros(1, np.uint8), i(), i(), i(), i(), i())
 
 
 @njit(cache=True, _nrt=False)
@@ -79,6 +80,8 @@ def clear_ledger(lg):
     for q in range(3):
         lg.floor_impulse[q] = 0.0
         lg.pile_pull[q] = 0.0
+    for j in range(lg.tension.shape[0]):
+        lg.tension[j] = 0.0
     lg.impact[0] = 0
     for a in (lg.new_anchors, lg.factorisations, lg.newton_iterations, lg.stage1_rounds, lg.rounds_ended_early):
         a[0] = 0
@@ -135,7 +138,7 @@ def new_scratch(n: int) -> Scratch:
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)), np.zeros((p, RMAX)), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
         np.zeros((p, RMAX), np.int8), np.zeros(p, np.int64), np.zeros((p, RMAX)),
-        np.zeros(p, np.int64), v3(p), new_step_ledger(), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
+        np.zeros(p, np.int64), v3(p), new_step_ledger(n), np.zeros(1), np.zeros(3), np.zeros(p, np.uint8),
         np.zeros(p), np.zeros(nh), np.zeros((MAX_NEW, 2), np.int64), np.zeros(1, np.uint8), v3(p), np.zeros((p, 2)), np.zeros((p, 4)),
         np.zeros(p, np.uint8), v3(n), v3(n),
     )  # fmt: skip
@@ -208,6 +211,7 @@ FrameBooks = namedtuple(
         "at_start",  # Tally: the books at the last step's start
         "floor_force",  # (3,): the anchors' mean force on the chain over the last step (m g)
         "pile_pull",  # (3,): the pile's mean pull on the hanging chain over the last step (m g)
+        "tension",  # (N+1,): the mean tension at every point over the last step (m g)
         "step_t",  # (1,): the last step's start (sqrt(b/g))
         "step_h",  # (1,): its length (sqrt(b/g))
         "frames_due",  # (1,) uint8: 1 while frames inside it are still to be taken (the frame buffer was full)
@@ -215,11 +219,12 @@ FrameBooks = namedtuple(
 )
 
 
-def new_frame_books() -> FrameBooks:
-    """Empty books, no step pending."""
+def new_frame_books(n: int) -> FrameBooks:
+    """Empty books of an N-segment chain, no step pending."""
     return FrameBooks(
-        new_tally(), new_tally(), np.zeros(3), np.zeros(3), np.zeros(1), np.zeros(1), np.zeros(1, np.uint8)
-    )
+        new_tally(), new_tally(), np.zeros(3), np.zeros(3), np.zeros(n + 1), np.zeros(1), np.zeros(1),
+        np.zeros(1, np.uint8),
+    )  # fmt: skip
 
 
 # A RATTLE fall's own bundles (beside the shared ``core.state`` ones: books and outputs).

@@ -61,7 +61,7 @@ import numpy as np
 from ...contacts.newton import bounce_resolved, floor_rebound, rebounds
 from ...core.blocks import fits4, forces4, generalized_forces, reuse_factors
 from ...core.books import PROJECTED_IN_STEPS, log_row, lowest_point
-from ...core.dynamics import pile_pull
+from ...core.dynamics import chain_tension, pile_pull
 from ...core.forces import any_smooth_law, smooth_torques
 from ...core.impacts import clear_rebounds, hinge_gaps, hinge_rates, new_impact_work, stepped_impact, velocity_impact
 from ...core.kinematics import (
@@ -144,6 +144,7 @@ Scratch = namedtuple(
         "e_used",  # (1,): the restitution at the limits the last impact problem took (0: Moreau's law)
         "force",  # (3,): the anchors' mean force on the airborne chain over the last step
         "pull",  # (3,): the pile's mean pull on the hanging chain over the last step
+        "tension",  # (N+1,): the mean tension at every point over the last step (``dynamics.chain_tension``)
         "held",  # (N+1,) uint8: free points the projection holds at the floor (``_hold_sinking``)
         "iw",  # the impact problem's scratch (impacts.ImpactWork)
     ],
@@ -207,7 +208,8 @@ def new_scratch(n: int, w0: np.ndarray | None = None, e0: np.ndarray | None = No
         v3(n), v3(n), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nh), np.zeros(nh),
         u8(), u8(), u8(), u8(), v3(n + 1), v3(n + 1), v3(n), np.zeros(n + 1, np.uint8), v3(n), v3(n), v3(n),
         np.zeros(n + 1, np.int64),
-        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), np.zeros(n + 1, np.uint8), new_impact_work(n),
+        np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(3), np.zeros(n + 1), np.zeros(n + 1, np.uint8),
+        new_impact_work(n),
     )  # fmt: skip
     if w0 is not None and e0 is not None:
         velocities(e0, w0, sc.pv, sc.vmax)
@@ -585,6 +587,9 @@ def _book(t, h, na, e_floor, chain, ws, sc, books, log):
     pile_pull(anchored, ws.kind, ws.nrow, ws.x, sc.pull)
     for q in range(3):
         sc.pull[q] /= h
+    chain_tension(chain.Y[0], ws.kind, ws.nrow, ws.x, sc.tension)
+    for j in range(sc.tension.shape[0]):
+        sc.tension[j] /= h
     for k in range(locked.shape[0]):
         bounced = sc.active[k] == 1 and rebounds(iw.rates_after[k], sc.e_used[0], RATE_TOL)
         if sc.active[k] and not sc.was[k]:
@@ -723,7 +728,7 @@ def _nothing_to_project(model, chain, sc):
 def record_frame(t, kinetic, chain, sc, books, frames):
     """Frame frames.count[0] at time t (the next frame's): the state (``chain``: the
     run's, or a frame's own, ``fill_frames``), the anchors' mean force on the airborne
-    chain and the pile's pull over the last step (sc), the force a scale under the floor
+    chain, the pile's pull and the tension over the last step (sc), the force a scale under the floor
     reads, energies (the kinetic one given) and the books (``books``)."""
     k = frames.count[0]
     e, w = chain.Y[0], chain.Y[1]
@@ -741,6 +746,8 @@ def record_frame(t, kinetic, chain, sc, books, frames):
         frames.floor_force[k, q] = sc.force[q]
         frames.pile_pull[k, q] = sc.pull[q]
         frames.floor_impulse[k, q] = books.floor_flow[q] + books.floor_impulse[q]
+    for j in range(n + 1):
+        frames.tension[k, j] = sc.tension[j]
     frames.scale_force[k] = sc.force[2] + landed_count(chain.anchored)
     frames.kinetic[k] = kinetic
     frames.potential[k] = potential_energy(e)
