@@ -20,27 +20,12 @@ def run_summary(result) -> dict:
     s = result.summary()
     for key, value in derived_measures(result).items():
         s[key] = value if math.isfinite(value) else None
-    s["pull_median"] = _pull_median(result)
     extra = getattr(result, "extra", {})
     s["wall_includes_compile"] = bool(extra.get("compiled_kernels", False))
     if "setup_seconds" in extra:
         s["setup_seconds"] = float(extra["setup_seconds"])
         s["setup_compiled"] = bool(extra.get("setup_compiled", False))
     return s
-
-
-def _pull_median(result) -> float | None:
-    """The median tension just above the pile over the frames before t_fall (``measures.
-    pile_tension``; after t = 0, where a time-stepper has no step yet); None if none."""
-    import numpy as np
-
-    from ..records.measures import pile_tension
-
-    t = np.asarray(result.frame_t, dtype=float)
-    pull = pile_tension(result)
-    end = result.t_fall if math.isfinite(result.t_fall) else math.inf
-    keep = (t > 0.0) & (t <= end) & np.isfinite(pull)
-    return float(np.median(pull[keep])) if keep.any() else None
 
 
 def _still_moving(kinetic) -> str:

@@ -88,6 +88,17 @@ def pile_tension(r) -> np.ndarray:
     return out
 
 
+def pull_median(r) -> float:
+    """The median over the frames of (0, t_fall] of the tension just above the pile
+    (``pile_tension``; a time-stepper's frame before its first step excluded); NaN where no
+    frame has a chain hanging above a held point."""
+    t = np.asarray(r.frame_t, dtype=float)
+    pull = pile_tension(r)
+    end = r.t_fall if math.isfinite(r.t_fall) else math.inf
+    keep = (t > 0.0) & (t <= end) & np.isfinite(pull)
+    return float(np.median(pull[keep])) if keep.any() else math.nan
+
+
 def touch_times(r) -> np.ndarray:
     """Time each segment first touched the floor (one end anchored), (N,); NaN: never."""
     a = np.asarray(r.anchor_t, dtype=float)
@@ -213,8 +224,8 @@ def derived_measures(result) -> dict[str, float]:
     gamma of the floor's momentum record), ``gamma_inferred`` (the gamma whose fall
     time is t_fall/t_ff, ``theory.gamma_from_time_ratio``) and the pile's shape at the
     end (``pile_shape``: ``pile_radius``, ``pile_offset``, and ``pile_kinetic``, the kinetic
-    energy left there over E0).  NaN where a run does not
-    define them (a partial run, a ratio outside the theory's range)."""
+    energy left there over E0) and the pile's pull (``pull_median``).  NaN where a run does
+    not define them (a partial run, a ratio outside the theory's range)."""
     from ..theory import gamma_from_time_ratio
 
     try:
@@ -226,12 +237,17 @@ def derived_measures(result) -> dict[str, float]:
     except (ValueError, ZeroDivisionError):
         inferred = math.nan
     pile = pile_shape(result)
+    try:
+        pull = pull_median(result)
+    except Exception:  # noqa: BLE001 - a partial or odd result: no measurement
+        pull = math.nan
     return {
         "gamma_measured": measured,
         "gamma_inferred": inferred,
         "pile_radius": pile.radius,
         "pile_offset": pile.offset,
         "pile_kinetic": pile.kinetic,
+        "pull_median": pull,
     }
 
 

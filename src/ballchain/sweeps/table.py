@@ -108,6 +108,12 @@ COLUMNS: dict[str, tuple[str, str]] = {
         "the kinetic energy left where the pile was read, over the initial energy (a pile on a floor that lets "
         "points slide may still be moving; empty in tables written before the column)",
     ),
+    "pull_median": (
+        "float64",
+        "the median tension just above the pile over the frames before t_fall, in the run's force unit (m g; "
+        "records.measures.pull_median; "
+        "empty in tables written before the column)",
+    ),
     "wall_seconds": ("float64", "wall time of the run, s"),
     "n_steps": ("int64", "accepted integrator steps"),
     "n_evals": ("int64", "right-hand-side evaluations"),
