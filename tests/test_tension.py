@@ -113,3 +113,20 @@ def test_the_top_of_a_falling_rod_accelerates_as_the_pendulum_says():
     assert expected.min() < -1.4  # (the top passes free fall)
     np.testing.assert_allclose(a[:, 2], expected, atol=1e-5)  # (measured: 2.3e-6, the differences' error)
     assert np.all(r.frame_tension[:, 0] == 0.0)
+
+
+def test_the_pull_on_a_pivoting_rods_foot():
+    """A rod pivoting on its held foot: the foot's force F = M a_cm + M g e_z, whose part
+    along the rod, with a_cm . e = -b theta'^2 and b theta'^2 = (3 g / 2)(cos theta0 -
+    cos theta), gives the tension there T = m g (3/2 cos theta0 - 5/2 cos theta): the
+    rod pushes on its foot early and pulls on it once cos theta < 3/5 cos theta0.
+    ``measures.pile_tension`` (at the first held point, the foot) against it."""
+    from ballchain.records.measures import pile_point, pile_tension
+
+    th0 = 0.3
+    r = api.simulate(initial=[[np.sin(th0), 0.0, np.cos(th0)]], rtol=1e-12, frames_per_tff=500, until=1.4)
+    assert np.all(pile_point(r) == 1)
+    cos = r.frame_e[:, 0, 2]
+    expected = 1.5 * np.cos(th0) - 2.5 * cos
+    assert expected.min() < -0.9 and expected.max() > 0.5  # (it pushes, then pulls)
+    np.testing.assert_allclose(pile_tension(r), expected, atol=1e-10)  # (measured: 2.9e-12)

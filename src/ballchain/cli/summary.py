@@ -121,7 +121,7 @@ def human_summary(s: dict, output: str | None = None, header: str = "ballchain")
     if s.get("pull_median") is not None:
         u_f = unit_of("frame_tension", units)
         lines.append(
-            f"  pull of the pile   median {_fmt(s['pull_median'], '.4g')} {u_f} before t_fall (the tension "
+            f"  pull of the pile   median {_fmt(s['pull_median'], '.4g')} {u_f} from the first landing to t_fall (the tension "
             "just above it; over time: ballchain plot, tension.png)"
         )
     if s.get("pile_radius") is not None:

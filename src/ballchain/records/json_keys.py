@@ -52,7 +52,8 @@ RUN = {
     "pile_kinetic": "the kinetic energy the chain still had where the pile was read, over the initial energy "
     "(a pile on a floor that lets points slide may still be moving at the end)",
     "pull_median": "the median of the tension just above the pile (the pile's pull on the hanging chain along its "
-    "lowest segment; a time-stepper's: its steps' means, impacts included) over the frames before t_fall, in units "
+    "lowest segment; a time-stepper's: its steps' means, impacts included) over the frames from the first landed "
+    "segment to t_fall, in units "
     "of force (null: no frame with a chain hanging above a held point)",
     "wall_includes_compile": "whether the wall time includes compiling the kernels",
     "setup_seconds": "(runs of the command line) seconds spent loading or compiling the kernels before the run",

@@ -89,13 +89,15 @@ def pile_tension(r) -> np.ndarray:
 
 
 def pull_median(r) -> float:
-    """The median over the frames of (0, t_fall] of the tension just above the pile
-    (``pile_tension``; a time-stepper's frame before its first step excluded); NaN where no
-    frame has a chain hanging above a held point."""
+    """The median of the tension just above the pile (``pile_tension``) over the frames
+    from the first at which a segment lies landed (both ends held: a pile, not the foot
+    alone) to t_fall; NaN where there is none."""
     t = np.asarray(r.frame_t, dtype=float)
     pull = pile_tension(r)
+    held = np.asarray(r.frame_anchored, dtype=bool)
+    pile = np.maximum.accumulate((held[:, :-1] & held[:, 1:]).any(axis=1)) if len(t) else np.zeros(0, bool)
     end = r.t_fall if math.isfinite(r.t_fall) else math.inf
-    keep = (t > 0.0) & (t <= end) & np.isfinite(pull)
+    keep = pile & (t <= end) & np.isfinite(pull)
     return float(np.median(pull[keep])) if keep.any() else math.nan
 
 

@@ -110,7 +110,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     ),
     "pull_median": (
         "float64",
-        "the median tension just above the pile over the frames before t_fall, in the run's force unit (m g; "
+        "the median tension just above the pile over the frames from the first landed segment to t_fall, in the "
+        "run's force unit (m g; "
         "records.measures.pull_median; "
         "empty in tables written before the column)",
     ),
