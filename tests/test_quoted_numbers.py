@@ -414,3 +414,23 @@ def test_the_hinge_damping_page_quotes_what_its_command_prints():
     assert len(quoted) >= 10
     for q in quoted:
         assert q in printed, q
+
+
+def test_the_pull_page_quotes_what_its_command_prints():
+    """Each row of the pull page's table is a row of its study's output on the committed
+    table, and each interval and correlation its findings quote is printed by it."""
+    page = ROOT / "docs" / "pull.md"
+    printed = _page_commands(page)
+    text = page.read_text()
+    rows = [ln for ln in text.splitlines() if re.match(r"\| \d+ \| \d+ \| 16 \|", ln)]
+    assert len(rows) == 7
+    for row in rows:
+        assert row in printed, row
+    findings = " ".join(text.split("## Findings")[1].split("![")[0].split())
+    quoted = re.findall(r"\d+\.\d{2,4} \[\d+\.\d{2,4}, \d+\.\d{2,4}\]", findings)
+    assert len(quoted) >= 13
+    for q in quoted:
+        assert q in printed, q
+    assert len(re.findall(r"[+-]\d\.\d\d, p \d\.\d\d", findings)) == 4
+    for rho, p in re.findall(r"([+-]\d\.\d\d), p (\d\.\d\d)", findings):
+        assert f"{rho} ({p})" in printed, (rho, p)
