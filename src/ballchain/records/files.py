@@ -467,8 +467,7 @@ def _read(f, where: str) -> Result:
         kw.setdefault(name, np.full(shape(nf, ne), np.nan))
     for name, shape in (_NEW_IN_V3 | _NEW_IN_V4 | _NEW_IN_V5).items():
         kw.setdefault(name, np.zeros(shape(nf, ne)))
-    npts = kw["frame_e"].shape[1] + 1 if kw["frame_e"].ndim == 3 else params.segments + 1
-    kw.setdefault("frame_tension", np.full((nf, npts), np.nan))
+    kw.setdefault("frame_tension", np.full((nf, params.segments + 1), np.nan))
     for name in _FLOAT_SCALARS:
         kw[name] = float(kw[name])
     for name in _INT_SCALARS:
